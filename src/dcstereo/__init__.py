@@ -1,0 +1,30 @@
+"""dcstereo: dense stereo disparity with explicit occlusions.
+
+The method of Tsai and Katsaggelos, *Dense Disparity Estimation via Global and Local
+Matching*: divide-and-conquer feature matching and an extended five-step
+disparity-space dynamic program, with the baselines it is compared with.
+
+Convention: a left pixel ``(x, y)`` matches the right pixel ``(x - d, y)``, ``d >= 0``.
+"""
+
+from .api import match
+from .params import METHODS, MatchParams
+from .result import (
+    FLAG_BORDER,
+    FLAG_FILLED,
+    FLAG_OCCLUDED,
+    DisparityResult,
+    fill_occlusions,
+)
+
+__all__ = [
+    "FLAG_BORDER",
+    "FLAG_FILLED",
+    "FLAG_OCCLUDED",
+    "METHODS",
+    "DisparityResult",
+    "MatchParams",
+    "fill_occlusions",
+    "match",
+]
+__version__ = "0.1.0"

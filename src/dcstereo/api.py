@@ -1,0 +1,123 @@
+"""``match``: validate the pair, pick the method from a plain dict, return the result."""
+
+from collections.abc import Callable
+
+import numba
+import numpy as np
+
+from . import _kernels
+from .params import MatchParams
+from .result import DisparityResult
+from .signal import SIGNAL_STEPS, check_image, matching_signal
+
+
+def match(
+    left: np.ndarray,
+    right: np.ndarray,
+    *,
+    max_disparity: int,
+    min_disparity: int = 0,
+    method: str = "dsi5",
+    **options,
+) -> DisparityResult:
+    """Estimate the disparity of the left image of a rectified stereo pair.
+
+    A left pixel ``(x, y)`` matches the right pixel ``(x - d, y)``; disparities
+    ``min_disparity..max_disparity`` (inclusive) are searched.
+
+    Parameters
+    ----------
+    left, right : ndarray, shape (H, W) or (H, W, 3|4)
+        Rectified pair, ``uint8``, ``uint16`` or float in ``[0, 1]``; colour becomes luma
+        (see :mod:`dcstereo.signal`).
+    max_disparity, min_disparity : int
+        Inclusive search range in pixels.
+    method : str
+        ``"block"``: winner-take-all SAD block matching (Hannah);
+        ``"dsi3"``: scanline DP over the disparity-space image with the classic three steps
+        (Intille and Bobick); ``"dsi5"``: the extended five-step model of eq. 5 (Tsai and
+        Katsaggelos).
+    **options
+        ``window`` (odd, default 5), ``occlusion_cost`` (per pixel, gray levels of mean
+        absolute difference, default 20), ``fill`` (default False). See
+        :class:`~dcstereo.params.MatchParams`.
+
+    Returns
+    -------
+    DisparityResult
+
+    Examples
+    --------
+    >>> import numpy as np, dcstereo
+    >>> rng = np.random.default_rng(0)
+    >>> right = rng.integers(0, 256, (20, 40), dtype=np.uint8)
+    >>> left = np.roll(right, 3, axis=1)  # every left pixel matches x - 3
+    >>> result = dcstereo.match(left, right, max_disparity=6)
+    >>> float(np.nanmedian(result.disparity))
+    3.0
+    """
+    params = MatchParams(
+        max_disparity=max_disparity, min_disparity=min_disparity, method=method, **options
+    )
+    left = check_image(left, "left")
+    right = check_image(right, "right")
+    if left.shape != right.shape:
+        raise ValueError(
+            f"left and right images differ in shape: {left.shape} vs {right.shape}"
+        )
+    params.check_image_size(*left.shape[:2])
+    result = _METHODS[params.method](left, right, params)
+    return result.filled() if params.fill else result
+
+
+def _padded_signals(left, right, radius):
+    pad = ((radius, radius), (radius, radius))
+    return (
+        np.pad(matching_signal(left), pad, mode="edge"),
+        np.pad(matching_signal(right), pad, mode="edge"),
+    )
+
+
+def cost_scale(window: int) -> float:
+    """Internal cost units per gray level of mean absolute difference."""
+    return float(SIGNAL_STEPS * window * window)
+
+
+def _outputs(shape):
+    height, width = shape[:2]
+    disparity = np.empty((height, width), dtype=np.float32)
+    flags = np.empty((height, width), dtype=np.uint8)
+    total = np.empty(height, dtype=np.float64)
+    nchunks = max(1, min(height, 4 * numba.get_num_threads()))
+    return disparity, flags, total, nchunks
+
+
+def _match_block(left, right, params: MatchParams) -> DisparityResult:
+    radius = params.window // 2
+    left_p, right_p = _padded_signals(left, right, radius)
+    disparity, flags, total, nchunks = _outputs(left.shape)
+    _kernels.match_block_rows(
+        left_p, right_p, params.min_disparity, params.num_disparities, radius,
+        nchunks, disparity, flags, total,
+    )
+    return DisparityResult(disparity, flags, params, total / cost_scale(params.window))
+
+
+def _match_dsi(left, right, params: MatchParams) -> DisparityResult:
+    radius = params.window // 2
+    left_p, right_p = _padded_signals(left, right, radius)
+    disparity, flags, total, nchunks = _outputs(left.shape)
+    scale = cost_scale(params.window)
+    occ2 = float(np.rint(2.0 * params.occlusion_cost * scale))
+    _kernels.match_dsi_rows(
+        left_p, right_p, params.min_disparity, params.num_disparities, radius, occ2,
+        params.method == "dsi5", nchunks, disparity, flags, total,
+    )
+    return DisparityResult(disparity, flags, params, total / (2.0 * scale))
+
+
+_METHODS: dict[str, Callable[[np.ndarray, np.ndarray, MatchParams], DisparityResult]] = {
+    "block": _match_block,
+    "dsi3": _match_dsi,
+    "dsi5": _match_dsi,
+}

@@ -1,0 +1,108 @@
+"""The result of a matching run: disparity, why pixels have none, and the fill."""
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .params import MatchParams
+
+#: The DP left this left pixel without a partner (a step of eq. 5).
+FLAG_OCCLUDED = 1
+#: The partner would fall outside the right image (left border, or right end of the path).
+FLAG_BORDER = 2
+#: The value was filled in by :func:`fill_occlusions` (the reason bit stays set).
+FLAG_FILLED = 4
+
+
+@dataclass(frozen=True)
+class DisparityResult:
+    """Disparity map of the left image and what the matcher knows about each pixel.
+
+    Attributes
+    ----------
+    disparity : ndarray of float32, shape (H, W)
+        ``x_right = x_left - disparity``; NaN where there is no estimate. Half-pixel
+        values come from the e steps of the five-step model.
+    flags : ndarray of uint8, shape (H, W)
+        Bit flags: :data:`FLAG_OCCLUDED`, :data:`FLAG_BORDER`, :data:`FLAG_FILLED`.
+    params : MatchParams
+        The parameters of the run.
+    path_cost : ndarray of float64, shape (H,)
+        Cost of each row's optimal path (block: sum of the chosen costs), in units of the
+        mean absolute difference per pixel.
+    features : ndarray or None
+        Accepted feature pairs, for the methods that use them.
+    """
+
+    disparity: np.ndarray
+    flags: np.ndarray
+    params: MatchParams
+    path_cost: np.ndarray
+    features: np.ndarray | None = None
+
+    @property
+    def method(self) -> str:
+        """Name of the method that produced this result."""
+        return self.params.method
+
+    @property
+    def occluded(self) -> np.ndarray:
+        """Left pixels without a partner: occluded in the DP, or beyond the image border."""
+        return (self.flags & (FLAG_OCCLUDED | FLAG_BORDER)) != 0
+
+    @property
+    def valid(self) -> np.ndarray:
+        """Pixels with a finite disparity."""
+        return np.isfinite(self.disparity)
+
+    def pairs(self) -> np.ndarray:
+        """Integer matches as an (M, 3) int64 array of ``(row, x_left, x_right)``.
+
+        Pixels filled in or holding a half-pixel disparity are not pairs.
+        """
+        d = self.disparity
+        keep = np.isfinite(d) & ((self.flags & FLAG_FILLED) == 0)
+        keep &= np.floor(np.where(keep, d, 0)) == np.where(keep, d, 0)
+        rows, cols = np.nonzero(keep)
+        return np.stack([rows, cols, cols - d[rows, cols].astype(np.int64)], axis=1)
+
+    def filled(self) -> "DisparityResult":
+        """Return a copy with every pixel that has no estimate filled (see fill_occlusions)."""
+        disparity, was_filled = fill_occlusions(self.disparity)
+        flags = self.flags | np.where(was_filled, FLAG_FILLED, 0).astype(np.uint8)
+        return replace(self, disparity=disparity, flags=flags)
+
+
+def fill_occlusions(disparity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Fill NaN pixels with the background disparity along each scanline.
+
+    A pixel without an estimate takes the *smaller* of the nearest finite disparities to
+    its left and right on the same row (occluded pixels belong to the background, which
+    has the smaller disparity); with an estimate on one side only, it takes that one.
+    Rows without any estimate stay NaN.
+
+    Parameters
+    ----------
+    disparity : ndarray, shape (H, W)
+        Disparity with NaN where there is no estimate.
+
+    Returns
+    -------
+    filled : ndarray of float32, shape (H, W)
+    was_filled : ndarray of bool, shape (H, W)
+        The pixels that received a value.
+    """
+    d = np.asarray(disparity, dtype=np.float32)
+    height, width = d.shape
+    valid = np.isfinite(d)
+    cols = np.broadcast_to(np.arange(width), d.shape)
+    left_idx = np.maximum.accumulate(np.where(valid, cols, -1), axis=1)
+    right_idx = np.minimum.accumulate(np.where(valid, cols, width)[:, ::-1], axis=1)[:, ::-1]
+    left_val = np.take_along_axis(d, np.clip(left_idx, 0, width - 1), axis=1)
+    right_val = np.take_along_axis(d, np.clip(right_idx, 0, width - 1), axis=1)
+    left_val = np.where(left_idx >= 0, left_val, np.inf)
+    right_val = np.where(right_idx < width, right_val, np.inf)
+    background = np.minimum(left_val, right_val)
+    was_filled = ~valid & np.isfinite(background)
+    out = np.where(was_filled, background, d).astype(np.float32)
+    return out, was_filled

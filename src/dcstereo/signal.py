@@ -1,0 +1,75 @@
+"""The matching signal: how an image of any supported dtype becomes integers for the cost.
+
+Every image is brought to the 0..255 intensity scale first:
+
+* ``uint8`` as is, ``uint16`` divided by 257 (so 65535 -> 255), floating point images are
+  taken to be in ``[0, 1]`` and multiplied by 255;
+* colour (H, W, 3) or (H, W, 4) images become luma, ``0.299 R + 0.587 G + 0.114 B``
+  (ITU-R BT.601, the weights the Middlebury tools use); an alpha channel is ignored.
+
+The result is quantized to 1/16 of a gray level and stored as ``int32``. With integer
+signals, window sums and DP sums are exact, so results do not depend on the order of
+evaluation (tiling, threads) and the same picture in ``uint8``, ``uint16`` or float gives
+the same disparity map.
+"""
+
+import numpy as np
+
+#: Quantization steps per gray level of the matching signal.
+SIGNAL_STEPS = 16
+
+_LUMA = np.array([0.299, 0.587, 0.114])
+
+
+def check_image(image: np.ndarray, name: str) -> np.ndarray:
+    """Validate one input image and return it as an array (no copy when possible).
+
+    Raises ``TypeError`` for unsupported dtypes and ``ValueError`` for wrong shapes,
+    empty images, NaN pixels or float intensities outside ``[0, 1]``.
+    """
+    array = np.asarray(image)
+    if array.dtype == bool or not (
+        array.dtype in (np.uint8, np.uint16) or np.issubdtype(array.dtype, np.floating)
+    ):
+        raise TypeError(
+            f"{name} image has dtype {array.dtype}; expected uint8, uint16 or float in [0, 1]"
+        )
+    if array.ndim == 3 and array.shape[2] in (1, 3, 4):
+        if array.shape[2] == 1:
+            array = array[:, :, 0]
+    elif array.ndim != 2:
+        raise ValueError(
+            f"{name} image has shape {array.shape}; expected (H, W) gray or (H, W, 3|4) colour"
+        )
+    if array.shape[0] == 0 or array.shape[1] == 0:
+        raise ValueError(f"{name} image is empty (shape {array.shape})")
+    if np.issubdtype(array.dtype, np.floating):
+        bad = np.count_nonzero(~np.isfinite(array))
+        if bad:
+            raise ValueError(f"{name} image has {bad} NaN or infinite pixel(s)")
+        lo, hi = float(array.min()), float(array.max())
+        if lo < 0.0 or hi > 1.0:
+            raise ValueError(
+                f"{name} image is float with values in [{lo:g}, {hi:g}]; "
+                "float images must lie in [0, 1] (or pass uint8/uint16)"
+            )
+    return array
+
+
+def intensity(image: np.ndarray) -> np.ndarray:
+    """Return the float64 intensity (0..255 scale, luma for colour) of a checked image."""
+    array = np.asarray(image)
+    if array.dtype == np.uint8:
+        scaled = array.astype(np.float64)
+    elif array.dtype == np.uint16:
+        scaled = array.astype(np.float64) / 257.0
+    else:
+        scaled = array.astype(np.float64) * 255.0
+    if scaled.ndim == 3:
+        scaled = scaled[:, :, :3] @ _LUMA
+    return scaled
+
+
+def matching_signal(image: np.ndarray) -> np.ndarray:
+    """Return the int32 matching signal (intensity in 1/16 gray levels) of a checked image."""
+    return np.rint(intensity(image) * SIGNAL_STEPS).astype(np.int32)
