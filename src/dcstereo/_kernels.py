@@ -40,9 +40,13 @@ def row_costs(left_p, right_p, y, dmin, ndisp, radius, colsum, out):
     """Windowed SAD of eq. 4 for row ``y`` into ``out[x, k]`` (inf outside the image).
 
     ``left_p``/``right_p`` are the integer signals padded by ``radius`` on every side
-    (edge replicated), so padded row ``y + t`` and column ``x + s`` for
-    ``t, s in [0, 2 * radius]`` cover the window of unpadded pixel ``(y, x)``.
-    ``colsum`` is a scratch vector of the padded width.
+    (edge replicated): padded row ``y + t``, ``t in [0, 2 * radius]``, is row ``y - radius + t``
+    of the window, replicated identically in both views. Along the row the window is
+    *truncated* to the columns ``s`` where both ``x + s`` and ``x - d + s`` lie inside the
+    images, and the sum is rescaled to the full window (``* W / columns used``): padding one
+    view and comparing it with real pixels of the other would charge a fake mismatch to the
+    pixels within ``radius`` of an image edge. Interior cells are exact integer sums.
+    ``colsum`` is a scratch vector at least as long as the row.
     """
     wp = left_p.shape[1]
     width = wp - 2 * radius
@@ -55,18 +59,31 @@ def row_costs(left_p, right_p, y, dmin, ndisp, radius, colsum, out):
         x1 = min(width, width + d)  # exclusive; 0 <= x - d < width
         if x0 >= x1:
             continue
-        for xp in range(x0, x1 + 2 * radius):
+        for x in range(x0, x1):
             s = 0
             for t in range(win):
-                s += abs(left_p[y + t, xp] - right_p[y + t, xp - d])
-            colsum[xp] = s
+                s += abs(left_p[y + t, x + radius] - right_p[y + t, x - d + radius])
+            colsum[x] = s
+        # running sum over the truncated window [max(x - r, x0), min(x + r, x1 - 1)]
+        lo = x0
+        hi = min(x0 + radius, x1 - 1)
         s = 0
-        for xp in range(x0, x0 + win):
-            s += colsum[xp]
-        out[x0, k] = s
-        for x in range(x0 + 1, x1):
-            s += colsum[x + win - 1] - colsum[x - 1]
-            out[x, k] = s
+        for c in range(lo, hi + 1):
+            s += colsum[c]
+        for x in range(x0, x1):
+            new_lo = max(x - radius, x0)
+            new_hi = min(x + radius, x1 - 1)
+            while hi < new_hi:
+                hi += 1
+                s += colsum[hi]
+            while lo < new_lo:
+                s -= colsum[lo]
+                lo += 1
+            used = hi - lo + 1
+            if used == win:
+                out[x, k] = s
+            else:
+                out[x, k] = s * win / used
 
 
 # --------------------------------------------------------------------------- DP
@@ -159,7 +176,15 @@ def scanline_dp(
                         extra = cost[x, k + 1] + cost[x - 1, k]
                         v = (
                             _node(
-                                table, x - 1, k + 1, ndisp, dmin, x_lo, x_hi, j_lo, j_hi,
+                                table,
+                                x - 1,
+                                k + 1,
+                                ndisp,
+                                dmin,
+                                x_lo,
+                                x_hi,
+                                j_lo,
+                                j_hi,
                                 anchor_start,
                             )
                             + 2.0 * here
@@ -172,7 +197,15 @@ def scanline_dp(
                         extra = cost[x - 1, k - 1] + cost[x - 1, k]
                         v = (
                             _node(
-                                table, x - 2, k - 1, ndisp, dmin, x_lo, x_hi, j_lo, j_hi,
+                                table,
+                                x - 2,
+                                k - 1,
+                                ndisp,
+                                dmin,
+                                x_lo,
+                                x_hi,
+                                j_lo,
+                                j_hi,
                                 anchor_start,
                             )
                             + 2.0 * here
@@ -189,10 +222,7 @@ def scanline_dp(
                 if v < best:
                     best = v
                     step = STEP_A
-                v = (
-                    _node(table, x, k + 1, ndisp, dmin, x_lo, x_hi, j_lo, j_hi, anchor_start)
-                    + occ2
-                )
+                v = _node(table, x, k + 1, ndisp, dmin, x_lo, x_hi, j_lo, j_hi, anchor_start) + occ2
                 if v < best:
                     best = v
                     step = STEP_B
@@ -313,8 +343,21 @@ def match_dsi_rows(left_p, right_p, dmin, ndisp, radius, occ2, five, nchunks, di
                 disp[y, x] = np.nan
                 flags[y, x] = FLAG_BORDER
             n, t = scanline_dp(
-                cost, dmin, occ2, five, 0, width - 1, 0, width - 1, False, False,
-                table, steps, path_x, path_k, path_s,
+                cost,
+                dmin,
+                occ2,
+                five,
+                0,
+                width - 1,
+                0,
+                width - 1,
+                False,
+                False,
+                table,
+                steps,
+                path_x,
+                path_k,
+                path_s,
             )
             apply_path(path_x, path_k, path_s, n, dmin, disp[y], flags[y])
             total[y] = t

@@ -62,9 +62,7 @@ def match(
     left = check_image(left, "left")
     right = check_image(right, "right")
     if left.shape != right.shape:
-        raise ValueError(
-            f"left and right images differ in shape: {left.shape} vs {right.shape}"
-        )
+        raise ValueError(f"left and right images differ in shape: {left.shape} vs {right.shape}")
     params.check_image_size(*left.shape[:2])
     result = _METHODS[params.method](left, right, params)
     return result.filled() if params.fill else result
@@ -79,7 +77,7 @@ def _padded_signals(left, right, radius):
 
 
 def cost_scale(window: int) -> float:
-    """Internal cost units per gray level of mean absolute difference."""
+    """Return the internal cost units per gray level of mean absolute difference."""
     return float(SIGNAL_STEPS * window * window)
 
 
@@ -97,8 +95,15 @@ def _match_block(left, right, params: MatchParams) -> DisparityResult:
     left_p, right_p = _padded_signals(left, right, radius)
     disparity, flags, total, nchunks = _outputs(left.shape)
     _kernels.match_block_rows(
-        left_p, right_p, params.min_disparity, params.num_disparities, radius,
-        nchunks, disparity, flags, total,
+        left_p,
+        right_p,
+        params.min_disparity,
+        params.num_disparities,
+        radius,
+        nchunks,
+        disparity,
+        flags,
+        total,
     )
     return DisparityResult(disparity, flags, params, total / cost_scale(params.window))
 
@@ -110,8 +115,17 @@ def _match_dsi(left, right, params: MatchParams) -> DisparityResult:
     scale = cost_scale(params.window)
     occ2 = float(np.rint(2.0 * params.occlusion_cost * scale))
     _kernels.match_dsi_rows(
-        left_p, right_p, params.min_disparity, params.num_disparities, radius, occ2,
-        params.method == "dsi5", nchunks, disparity, flags, total,
+        left_p,
+        right_p,
+        params.min_disparity,
+        params.num_disparities,
+        radius,
+        occ2,
+        params.method == "dsi5",
+        nchunks,
+        disparity,
+        flags,
+        total,
     )
     return DisparityResult(disparity, flags, params, total / (2.0 * scale))
 
