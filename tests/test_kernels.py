@@ -31,6 +31,7 @@ def run_dp(cost, dmin, occ, five, box, anchor_start=False, anchor_end=False):
         dmin,
         2.0 * occ,
         five,
+        0.0,
         x_lo,
         x_hi,
         j_lo,

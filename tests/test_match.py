@@ -26,7 +26,9 @@ def test_hand_1x7_occlusion(method):
     # alternative costs at least |50 - 10| + |250 - 50| = 240 (start at d = 1) or 50.
     right = scanline([10, 50, 200, 120, 30, 170, 90])
     left = scanline([10, 50, 250, 200, 120, 30, 170])
-    result = dcstereo.match(left, right, max_disparity=1, method=method, window=1)
+    result = dcstereo.match(
+        left, right, max_disparity=1, method=method, window=1, occlusion_cost=20
+    )
     np.testing.assert_array_equal(result.disparity[0], [0, 0, np.nan, 1, 1, 1, 1])
     np.testing.assert_array_equal(result.flags[0], [0, 0, FLAG_OCCLUDED, 0, 0, 0, 0])
     assert result.path_cost[0] == 20.0
@@ -41,11 +43,11 @@ def test_hand_1x7_half_pixel_e_step():
     # row at cost 0 with disparity 0.5 at x = 2; dsi3 must pay one occlusion (C_occ = 20).
     right = scanline([10, 50, 50, 120, 30, 170, 90])
     left = scanline([10, 50, 50, 50, 120, 30, 170])
-    five = dcstereo.match(left, right, max_disparity=1, method="dsi5", window=1)
+    five = dcstereo.match(left, right, max_disparity=1, method="dsi5", window=1, occlusion_cost=20)
     np.testing.assert_array_equal(five.disparity[0], [0, 0, 0.5, 1, 1, 1, 1])
     assert five.path_cost[0] == 0.0
     assert not five.occluded.any()
-    three = dcstereo.match(left, right, max_disparity=1, method="dsi3", window=1)
+    three = dcstereo.match(left, right, max_disparity=1, method="dsi3", window=1, occlusion_cost=20)
     assert three.path_cost[0] == 20.0
     assert np.count_nonzero(three.flags[0] == FLAG_OCCLUDED) == 1
     # the half-pixel value is not an integer pair
@@ -79,7 +81,11 @@ def test_foreground_object_occlusion_band(method):
     rng = np.random.default_rng(31)
     x0, x1, back, front = 30, 60, 2, 10
     left, right, truth = synthetic.object_pair(rng, 30, 96, back, front, (x0, x1))
-    result = dcstereo.match(left, right, max_disparity=14, method=method, window=5)
+    # At C_occ = 20 the band is exact to a pixel; at the default 10 the DP also gives up
+    # one or two pixels on each side of it, where the 5x5 windows straddle the edges.
+    result = dcstereo.match(
+        left, right, max_disparity=14, method=method, window=5, occlusion_cost=20
+    )
     band = slice(x0 - (front - back), x0)  # the 8 background pixels hidden in the right view
     occluded = result.occluded
     # the band is found (allowing one pixel at each edge to go either way with a 5x5 window)
@@ -91,7 +97,7 @@ def test_foreground_object_occlusion_band(method):
     away[band.start - 1 : band.stop + 1] = False
     assert occluded[:, away].mean() <= 0.01
     # the band is as wide as the disparity jump on most rows
-    widths = occluded[:, back + 2 :].sum(axis=1)
+    widths = occluded[:, band.start - 3 : band.stop + 3].sum(axis=1)
     assert np.median(widths) == front - back
     # disparities away from the discontinuity are exact
     scored = np.isfinite(truth)

@@ -11,6 +11,7 @@ from .api import match
 from .params import METHODS, MatchParams
 from .result import (
     FLAG_BORDER,
+    FLAG_FEATURE,
     FLAG_FILLED,
     FLAG_OCCLUDED,
     DisparityResult,
@@ -19,6 +20,7 @@ from .result import (
 
 __all__ = [
     "FLAG_BORDER",
+    "FLAG_FEATURE",
     "FLAG_FILLED",
     "FLAG_OCCLUDED",
     "METHODS",

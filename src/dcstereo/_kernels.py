@@ -114,6 +114,7 @@ def scanline_dp(
     dmin,
     occ2,
     five,
+    slant2,
     x_lo,
     x_hi,
     j_lo,
@@ -189,6 +190,7 @@ def scanline_dp(
                             )
                             + 2.0 * here
                             + extra
+                            + slant2
                         )
                         if v < best:
                             best = v
@@ -210,6 +212,7 @@ def scanline_dp(
                             )
                             + 2.0 * here
                             + extra
+                            + slant2
                         )
                         if v < best:
                             best = v
@@ -324,7 +327,9 @@ def _chunk_bounds(height, nchunks, c):
 
 
 @nb.njit(parallel=True, cache=True)
-def match_dsi_rows(left_p, right_p, dmin, ndisp, radius, occ2, five, nchunks, disp, flags, total):
+def match_dsi_rows(
+    left_p, right_p, dmin, ndisp, radius, occ2, five, slant2, nchunks, disp, flags, total
+):
     """Run the whole-scanline DP on every row; rows are the only parallel loop."""
     height, width = disp.shape
     wp = left_p.shape[1]
@@ -347,6 +352,7 @@ def match_dsi_rows(left_p, right_p, dmin, ndisp, radius, occ2, five, nchunks, di
                 dmin,
                 occ2,
                 five,
+                slant2,
                 0,
                 width - 1,
                 0,
@@ -390,3 +396,302 @@ def match_block_rows(left_p, right_p, dmin, ndisp, radius, nchunks, disp, flags,
                     flags[y, x] = 0
                     t += best
             total[y] = t
+
+
+# --------------------------------------------------------------------------- divide and conquer
+
+
+@nb.njit(cache=True)
+def window_ssd(left_p, right_p, y, x, j, radius):
+    """Window sum of squared signal differences of cell (x, j), truncated like ``row_costs``."""
+    width = left_p.shape[1] - 2 * radius
+    win = 2 * radius + 1
+    s = 0.0
+    used = 0
+    for c in range(-radius, radius + 1):
+        if x + c < 0 or x + c >= width or j + c < 0 or j + c >= width:
+            continue
+        used += 1
+        for t in range(win):
+            diff = float(left_p[y + t, x + c + radius] - right_p[y + t, j + c + radius])
+            s += diff * diff
+    return s * win / used
+
+
+@nb.njit(cache=True)
+def fill_interval(
+    cost,
+    dmin,
+    occ2,
+    slant2,
+    a,
+    c,
+    b,
+    e,
+    width,
+    linear,
+    table,
+    steps,
+    path_x,
+    path_k,
+    path_s,
+    disp_row,
+    flag_row,
+):
+    """Fill the left pixels strictly between anchors ``a <-> b`` and ``c <-> e``.
+
+    ``a == -1`` (and ``b == -1``) is the free start of the scanline, ``c == width`` (and
+    ``e == width``) its free end: there the whole-scanline boundary rules apply. With
+    ``linear`` and two real anchors the disparities are interpolated linearly; otherwise
+    the DP runs inside the rectangle with its path forced through the anchors. Returns the
+    doubled cost of the DP path (0 for interpolation).
+    """
+    if c - a <= 1:
+        return 0.0
+    anchor_start = a >= 0
+    anchor_end = c < width
+    if linear and anchor_start and anchor_end:
+        d_a = a - b
+        d_c = c - e
+        for x in range(a + 1, c):
+            disp_row[x] = d_a + (d_c - d_a) * (x - a) / (c - a)
+            flag_row[x] = 0
+        return 0.0
+    x_lo = a if anchor_start else 0
+    j_lo = b if anchor_start else 0
+    x_hi = c if anchor_end else width - 1
+    j_hi = e if anchor_end else width - 1
+    n, t = scanline_dp(
+        cost,
+        dmin,
+        occ2,
+        True,
+        slant2,
+        x_lo,
+        x_hi,
+        j_lo,
+        j_hi,
+        anchor_start,
+        anchor_end,
+        table,
+        steps,
+        path_x,
+        path_k,
+        path_s,
+    )
+    apply_path(path_x, path_k, path_s, n, dmin, disp_row, flag_row)
+    return t
+
+
+@nb.njit(cache=True)
+def divide_row(
+    y,
+    cost,
+    left_p,
+    right_p,
+    radius,
+    var_l,
+    var_r,
+    dmin,
+    occ2,
+    slant2,
+    ser_min,
+    vs_max,
+    vs_relative,
+    var_floor,
+    max_candidates,
+    lr_check,
+    linear,
+    signal_steps,
+    table,
+    steps,
+    path_x,
+    path_k,
+    path_s,
+    stack,
+    disp_row,
+    flag_row,
+    ser_row,
+    vs_row,
+):
+    """Section 2 on one scanline: pin reliable feature pairs, fill between them.
+
+    A work list (``stack``, shape (>= width + 2, 4)) of problems ``(A, C, B, D)``: match
+    left pixels strictly inside ``(A, C)`` with right pixels strictly inside ``(B, D)``.
+    The candidate of highest left variance is block-matched inside the band and the right
+    interval (the ordering constraint); accepted when ``SER >= ser_min`` and
+    ``VS <= vs_max`` (eq. 2 and 3), it splits the problem in two; otherwise the next
+    strongest candidate is tried, down to ``var_floor`` and at most ``max_candidates``
+    (0: no limit). A problem without a reliable pair is filled by ``fill_interval``.
+    Returns the doubled total cost of the fill paths.
+    """
+    width, ndisp = cost.shape
+    scale2 = float(signal_steps * signal_steps)
+    total = 0.0
+    top = 1
+    stack[0, 0] = -1
+    stack[0, 1] = width
+    stack[0, 2] = -1
+    stack[0, 3] = width
+    while top > 0:
+        top -= 1
+        a = stack[top, 0]
+        c = stack[top, 1]
+        b = stack[top, 2]
+        e = stack[top, 3]
+        found = False
+        if c - a > 1 and e - b > 1:
+            order = np.argsort(-var_l[y, a + 1 : c], kind="mergesort")
+            tries = 0
+            for idx in order:
+                p = a + 1 + idx
+                v_l = var_l[y, p]
+                if v_l < var_floor:
+                    break
+                if max_candidates > 0 and tries >= max_candidates:
+                    break
+                tries += 1
+                k_lo = max(0, p - (e - 1) - dmin)
+                k_hi = min(ndisp - 1, p - (b + 1) - dmin)
+                best = np.inf
+                best_k = -1
+                for k in range(k_lo, k_hi + 1):
+                    if cost[p, k] < best:
+                        best = cost[p, k]
+                        best_k = k
+                if best_k < 0:
+                    continue
+                j = p - dmin - best_k
+                if lr_check:
+                    # the right pixel, matched back inside (A, C), must choose p again
+                    back = True
+                    for k in range(ndisp):
+                        x = j + dmin + k
+                        if x <= a or x >= c or x == p:
+                            continue
+                        if cost[x, k] <= best:
+                            back = False
+                            break
+                    if not back:
+                        continue
+                v_r = var_r[y, j]
+                ssd = window_ssd(left_p, right_p, y, p, j, radius) / scale2
+                ser = (v_l + v_r) / ssd if ssd > 0 else np.inf
+                vs = abs(v_l - v_r)
+                if vs_relative:
+                    vs = vs / (v_l + v_r) if v_l + v_r > 0 else 0.0
+                if ser >= ser_min and vs <= vs_max:
+                    found = True
+                    disp_row[p] = p - j
+                    flag_row[p] = 0
+                    ser_row[p] = ser
+                    vs_row[p] = vs
+                    stack[top, 0] = a
+                    stack[top, 1] = p
+                    stack[top, 2] = b
+                    stack[top, 3] = j
+                    stack[top + 1, 0] = p
+                    stack[top + 1, 1] = c
+                    stack[top + 1, 2] = j
+                    stack[top + 1, 3] = e
+                    top += 2
+                    break
+        if not found:
+            total += fill_interval(
+                cost,
+                dmin,
+                occ2,
+                slant2,
+                a,
+                c,
+                b,
+                e,
+                width,
+                linear,
+                table,
+                steps,
+                path_x,
+                path_k,
+                path_s,
+                disp_row,
+                flag_row,
+            )
+    return total
+
+
+@nb.njit(parallel=True, cache=True)
+def match_dc_rows(
+    left_p,
+    right_p,
+    var_l,
+    var_r,
+    dmin,
+    ndisp,
+    radius,
+    occ2,
+    slant2,
+    ser_min,
+    vs_max,
+    vs_relative,
+    var_floor,
+    max_candidates,
+    lr_check,
+    linear,
+    signal_steps,
+    nchunks,
+    disp,
+    flags,
+    total,
+    ser,
+    vs,
+):
+    """Divide-and-conquer matching of every row; rows are the only parallel loop."""
+    height, width = disp.shape
+    wp = left_p.shape[1]
+    for ch in nb.prange(nchunks):
+        y0, y1 = _chunk_bounds(height, nchunks, ch)
+        cost = np.empty((width, ndisp), dtype=np.float64)
+        colsum = np.empty(wp, dtype=np.int64)
+        table = np.empty((width, ndisp), dtype=np.float64)
+        steps = np.empty((width, ndisp), dtype=np.uint8)
+        path_x = np.empty(2 * width + 2, dtype=np.int64)
+        path_k = np.empty(2 * width + 2, dtype=np.int64)
+        path_s = np.empty(2 * width + 2, dtype=np.uint8)
+        stack = np.empty((width + 2, 4), dtype=np.int64)
+        for y in range(y0, y1):
+            row_costs(left_p, right_p, y, dmin, ndisp, radius, colsum, cost)
+            for x in range(width):
+                disp[y, x] = np.nan
+                flags[y, x] = FLAG_BORDER
+                ser[y, x] = np.nan
+                vs[y, x] = np.nan
+            total[y] = divide_row(
+                y,
+                cost,
+                left_p,
+                right_p,
+                radius,
+                var_l,
+                var_r,
+                dmin,
+                occ2,
+                slant2,
+                ser_min,
+                vs_max,
+                vs_relative,
+                var_floor,
+                max_candidates,
+                lr_check,
+                linear,
+                signal_steps,
+                table,
+                steps,
+                path_x,
+                path_k,
+                path_s,
+                stack,
+                disp[y],
+                flags[y],
+                ser[y],
+                vs[y],
+            )

@@ -6,8 +6,9 @@ import numba
 import numpy as np
 
 from . import _kernels
+from .cost import window_variance
 from .params import MatchParams
-from .result import DisparityResult
+from .result import FLAG_FEATURE, DisparityResult
 from .signal import SIGNAL_STEPS, check_image, matching_signal
 
 
@@ -17,7 +18,7 @@ def match(
     *,
     max_disparity: int,
     min_disparity: int = 0,
-    method: str = "dsi5",
+    method: str = "dc",
     **options,
 ) -> DisparityResult:
     """Estimate the disparity of the left image of a rectified stereo pair.
@@ -33,7 +34,11 @@ def match(
     max_disparity, min_disparity : int
         Inclusive search range in pixels.
     method : str
-        ``"block"``: winner-take-all SAD block matching (Hannah);
+        ``"dc"`` (default): the divide-and-conquer matcher of Tsai and Katsaggelos: reliable
+        feature pairs (SER and VS tests, ordering constraint) pin the path of each scanline
+        and the five-step DP fills between them; ``"dc-linear"``: the same features,
+        interpolated linearly between them; ``"block"``: winner-take-all SAD block matching
+        (Hannah);
         ``"dsi3"``: scanline DP over the disparity-space image with the classic three steps
         (Intille and Bobick); ``"dsi5"``: the extended five-step model of eq. 5 (Tsai and
         Katsaggelos).
@@ -122,6 +127,7 @@ def _match_dsi(left, right, params: MatchParams) -> DisparityResult:
         radius,
         occ2,
         params.method == "dsi5",
+        float(np.rint(2.0 * params.slant_cost * scale)),
         nchunks,
         disparity,
         flags,
@@ -130,8 +136,61 @@ def _match_dsi(left, right, params: MatchParams) -> DisparityResult:
     return DisparityResult(disparity, flags, params, total / (2.0 * scale))
 
 
+def _match_dc(left, right, params: MatchParams) -> DisparityResult:
+    radius = params.window // 2
+    left_p, right_p = _padded_signals(left, right, radius)
+    # the variance of the same quantized signal the cost sees, in gray levels squared
+    inner = (slice(radius, radius + left.shape[0]), slice(radius, radius + left.shape[1]))
+    var_l = window_variance(left_p[inner] / SIGNAL_STEPS, params.window)
+    var_r = window_variance(right_p[inner] / SIGNAL_STEPS, params.window)
+    disparity, flags, total, nchunks = _outputs(left.shape)
+    ser = np.empty(disparity.shape, dtype=np.float32)
+    vs = np.empty(disparity.shape, dtype=np.float32)
+    scale = cost_scale(params.window)
+    occ2 = float(np.rint(2.0 * params.occlusion_cost * scale))
+    _kernels.match_dc_rows(
+        left_p,
+        right_p,
+        var_l,
+        var_r,
+        params.min_disparity,
+        params.num_disparities,
+        radius,
+        occ2,
+        float(np.rint(2.0 * params.slant_cost * scale)),
+        float(params.ser_min),
+        float(params.vs_max),
+        params.vs_relative,
+        float(params.feature_floor),
+        params.max_candidates,
+        params.lr_check,
+        params.method == "dc-linear",
+        SIGNAL_STEPS,
+        nchunks,
+        disparity,
+        flags,
+        total,
+        ser,
+        vs,
+    )
+    rows, cols = np.nonzero(np.isfinite(ser))
+    features = np.empty((rows.size, 5), dtype=np.float64)
+    features[:, 0] = rows
+    features[:, 1] = cols
+    features[:, 2] = cols - disparity[rows, cols]
+    features[:, 3] = ser[rows, cols]
+    features[:, 4] = vs[rows, cols]
+    flags[rows, cols] |= FLAG_FEATURE
+    path_cost = total / (2.0 * scale)
+    if params.method == "dc-linear":
+        path_cost = np.full_like(path_cost, np.nan)
+    return DisparityResult(disparity, flags, params, path_cost, features)
+
+
 _METHODS: dict[str, Callable[[np.ndarray, np.ndarray, MatchParams], DisparityResult]] = {
     "block": _match_block,
     "dsi3": _match_dsi,
     "dsi5": _match_dsi,
+    "dc": _match_dc,
+    "dc-linear": _match_dc,
 }

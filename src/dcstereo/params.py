@@ -4,10 +4,15 @@ import math
 from dataclasses import dataclass
 
 #: Methods understood by :func:`dcstereo.match`, in the order the docs present them.
-METHODS = ("block", "dsi3", "dsi5")
+METHODS = ("dc", "dc-linear", "dsi5", "dsi3", "block")
 
 #: Default occlusion cost per pixel, in gray levels of mean absolute difference.
-DEFAULT_OCCLUSION_COST = 20.0
+DEFAULT_OCCLUSION_COST = 10.0
+
+#: Reliability defaults of the divide-and-conquer methods (see docs for how they were chosen).
+DEFAULT_SER_MIN = 2.0
+DEFAULT_VS_MAX = 0.2
+DEFAULT_FEATURE_FLOOR = 400.0
 
 
 @dataclass(frozen=True)
@@ -30,17 +35,42 @@ class MatchParams:
     fill : bool
         Fill pixels without an estimate with the background disparity (see
         :func:`dcstereo.fill_occlusions`).
+    ser_min : float
+        ``dc`` methods: smallest signal-to-error ratio (eq. 2) of a reliable feature pair,
+        ``(var_L + var_R) / sum_window (I_L - I_R)^2``.
+    vs_max : float
+        ``dc`` methods: largest variance dissimilarity (eq. 3) of a reliable pair.
+    vs_relative : bool
+        Use the scale-free ``|var_L - var_R| / (var_L + var_R)`` (in ``[0, 1]``) instead of
+        the paper's ``|var_L - var_R|`` (gray levels squared).
+    feature_floor : float
+        Candidates stop at this window variance (gray levels squared): flatter pixels are
+        never tried as features.
+    max_candidates : int
+        Candidates tried per interval before giving up on it; 0 tries every pixel above the
+        floor.
+    lr_check : bool
+        Also require the right pixel of a candidate pair to choose the same left pixel when
+        block-matched back inside the interval (a left-right consistency test; not in the
+        paper, which relies on SER and VS alone).
     """
 
     max_disparity: int
     min_disparity: int = 0
-    method: str = "dsi5"
+    method: str = "dc"
     window: int = 5
     occlusion_cost: float = DEFAULT_OCCLUSION_COST
     fill: bool = False
+    slant_cost: float = 0.0
+    ser_min: float = DEFAULT_SER_MIN
+    vs_max: float = DEFAULT_VS_MAX
+    vs_relative: bool = True
+    feature_floor: float = DEFAULT_FEATURE_FLOOR
+    max_candidates: int = 0
+    lr_check: bool = True
 
     def __post_init__(self):
-        for name in ("max_disparity", "min_disparity", "window"):
+        for name in ("max_disparity", "min_disparity", "window", "max_candidates"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int):
                 if isinstance(value, float) and value.is_integer():
@@ -61,6 +91,16 @@ class MatchParams:
             raise ValueError(f"occlusion_cost must be a finite number, got {cost!r}")
         if cost <= 0:
             raise ValueError(f"occlusion_cost must be positive, got {cost}")
+        for name in ("ser_min", "vs_max", "feature_floor", "slant_cost"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or value < 0:
+                raise ValueError(f"{name} must be a non-negative number, got {value!r}")
+            if math.isnan(value):
+                raise ValueError(f"{name} must be a non-negative number, got {value!r}")
+        if self.max_candidates < 0:
+            raise ValueError(
+                f"max_candidates must be 0 (no limit) or positive, got {self.max_candidates}"
+            )
 
     @property
     def num_disparities(self) -> int:

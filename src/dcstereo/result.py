@@ -12,6 +12,8 @@ FLAG_OCCLUDED = 1
 FLAG_BORDER = 2
 #: The value was filled in by :func:`fill_occlusions` (the reason bit stays set).
 FLAG_FILLED = 4
+#: A reliable feature pair of the divide-and-conquer methods (an anchor of the path).
+FLAG_FEATURE = 8
 
 
 @dataclass(frozen=True)
@@ -24,14 +26,17 @@ class DisparityResult:
         ``x_right = x_left - disparity``; NaN where there is no estimate. Half-pixel
         values come from the e steps of the five-step model.
     flags : ndarray of uint8, shape (H, W)
-        Bit flags: :data:`FLAG_OCCLUDED`, :data:`FLAG_BORDER`, :data:`FLAG_FILLED`.
+        Bit flags: :data:`FLAG_OCCLUDED`, :data:`FLAG_BORDER`, :data:`FLAG_FILLED`,
+        :data:`FLAG_FEATURE`.
     params : MatchParams
         The parameters of the run.
     path_cost : ndarray of float64, shape (H,)
         Cost of each row's optimal path (block: sum of the chosen costs), in units of the
         mean absolute difference per pixel.
-    features : ndarray or None
-        Accepted feature pairs, for the methods that use them.
+    features : ndarray of float64, shape (M, 5), or None
+        The reliable feature pairs the ``dc`` methods accepted, one per row:
+        ``(row, x_left, x_right, SER, VS)``, sorted by row and column; None for the
+        methods without features.
     """
 
     disparity: np.ndarray

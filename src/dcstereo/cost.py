@@ -1,0 +1,46 @@
+"""Window statistics of the matching signal used by the divide-and-conquer matcher."""
+
+import numpy as np
+
+
+def window_variance(intensity: np.ndarray, window: int) -> np.ndarray:
+    """Variance of the intensity over the ``window x window`` window of every pixel.
+
+    This is the feature strength of section 2 (``sigma^2`` in eq. 2 and 3). Pixels near
+    the border use an edge-replicated window, like the matching cost.
+
+    Parameters
+    ----------
+    intensity : ndarray, shape (H, W)
+        Intensity on the 0..255 scale.
+    window : int
+        Odd window side ``W``.
+
+    Returns
+    -------
+    ndarray of float64, shape (H, W)
+        Population variance (gray levels squared), ``mean(I^2) - mean(I)^2``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> window_variance(np.array([[0.0, 2.0, 0.0]]), 1)
+    array([[0., 0., 0.]])
+    >>> float(window_variance(np.array([[0.0, 2.0, 0.0]]), 3)[0, 1])
+    0.888...
+    """
+    radius = window // 2
+    padded = np.pad(np.asarray(intensity, dtype=np.float64), radius, mode="edge")
+    mean = _box_mean(padded, window)
+    mean_sq = _box_mean(padded * padded, window)
+    return np.maximum(mean_sq - mean * mean, 0.0)
+
+
+def _box_mean(padded: np.ndarray, window: int) -> np.ndarray:
+    """Mean over every ``window x window`` block of a padded array ("valid" positions)."""
+    c = np.cumsum(np.cumsum(padded, axis=0), axis=1)
+    c = np.pad(c, ((1, 0), (1, 0)))
+    total = (
+        c[window:, window:] - c[:-window, window:] - c[window:, :-window] + c[:-window, :-window]
+    )
+    return total / (window * window)

@@ -1,0 +1,447 @@
+"""Read and write images and disparity maps; every write is atomic.
+
+Disparity files follow two conventions:
+
+- PFM (Middlebury): float32 disparities in pixels, ``+inf`` where there is no estimate.
+- 16-bit PNG (KITTI style): ``round(d * scale)`` with ``scale=256`` by default, ``0`` where
+  there is no estimate.
+
+In memory a disparity map is float32 (H, W) with NaN where there is no estimate.
+"""
+
+import os
+import re
+import secrets
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+from PIL import Image, UnidentifiedImageError
+
+_PNG16_MAX = 65535
+_PFM_HEADER = re.compile(rb"(P[Ff])\s+(\S+)\s+(\S+)\s+(\S+)(?:\r\n|\s)")
+_DISPARITY_SUFFIXES = (".pfm", ".png")
+
+
+@contextmanager
+def atomic_write(path: str | os.PathLike) -> Iterator[Path]:
+    """Give a temporary path next to ``path`` and move it onto ``path`` on success.
+
+    The temporary file is hidden (``.out.tmpXXXXXXXX.png`` for ``out.png``) and keeps the
+    real suffix last, so writers that pick the format from the name (Pillow) still work.
+    If the body raises, the temporary file is removed and the exception propagates, so
+    nothing half-written ever appears at ``path`` and an existing file there is untouched.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Final location of the file; its directory must exist.
+
+    Yields
+    ------
+    Path
+        The temporary file to write (it exists, empty).
+
+    Examples
+    --------
+    >>> with atomic_write("out.png") as tmp:  # doctest: +SKIP
+    ...     Image.fromarray(pixels).save(tmp)
+    """
+    target = Path(path)
+    directory = target.parent
+    if not directory.is_dir():
+        raise ValueError(f"cannot write '{path}': directory '{directory}' does not exist")
+    if target.is_dir():
+        raise ValueError(f"cannot write '{path}': it is a directory")
+    tmp = _create_temp(target, path)
+    try:
+        yield tmp
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    try:
+        os.replace(tmp, target)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise ValueError(f"cannot write '{path}': {_reason(exc)}") from None
+
+
+def _create_temp(target: Path, shown: str | os.PathLike) -> Path:
+    # O_EXCL so two writers never share a temp file; mode 0o666 lets the umask decide.
+    for _ in range(100):
+        tmp = target.with_name(f".{target.stem}.tmp{secrets.token_hex(4)}{target.suffix}")
+        try:
+            os.close(os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            raise ValueError(f"cannot write '{shown}': {_reason(exc)}") from None
+        return tmp
+    raise ValueError(f"cannot write '{shown}': no free temporary file name")
+
+
+def _reason(exc: OSError) -> str:
+    text = exc.strerror or str(exc)
+    return text[:1].lower() + text[1:]
+
+
+def read_image(path: str | os.PathLike) -> np.ndarray:
+    """Read an image file into a numpy array.
+
+    PNG, JPEG, TIFF, PGM/PPM and the other formats Pillow knows are read with Pillow, PFM
+    with :func:`read_pfm`. Palette images become RGB, an alpha channel is dropped, 1-bit
+    images become 0/255 and 16-bit gray images (PNG, PGM, TIFF) stay 16-bit; 16-bit
+    colour PNGs come back as 8 bits (Pillow keeps only the high byte).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The image file.
+
+    Returns
+    -------
+    ndarray, shape (H, W) or (H, W, 3)
+        ``uint8`` or ``uint16``; ``float32`` for PFM and float TIFF files.
+
+    Raises
+    ------
+    ValueError
+        If the file is missing, not an image or truncated; the message names the path.
+    """
+    _check_readable(path, "image")
+    if _is_pfm(path):
+        return read_pfm(path)
+    try:
+        with Image.open(path) as im:
+            mode = im.mode
+            im.load()
+            array = _mode_to_array(im)
+    except UnidentifiedImageError:
+        raise ValueError(f"cannot read image '{path}': not a recognised image format") from None
+    except Image.DecompressionBombError as exc:
+        raise ValueError(f"cannot read image '{path}': {exc}") from None
+    except Exception as exc:
+        # Pillow's decoders raise OSError, SyntaxError, EOFError, ValueError, struct.error...
+        # on damaged files; none of them should reach the user as a traceback.
+        raise ValueError(
+            f"cannot read image '{path}': truncated or corrupt image data ({exc})"
+        ) from None
+    if array is None:
+        raise ValueError(f"cannot read image '{path}': unsupported pixel mode '{mode}'")
+    return _normalise_dtype(array, path)
+
+
+def _check_readable(path: str | os.PathLike, what: str) -> None:
+    p = Path(path)
+    if not p.exists():
+        raise ValueError(f"cannot read {what} '{path}': file does not exist")
+    if not p.is_file():
+        raise ValueError(f"cannot read {what} '{path}': not a regular file")
+
+
+def _is_pfm(path: str | os.PathLike) -> bool:
+    try:
+        with open(path, "rb") as f:
+            head = f.read(3)
+    except OSError as exc:
+        raise ValueError(f"cannot read image '{path}': {_reason(exc)}") from None
+    return head[:2] in (b"PF", b"Pf") and head[2:3].isspace()
+
+
+def _mode_to_array(im: Image.Image) -> np.ndarray | None:
+    mode = im.mode
+    if mode == "1":
+        return np.asarray(im.convert("L"))
+    if mode == "P":
+        # A palette with a transparent entry must go through RGBA (Pillow warns otherwise).
+        has_alpha = "transparency" in im.info
+        return np.asarray(im.convert("RGBA" if has_alpha else "RGB"))[..., :3]
+    if mode in ("LA", "La"):
+        return np.asarray(im)[..., 0]
+    if mode in ("L", "RGB", "F", "I") or mode.startswith("I;16"):
+        return np.asarray(im)
+    try:
+        return np.asarray(im.convert("RGB"))
+    except ValueError:  # Pillow has no conversion from this mode
+        return None
+
+
+def _normalise_dtype(array: np.ndarray, path: str | os.PathLike) -> np.ndarray:
+    if array.dtype == np.uint8:
+        return np.ascontiguousarray(array)
+    if array.dtype.kind == "f":
+        return np.ascontiguousarray(array, dtype=np.float32)
+    # Pillow gives "I;16B" as big-endian uint16 and 16-bit PGM as int32 mode "I".
+    if array.size and (array.min() < 0 or array.max() > _PNG16_MAX):
+        raise ValueError(
+            f"cannot read image '{path}': integer values outside 0..{_PNG16_MAX} are not supported"
+        )
+    return np.ascontiguousarray(array, dtype=np.uint16)
+
+
+def read_pfm(path: str | os.PathLike) -> np.ndarray:
+    """Read a Portable Float Map.
+
+    The header is ``Pf`` (gray) or ``PF`` (colour), the width and height, and a scale
+    whose sign gives the byte order (negative: little endian). Rows are stored bottom to
+    top; the array returned is top to bottom. Values are returned as stored (``inf``
+    stays ``inf``).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The PFM file.
+
+    Returns
+    -------
+    ndarray of float32, shape (H, W) or (H, W, 3)
+
+    Raises
+    ------
+    ValueError
+        If the file is missing, its header is malformed or its data is short.
+    """
+    _check_readable(path, "PFM file")
+    data = Path(path).read_bytes()
+    # Four whitespace-separated fields, then exactly one whitespace byte (or CR LF).
+    header = _PFM_HEADER.match(data)
+    if header is None:
+        raise ValueError(f"cannot read PFM file '{path}': header does not start with PF or Pf")
+    magic, fields, pos = header[1], header.group(2, 3, 4), header.end()
+    try:
+        width, height, scale = int(fields[0]), int(fields[1]), float(fields[2])
+    except ValueError:
+        raise ValueError(
+            f"cannot read PFM file '{path}': malformed width, height or scale in the header"
+        ) from None
+    if width <= 0 or height <= 0 or scale == 0 or not np.isfinite(scale):
+        raise ValueError(
+            f"cannot read PFM file '{path}': invalid header (width {width}, height {height}, "
+            f"scale {scale})"
+        )
+    channels = 3 if magic == b"PF" else 1
+    count = width * height * channels
+    if len(data) - pos < 4 * count:
+        raise ValueError(
+            f"cannot read PFM file '{path}': data is short ({len(data) - pos} bytes, "
+            f"{4 * count} expected for {width}x{height}x{channels})"
+        )
+    dtype = "<f4" if scale < 0 else ">f4"
+    values = np.frombuffer(data, dtype=dtype, count=count, offset=pos)
+    shape = (height, width, 3) if channels == 3 else (height, width)
+    return np.ascontiguousarray(values.reshape(shape)[::-1], dtype=np.float32)
+
+
+def write_pfm(path: str | os.PathLike, array: np.ndarray) -> None:
+    """Write a float32 Portable Float Map, little endian, atomically.
+
+    Every non-finite value (NaN, ``-inf``, ``+inf``) is written as ``+inf``, the
+    Middlebury convention for "no estimate".
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file (usually ``.pfm``).
+    array : ndarray, shape (H, W) or (H, W, 3)
+        Real values; written as gray ``Pf`` or colour ``PF``.
+    """
+    values = _as_real_array(array, "array")
+    if not (values.ndim == 2 or (values.ndim == 3 and values.shape[2] == 3)):
+        raise ValueError(f"array must have shape (H, W) or (H, W, 3) for PFM, got {values.shape}")
+    _check_not_empty(values, "array")
+    with np.errstate(over="ignore", invalid="ignore"):
+        values = values.astype(np.float32)
+    values = np.where(np.isfinite(values), values, np.float32(np.inf))
+    height, width = values.shape[:2]
+    magic = "PF" if values.ndim == 3 else "Pf"
+    header = f"{magic}\n{width} {height}\n-1.0\n".encode("ascii")
+    body = np.ascontiguousarray(values[::-1], dtype="<f4").tobytes()
+    with atomic_write(path) as tmp:
+        tmp.write_bytes(header + body)
+
+
+def read_disparity(path: str | os.PathLike, *, scale: float | None = None) -> np.ndarray:
+    """Read a disparity map stored as PFM or as a gray PNG (or other gray image).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        PFM file (disparity in pixels, ``inf`` = no estimate), 16-bit gray image (value /
+        ``scale``, ``0`` = no estimate) or 8-bit gray image (value / ``scale``, ``0`` = no
+        estimate; ``scale`` is required because 8-bit conventions differ, e.g. Middlebury
+        2001 uses 8, quarter-size 2003 scenes use 4).
+    scale : float, optional
+        Stored value per pixel of disparity. Default 256 for 16-bit images; for PFM files
+        the values are divided by it when given.
+
+    Returns
+    -------
+    ndarray of float32, shape (H, W)
+        Disparity in pixels, NaN where there is no estimate.
+    """
+    if scale is not None:
+        scale = _check_scale(scale)
+    stored = read_image(path)
+    if stored.ndim != 2:
+        raise ValueError(
+            f"cannot read disparity '{path}': it is a colour image, a disparity map must "
+            "have a single channel"
+        )
+    if stored.dtype == np.float32:
+        disparity = np.where(np.isfinite(stored), stored, np.float32(np.nan))
+        return (disparity / np.float32(scale or 1.0)).astype(np.float32)
+    if stored.dtype == np.uint8 and scale is None:
+        raise ValueError(
+            f"cannot read disparity '{path}': an 8-bit disparity image needs a scale "
+            "(stored value per pixel of disparity)"
+        )
+    if scale is None:
+        scale = 256.0
+    disparity = stored.astype(np.float32) / np.float32(scale)
+    disparity[stored == 0] = np.nan
+    return disparity
+
+
+def write_disparity_png16(
+    path: str | os.PathLike, disparity: np.ndarray, *, scale: float = 256
+) -> None:
+    """Write a disparity map as a 16-bit PNG (KITTI style), atomically.
+
+    The stored value is ``round(disparity * scale)``; ``0`` means "no estimate" and is
+    written for every non-finite pixel. A finite disparity that would round to 0
+    (``0 <= d <= 0.5 / scale``) is stored as ``1`` so that it stays distinguishable
+    from "no estimate"; it reads back as ``1 / scale``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file (usually ``.png``).
+    disparity : ndarray, shape (H, W)
+        Disparity in pixels, ``>= 0``, NaN where there is no estimate.
+    scale : float
+        Stored value per pixel of disparity; the largest disparity that fits is
+        ``65535 / scale`` (255.99 for the default 256).
+
+    Raises
+    ------
+    ValueError
+        If a disparity is negative or too large for 16 bits; nothing is written.
+    """
+    scale = _check_scale(scale)
+    d = _check_disparity(disparity)
+    finite = np.isfinite(d)
+    if finite.any():
+        smallest, largest = float(d[finite].min()), float(d[finite].max())
+        if smallest < 0:
+            raise ValueError(
+                f"cannot write '{path}': smallest disparity {smallest:g} is negative and a "
+                "16-bit PNG stores 0 or more"
+            )
+        if np.rint(largest * scale) > _PNG16_MAX:
+            raise ValueError(
+                f"cannot write '{path}': largest disparity {largest:g} exceeds the 16-bit "
+                f"limit {_PNG16_MAX / scale:g} at scale {scale:g}"
+            )
+    stored = np.rint(np.where(finite, d, 0.0) * scale)
+    stored = np.where(finite, np.maximum(stored, 1), 0).astype(np.uint16)
+    with atomic_write(path) as tmp:
+        Image.fromarray(stored).save(tmp, format="PNG")
+
+
+def write_disparity(path: str | os.PathLike, disparity: np.ndarray, **options) -> None:
+    """Write a disparity map in the format given by the file suffix, atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        ``.pfm`` (:func:`write_pfm`, ``inf`` = no estimate) or ``.png``
+        (:func:`write_disparity_png16`, ``0`` = no estimate).
+    disparity : ndarray, shape (H, W)
+        Disparity in pixels, NaN where there is no estimate.
+    **options
+        Passed to the writer: ``scale`` for ``.png``; none for ``.pfm``.
+    """
+    suffix = Path(path).suffix.lower()
+    if suffix not in _DISPARITY_SUFFIXES:
+        raise ValueError(
+            f"cannot write disparity '{path}': unsupported suffix '{suffix}', use one of "
+            f"{', '.join(_DISPARITY_SUFFIXES)}"
+        )
+    d = _check_disparity(disparity)
+    if suffix == ".png":
+        write_disparity_png16(path, d, **options)
+        return
+    if options:
+        raise TypeError(
+            f"write_disparity got options {sorted(options)} that a .pfm file does not take"
+        )
+    write_pfm(path, d)
+
+
+def write_mask_png(path: str | os.PathLike, mask: np.ndarray) -> None:
+    """Write a boolean mask as an 8-bit PNG (True = 255, False = 0), atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file.
+    mask : ndarray of bool, shape (H, W)
+        The mask; anything but bool is refused (write ``mask != 0`` for 0/1 arrays).
+    """
+    mask = np.asarray(mask)
+    if mask.dtype != np.bool_:
+        raise TypeError(f"mask must be a bool array, got dtype {mask.dtype}")
+    if mask.ndim != 2:
+        raise ValueError(f"mask must be 2-D (H, W), got shape {mask.shape}")
+    _check_not_empty(mask, "mask")
+    with atomic_write(path) as tmp:
+        Image.fromarray(np.where(mask, 255, 0).astype(np.uint8)).save(tmp, format="PNG")
+
+
+def write_rgb_png(path: str | os.PathLike, image: np.ndarray) -> None:
+    """Write an 8-bit gray or RGB image as a PNG, atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file.
+    image : ndarray of uint8, shape (H, W) or (H, W, 3)
+        Gray or RGB pixels (e.g. from :mod:`dcstereo.viz`).
+    """
+    image = np.asarray(image)
+    if image.dtype != np.uint8:
+        raise TypeError(f"image must be uint8, got dtype {image.dtype}")
+    if not (image.ndim == 2 or (image.ndim == 3 and image.shape[2] == 3)):
+        raise ValueError(f"image must have shape (H, W) or (H, W, 3), got {image.shape}")
+    _check_not_empty(image, "image")
+    with atomic_write(path) as tmp:
+        Image.fromarray(np.ascontiguousarray(image)).save(tmp, format="PNG")
+
+
+def _as_real_array(array: np.ndarray, name: str) -> np.ndarray:
+    array = np.asarray(array)
+    if array.dtype.kind not in "biuf":
+        raise TypeError(f"{name} must hold real numbers, got dtype {array.dtype}")
+    return array
+
+
+def _check_not_empty(array: np.ndarray, name: str) -> None:
+    if array.size == 0:
+        raise ValueError(f"{name} is empty (shape {array.shape})")
+
+
+def _check_disparity(disparity: np.ndarray) -> np.ndarray:
+    d = _as_real_array(disparity, "disparity")
+    if d.ndim != 2:
+        raise ValueError(f"disparity must be 2-D (H, W), got shape {d.shape}")
+    _check_not_empty(d, "disparity")
+    return d.astype(np.float64)
+
+
+def _check_scale(scale: float) -> float:
+    if isinstance(scale, bool) or not isinstance(scale, int | float | np.number):
+        raise TypeError(f"scale must be a number, got {type(scale).__name__}")
+    if not (np.isfinite(scale) and scale > 0):
+        raise ValueError(f"scale must be a positive finite number, got {scale}")
+    return float(scale)

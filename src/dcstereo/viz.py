@@ -1,0 +1,280 @@
+"""Turn disparity maps into images: the paper's gray display, colour maps, error maps."""
+
+import numpy as np
+
+#: Brightest gray level of a valid pixel in :func:`paper_display`; occluded pixels get 255.
+PAPER_MAX_GRAY = 223
+#: Colours of :func:`error_map`.
+ERROR_GOOD = (200, 200, 200)
+ERROR_BAD = (255, 0, 0)
+ERROR_MISSING = (0, 0, 255)
+ERROR_UNSCORED = (0, 0, 0)
+
+_STYLES = ("paper", "color")
+
+
+def paper_display(disparity: np.ndarray, occluded: np.ndarray | None = None) -> np.ndarray:
+    """Gray display of a disparity map as in the figures of Tsai and Katsaggelos.
+
+    The finite disparities are histogram-equalized into gray levels ``0..223`` (larger
+    disparity = brighter) and occluded pixels are drawn white (255), so they stand out
+    from every estimate. Each distinct disparity value is its own histogram bin, so
+    half-pixel disparities need no binning: a value ``v`` maps to
+    ``round(223 * (cdf(v) - cdf(min)) / (n - cdf(min)))``, where ``cdf(v)`` counts the
+    displayed pixels with a disparity ``<= v`` and ``n`` is their number.
+
+    Parameters
+    ----------
+    disparity : ndarray, shape (H, W)
+        Disparity in pixels, NaN where there is no estimate.
+    occluded : ndarray of bool, shape (H, W), optional
+        Pixels to draw white (e.g. :attr:`DisparityResult.occluded`). Pixels without a
+        finite disparity are drawn white as well.
+
+    Returns
+    -------
+    ndarray of uint8, shape (H, W)
+        A map with a single finite value is drawn mid gray (112); an all-NaN map is white.
+
+    Examples
+    --------
+    >>> paper_display(np.array([[0.0, 0.5, 2.0, np.nan]]))
+    array([[  0, 112, 223, 255]], dtype=uint8)
+    """
+    d = _check_disparity(disparity)
+    hidden = ~np.isfinite(d)
+    if occluded is not None:
+        hidden |= _check_mask(occluded, d.shape, "occluded")
+    out = np.full(d.shape, 255, dtype=np.uint8)
+    shown = d[~hidden]
+    if shown.size == 0:
+        return out
+    values, inverse, counts = np.unique(shown, return_inverse=True, return_counts=True)
+    cdf = np.cumsum(counts)
+    spread = shown.size - cdf[0]
+    if spread == 0:
+        levels = np.array([(PAPER_MAX_GRAY + 1) // 2], dtype=np.uint8)
+    else:
+        levels = np.rint(PAPER_MAX_GRAY * (cdf - cdf[0]) / spread).astype(np.uint8)
+    out[~hidden] = levels[inverse.reshape(-1)]
+    return out
+
+
+def colorize(
+    disparity: np.ndarray,
+    *,
+    vmin: float | None = None,
+    vmax: float | None = None,
+    cmap: str = "turbo",
+    invalid: tuple[int, int, int] = (0, 0, 0),
+) -> np.ndarray:
+    """Colour a disparity map with a matplotlib colour map.
+
+    Parameters
+    ----------
+    disparity : ndarray, shape (H, W)
+        Disparity in pixels, NaN where there is no estimate.
+    vmin, vmax : float, optional
+        Disparities mapped to the ends of the colour map (values outside are clipped);
+        default: the smallest and largest finite disparity. When they are equal every
+        finite pixel gets the middle colour.
+    cmap : str
+        Name of a matplotlib colour map (``matplotlib.colormaps``).
+    invalid : tuple of 3 int
+        RGB colour of the pixels without a finite disparity.
+
+    Returns
+    -------
+    ndarray of uint8, shape (H, W, 3)
+
+    Examples
+    --------
+    >>> colorize(np.array([[1.0, np.nan]]), invalid=(255, 0, 255))[0, 1]
+    array([255,   0, 255], dtype=uint8)
+    """
+    import matplotlib  # lazy: matplotlib is slow to import and needed only here
+
+    d = _check_disparity(disparity)
+    color = _check_color(invalid, "invalid")
+    try:
+        colormap = matplotlib.colormaps[cmap]
+    except (KeyError, TypeError):
+        raise ValueError(f"unknown matplotlib colour map {cmap!r}") from None
+    finite = np.isfinite(d)
+    out = np.empty(d.shape + (3,), dtype=np.uint8)
+    out[...] = color
+    if not finite.any():
+        return out
+    low = float(d[finite].min()) if vmin is None else _check_limit(vmin, "vmin")
+    high = float(d[finite].max()) if vmax is None else _check_limit(vmax, "vmax")
+    if low > high:
+        raise ValueError(f"vmin ({low:g}) must not be larger than vmax ({high:g})")
+    values = d[finite]
+    if high == low:
+        norm = np.full(values.shape, 0.5)
+    else:
+        norm = np.clip((values - low) / (high - low), 0.0, 1.0)
+    out[finite] = colormap(norm, bytes=True)[:, :3]
+    return out
+
+
+def error_map(
+    disparity: np.ndarray,
+    truth: np.ndarray,
+    *,
+    threshold: float = 1.0,
+    mask: np.ndarray | None = None,
+) -> np.ndarray:
+    """Colour each pixel by how its disparity compares with the ground truth.
+
+    Light gray (200): ``|disparity - truth| <= threshold``; red: a larger error; blue: no
+    estimate (NaN) where the truth is known; black: not scored (truth NaN, or ``mask``
+    False).
+
+    Parameters
+    ----------
+    disparity, truth : ndarray, shape (H, W)
+        Estimated and true disparity in pixels, NaN where unknown.
+    threshold : float
+        Largest error, in pixels, that counts as correct.
+    mask : ndarray of bool, shape (H, W), optional
+        Pixels to score; default all pixels with a finite truth.
+
+    Returns
+    -------
+    ndarray of uint8, shape (H, W, 3)
+    """
+    d = _check_disparity(disparity)
+    gt = _check_disparity(truth, "truth")
+    if gt.shape != d.shape:
+        raise ValueError(f"truth has shape {gt.shape} but disparity has shape {d.shape}")
+    threshold = _check_limit(threshold, "threshold")
+    if threshold < 0:
+        raise ValueError(f"threshold must be 0 or more, got {threshold:g}")
+    scored = np.isfinite(gt)
+    if mask is not None:
+        scored &= _check_mask(mask, d.shape, "mask")
+    estimated = scored & np.isfinite(d)
+    error = np.abs(np.where(estimated, d, 0.0) - np.where(estimated, gt, 0.0))
+    out = np.empty(d.shape + (3,), dtype=np.uint8)
+    out[...] = ERROR_UNSCORED
+    out[scored & ~estimated] = ERROR_MISSING
+    out[estimated & (error <= threshold)] = ERROR_GOOD
+    out[estimated & (error > threshold)] = ERROR_BAD
+    return out
+
+
+def draw_points(
+    image_rgb: np.ndarray,
+    xs: np.ndarray,
+    ys: np.ndarray,
+    color: tuple[int, int, int] = (255, 0, 0),
+    radius: int = 1,
+) -> np.ndarray:
+    """Draw filled squares of side ``2 * radius + 1`` centred on points, on a copy.
+
+    Parameters
+    ----------
+    image_rgb : ndarray of uint8, shape (H, W, 3) or (H, W)
+        The image; a gray image is drawn on as RGB.
+    xs, ys : array_like, shape (M,)
+        Column and row of each point, rounded to the nearest pixel. Squares are clipped
+        at the image edges; points far outside draw nothing.
+    color : tuple of 3 int
+        RGB colour.
+    radius : int
+        Half side of the squares; 0 draws single pixels.
+
+    Returns
+    -------
+    ndarray of uint8, shape (H, W, 3)
+        A new image; the input is not modified.
+    """
+    image = np.asarray(image_rgb)
+    if image.dtype != np.uint8:
+        raise TypeError(f"image_rgb must be uint8, got dtype {image.dtype}")
+    if image.ndim == 2:
+        image = np.stack([image] * 3, axis=-1)
+    elif not (image.ndim == 3 and image.shape[2] == 3):
+        raise ValueError(f"image_rgb must have shape (H, W, 3) or (H, W), got {image.shape}")
+    out = image.copy()
+    color = _check_color(color, "color")
+    if isinstance(radius, bool) or not isinstance(radius, int | np.integer) or radius < 0:
+        raise ValueError(f"radius must be an integer 0 or more, got {radius!r}")
+    xs = np.asarray(xs, dtype=np.float64).reshape(-1)
+    ys = np.asarray(ys, dtype=np.float64).reshape(-1)
+    if xs.shape != ys.shape:
+        raise ValueError(f"xs and ys differ in length: {xs.size} vs {ys.size}")
+    if not (np.isfinite(xs).all() and np.isfinite(ys).all()):
+        raise ValueError("xs and ys must be finite")
+    offsets = np.arange(-radius, radius + 1)
+    # One (2r+1) x (2r+1) block of pixel coordinates per point.
+    cols = np.rint(xs).astype(np.int64)[:, None, None] + offsets[None, None, :]
+    rows = np.rint(ys).astype(np.int64)[:, None, None] + offsets[None, :, None]
+    cols, rows = (a.reshape(-1) for a in np.broadcast_arrays(cols, rows))
+    height, width = out.shape[:2]
+    inside = (rows >= 0) & (rows < height) & (cols >= 0) & (cols < width)
+    out[rows[inside], cols[inside]] = color
+    return out
+
+
+def preview(
+    disparity: np.ndarray, occluded: np.ndarray | None = None, *, style: str = "paper"
+) -> np.ndarray:
+    """Quick look at a disparity map.
+
+    Parameters
+    ----------
+    disparity : ndarray, shape (H, W)
+        Disparity in pixels, NaN where there is no estimate.
+    occluded : ndarray of bool, shape (H, W), optional
+        Pixels to show as occluded.
+    style : {"paper", "color"}
+        ``"paper"``: :func:`paper_display`, uint8 (H, W); ``"color"``: :func:`colorize`
+        with occluded and NaN pixels black, uint8 (H, W, 3).
+
+    Returns
+    -------
+    ndarray of uint8
+    """
+    if style == "paper":
+        return paper_display(disparity, occluded)
+    if style == "color":
+        d = _check_disparity(disparity)
+        if occluded is not None:
+            d = np.where(_check_mask(occluded, d.shape, "occluded"), np.nan, d)
+        return colorize(d)
+    raise ValueError(f"unknown preview style {style!r}; use one of {', '.join(_STYLES)}")
+
+
+def _check_disparity(disparity: np.ndarray, name: str = "disparity") -> np.ndarray:
+    d = np.asarray(disparity)
+    if d.dtype.kind not in "iuf":
+        raise TypeError(f"{name} must hold real numbers, got dtype {d.dtype}")
+    if d.ndim != 2:
+        raise ValueError(f"{name} must be 2-D (H, W), got shape {d.shape}")
+    return d.astype(np.float64)
+
+
+def _check_mask(mask: np.ndarray, shape: tuple[int, ...], name: str) -> np.ndarray:
+    m = np.asarray(mask)
+    if m.dtype != np.bool_:
+        raise TypeError(f"{name} must be a bool array, got dtype {m.dtype}")
+    if m.shape != shape:
+        raise ValueError(f"{name} has shape {m.shape} but disparity has shape {shape}")
+    return m
+
+
+def _check_color(color: tuple[int, int, int], name: str) -> np.ndarray:
+    c = np.asarray(color)
+    if c.shape != (3,) or c.dtype.kind not in "iu" or c.min() < 0 or c.max() > 255:
+        raise ValueError(f"{name} must be three integers in 0..255, got {color!r}")
+    return c.astype(np.uint8)
+
+
+def _check_limit(value: float, name: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float | np.number):
+        raise TypeError(f"{name} must be a number, got {type(value).__name__}")
+    if not np.isfinite(value):
+        raise ValueError(f"{name} must be finite, got {value}")
+    return float(value)

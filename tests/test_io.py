@@ -1,0 +1,478 @@
+import struct
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from dcstereo import io
+
+
+def _listing(directory):
+    return sorted(p.name for p in directory.iterdir())
+
+
+# --- atomic_write -------------------------------------------------------------------
+
+
+def test_atomic_write_moves_temp_onto_target(tmp_path):
+    target = tmp_path / "out.png"
+    with io.atomic_write(target) as tmp:
+        assert tmp.parent == tmp_path
+        assert tmp.name.startswith(".out.tmp")
+        assert tmp.suffix == ".png"
+        assert not target.exists()
+        tmp.write_bytes(b"payload")
+    assert target.read_bytes() == b"payload"
+    assert _listing(tmp_path) == ["out.png"]
+
+
+def test_atomic_write_failure_leaves_nothing(tmp_path):
+    target = tmp_path / "out.pfm"
+    with pytest.raises(RuntimeError, match="boom"):
+        with io.atomic_write(target) as tmp:
+            tmp.write_bytes(b"half")
+            raise RuntimeError("boom")
+    assert _listing(tmp_path) == []
+
+
+def test_atomic_write_failure_keeps_existing_target(tmp_path):
+    target = tmp_path / "out.txt"
+    target.write_bytes(b"old")
+    with pytest.raises(KeyError):
+        with io.atomic_write(target) as tmp:
+            tmp.write_bytes(b"new but broken")
+            raise KeyError("x")
+    assert target.read_bytes() == b"old"
+    assert _listing(tmp_path) == ["out.txt"]
+
+
+def test_atomic_write_missing_directory(tmp_path):
+    target = tmp_path / "nope" / "out.png"
+    msg = f"cannot write '{target}': directory '{target.parent}' does not exist"
+    with pytest.raises(ValueError, match=msg.replace("(", r"\(")):
+        with io.atomic_write(target):
+            pass
+
+
+def test_atomic_write_onto_directory(tmp_path):
+    (tmp_path / "sub").mkdir()
+    with pytest.raises(ValueError, match="is a directory"):
+        with io.atomic_write(tmp_path / "sub"):
+            pass
+    assert _listing(tmp_path) == ["sub"]
+
+
+# --- PFM ----------------------------------------------------------------------------
+
+
+def test_pfm_gray_round_trip(tmp_path):
+    rng = np.random.default_rng(1)
+    values = rng.uniform(0, 60, (7, 11)).astype(np.float32)
+    path = tmp_path / "d.pfm"
+    io.write_pfm(path, values)
+    back = io.read_pfm(path)
+    assert back.dtype == np.float32 and back.shape == (7, 11)
+    np.testing.assert_array_equal(back, values)
+    assert path.read_bytes().startswith(b"Pf\n11 7\n-1.0\n")
+    np.testing.assert_array_equal(io.read_image(path), values)
+
+
+def test_pfm_colour_round_trip(tmp_path):
+    rng = np.random.default_rng(2)
+    values = rng.normal(size=(5, 4, 3)).astype(np.float32)
+    path = tmp_path / "c.pfm"
+    io.write_pfm(path, values)
+    assert path.read_bytes().startswith(b"PF\n4 5\n")
+    np.testing.assert_array_equal(io.read_pfm(path), values)
+
+
+def test_pfm_non_finite_written_as_inf_and_read_as_nan(tmp_path):
+    values = np.array([[1.5, np.nan, -np.inf], [np.inf, 0.0, 2.5]], dtype=np.float32)
+    path = tmp_path / "d.pfm"
+    io.write_pfm(path, values)
+    raw = io.read_pfm(path)
+    assert np.isposinf(raw[[0, 0, 1], [1, 2, 0]]).all()
+    d = io.read_disparity(path)
+    assert d.dtype == np.float32
+    np.testing.assert_array_equal(np.isnan(d), ~np.isfinite(values))
+    np.testing.assert_array_equal(d[np.isfinite(values)], values[np.isfinite(values)])
+
+
+def test_pfm_hand_made_big_endian_bottom_to_top(tmp_path):
+    # 3 wide, 2 high; rows stored bottom first; scale +1.0 means big endian.
+    bottom, top = [4.0, 5.0, 6.5], [1.0, 2.0, 3.0]
+    data = b"Pf\n3 2\n1.0\n" + struct.pack(">6f", *bottom, *top)
+    path = tmp_path / "hand.pfm"
+    path.write_bytes(data)
+    back = io.read_pfm(path)
+    assert back.dtype == np.float32
+    np.testing.assert_array_equal(back, [top, bottom])
+
+
+def test_pfm_hand_made_colour_little_endian(tmp_path):
+    pixels = np.arange(2 * 2 * 3, dtype="<f4").reshape(2, 2, 3)  # stored order
+    path = tmp_path / "hand.pfm"
+    path.write_bytes(b"PF\n2 2\n-1.0\n" + pixels.tobytes())
+    np.testing.assert_array_equal(io.read_pfm(path), pixels[::-1])
+
+
+def test_pfm_truncated(tmp_path):
+    path = tmp_path / "short.pfm"
+    path.write_bytes(b"Pf\n4 4\n-1.0\n" + b"\0" * 20)
+    with pytest.raises(ValueError, match=r"cannot read PFM file '.*short\.pfm': data is short"):
+        io.read_pfm(path)
+    with pytest.raises(ValueError, match="data is short"):
+        io.read_disparity(path)
+
+
+@pytest.mark.parametrize(
+    "header",
+    [b"P5\n2 2\n255\n", b"Pf\n2 x\n-1.0\n", b"Pf\n2 2\n0.0\n", b"Pf\n-2 2\n-1.0\n", b""],
+)
+def test_pfm_malformed_header(tmp_path, header):
+    path = tmp_path / "bad.pfm"
+    path.write_bytes(header + b"\0" * 64)
+    with pytest.raises(ValueError, match=r"cannot read PFM file '.*bad\.pfm'"):
+        io.read_pfm(path)
+
+
+def test_read_pfm_missing_file(tmp_path):
+    with pytest.raises(ValueError, match="file does not exist"):
+        io.read_pfm(tmp_path / "missing.pfm")
+
+
+@pytest.mark.parametrize("shape", [(4,), (2, 3, 2), (2, 3, 4), (0, 3)])
+def test_write_pfm_bad_shape(tmp_path, shape):
+    with pytest.raises(ValueError, match="shape"):
+        io.write_pfm(tmp_path / "x.pfm", np.zeros(shape, dtype=np.float32))
+    assert _listing(tmp_path) == []
+
+
+def test_write_pfm_rejects_strings(tmp_path):
+    with pytest.raises(TypeError, match="real numbers"):
+        io.write_pfm(tmp_path / "x.pfm", np.array([["a"]]))
+
+
+# --- 16-bit PNG disparity -----------------------------------------------------------
+
+
+def test_png16_round_trip(tmp_path):
+    rng = np.random.default_rng(3)
+    d = rng.uniform(0.01, 200, (9, 13)).astype(np.float32)
+    d[2, 3] = np.nan
+    path = tmp_path / "d.png"
+    io.write_disparity_png16(path, d)
+    with Image.open(path) as im:
+        assert im.mode == "I;16"
+    back = io.read_disparity(path)
+    assert back.dtype == np.float32 and back.shape == d.shape
+    assert np.isnan(back[2, 3]) and np.isfinite(np.delete(back.ravel(), 2 * 13 + 3)).all()
+    np.testing.assert_allclose(back, d, atol=1 / (2 * 256), equal_nan=True)
+
+
+def test_png16_custom_scale_round_trip(tmp_path):
+    rng = np.random.default_rng(4)
+    d = rng.uniform(0, 600, (6, 5))
+    path = tmp_path / "d.png"
+    io.write_disparity_png16(path, d, scale=100)
+    np.testing.assert_allclose(io.read_disparity(path, scale=100), d, atol=1 / 200)
+
+
+def test_png16_zero_disparity_stored_as_one(tmp_path):
+    d = np.array([[0.0, 1e-4, np.nan, np.inf, 1.0]])
+    path = tmp_path / "d.png"
+    io.write_disparity_png16(path, d)
+    np.testing.assert_array_equal(io.read_image(path), [[1, 1, 0, 0, 256]])
+    back = io.read_disparity(path)
+    np.testing.assert_array_equal(back, np.array([[1 / 256, 1 / 256, np.nan, np.nan, 1.0]]))
+
+
+def test_png16_overflow_writes_nothing(tmp_path):
+    d = np.array([[1.0, 300.25]])
+    with pytest.raises(ValueError, match=r"largest disparity 300\.25 exceeds .* limit 255\.996"):
+        io.write_disparity_png16(tmp_path / "d.png", d)
+    assert _listing(tmp_path) == []
+
+
+def test_png16_largest_value_that_fits(tmp_path):
+    path = tmp_path / "d.png"
+    io.write_disparity_png16(path, np.array([[65535 / 256]]))
+    assert io.read_image(path)[0, 0] == 65535
+
+
+def test_png16_negative_writes_nothing(tmp_path):
+    target = tmp_path / "d.png"
+    target.write_bytes(b"old")
+    with pytest.raises(ValueError, match=r"smallest disparity -0\.5 is negative"):
+        io.write_disparity_png16(target, np.array([[2.0, -0.5]]))
+    assert target.read_bytes() == b"old"
+    assert _listing(tmp_path) == ["d.png"]
+
+
+@pytest.mark.parametrize("scale", [0, -1, np.inf])
+def test_png16_bad_scale(tmp_path, scale):
+    with pytest.raises(ValueError, match="scale must be a positive finite number"):
+        io.write_disparity_png16(tmp_path / "d.png", np.ones((2, 2)), scale=scale)
+
+
+def test_png16_rejects_3d(tmp_path):
+    with pytest.raises(ValueError, match=r"disparity must be 2-D \(H, W\), got shape"):
+        io.write_disparity_png16(tmp_path / "d.png", np.ones((2, 2, 3)))
+
+
+# --- write_disparity dispatch -------------------------------------------------------
+
+
+def test_write_disparity_dispatch(tmp_path):
+    d = np.array([[1.5, np.nan], [0.0, 7.25]], dtype=np.float32)
+    io.write_disparity(tmp_path / "a.pfm", d)
+    io.write_disparity(tmp_path / "b.PNG", d, scale=4)
+    assert (tmp_path / "a.pfm").read_bytes().startswith(b"Pf")
+    np.testing.assert_array_equal(io.read_disparity(tmp_path / "a.pfm"), d)
+    back = io.read_disparity(tmp_path / "b.PNG", scale=4)
+    np.testing.assert_array_equal(back, np.array([[1.5, np.nan], [0.25, 7.25]]))
+
+
+def test_write_disparity_wrong_suffix(tmp_path):
+    with pytest.raises(ValueError, match=r"unsupported suffix '\.jpg', use one of \.pfm, \.png"):
+        io.write_disparity(tmp_path / "d.jpg", np.ones((2, 2)))
+    assert _listing(tmp_path) == []
+
+
+def test_write_disparity_pfm_rejects_colour_and_options(tmp_path):
+    with pytest.raises(ValueError, match="2-D"):
+        io.write_disparity(tmp_path / "d.pfm", np.ones((2, 2, 3)))
+    with pytest.raises(TypeError, match="scale"):
+        io.write_disparity(tmp_path / "d.pfm", np.ones((2, 2)), scale=256)
+    assert _listing(tmp_path) == []
+
+
+def test_write_disparity_missing_directory(tmp_path):
+    with pytest.raises(ValueError, match="does not exist"):
+        io.write_disparity(tmp_path / "no" / "d.png", np.ones((2, 2)))
+
+
+# --- read_disparity from 8-bit images -----------------------------------------------
+
+
+def test_read_disparity_8bit_with_scale(tmp_path):
+    stored = np.array([[0, 8, 16], [255, 4, 0]], dtype=np.uint8)
+    path = tmp_path / "gt.png"
+    Image.fromarray(stored).save(path)
+    d = io.read_disparity(path, scale=8)
+    expected = np.where(stored == 0, np.nan, stored / 8.0)
+    np.testing.assert_array_equal(d, expected.astype(np.float32))
+
+
+def test_read_disparity_8bit_needs_scale(tmp_path):
+    path = tmp_path / "gt.pgm"
+    Image.fromarray(np.ones((2, 2), dtype=np.uint8)).save(path)
+    with pytest.raises(ValueError, match="8-bit disparity image needs a scale"):
+        io.read_disparity(path)
+
+
+def test_read_disparity_colour_png(tmp_path):
+    path = tmp_path / "c.png"
+    Image.fromarray(np.zeros((2, 2, 3), dtype=np.uint8)).save(path)
+    with pytest.raises(ValueError, match="colour image"):
+        io.read_disparity(path, scale=1)
+
+
+def test_read_disparity_colour_pfm(tmp_path):
+    path = tmp_path / "c.pfm"
+    io.write_pfm(path, np.zeros((2, 2, 3)))
+    with pytest.raises(ValueError, match="colour image"):
+        io.read_disparity(path)
+
+
+# --- read_image ---------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("suffix", [".png", ".ppm", ".tif", ".bmp"])
+def test_read_colour_lossless(tmp_path, suffix):
+    rng = np.random.default_rng(5)
+    rgb = rng.integers(0, 256, (6, 9, 3), dtype=np.uint8)
+    path = tmp_path / f"c{suffix}"
+    Image.fromarray(rgb).save(path)
+    back = io.read_image(path)
+    assert back.dtype == np.uint8
+    np.testing.assert_array_equal(back, rgb)
+
+
+@pytest.mark.parametrize("suffix", [".png", ".pgm", ".tif"])
+def test_read_gray_lossless(tmp_path, suffix):
+    rng = np.random.default_rng(6)
+    gray = rng.integers(0, 256, (6, 9), dtype=np.uint8)
+    path = tmp_path / f"g{suffix}"
+    Image.fromarray(gray).save(path)
+    np.testing.assert_array_equal(io.read_image(path), gray)
+
+
+def test_read_jpeg(tmp_path):
+    rng = np.random.default_rng(7)
+    rgb = rng.integers(0, 256, (16, 24, 3), dtype=np.uint8)
+    Image.fromarray(rgb).save(tmp_path / "c.jpg")
+    Image.fromarray(rgb[..., 0]).save(tmp_path / "g.jpeg")
+    colour, gray = io.read_image(tmp_path / "c.jpg"), io.read_image(tmp_path / "g.jpeg")
+    assert colour.shape == (16, 24, 3) and colour.dtype == np.uint8
+    assert gray.shape == (16, 24) and gray.dtype == np.uint8
+
+
+@pytest.mark.parametrize("suffix", [".png", ".pgm", ".tif"])
+def test_read_16bit_gray(tmp_path, suffix):
+    # Pillow opens 16-bit PNG/TIFF as mode "I;16" but 16-bit PGM as 32-bit mode "I".
+    rng = np.random.default_rng(8)
+    gray = rng.integers(0, 65536, (5, 7), dtype=np.uint16)
+    gray[0, 0] = 65535
+    path = tmp_path / f"g{suffix}"
+    Image.fromarray(gray).save(path)
+    back = io.read_image(path)
+    assert back.dtype == np.uint16
+    np.testing.assert_array_equal(back, gray)
+
+
+def test_read_16bit_big_endian_mode(tmp_path):
+    values = np.array([[0, 258, 65535]], dtype=np.uint16)
+    im = Image.frombytes("I;16B", (3, 1), values.astype(">u2").tobytes())
+    path = tmp_path / "b.tif"
+    im.save(path)
+    back = io.read_image(path)
+    assert back.dtype == np.uint16 and back.dtype.isnative
+    np.testing.assert_array_equal(back, values)
+
+
+def test_read_float_tiff(tmp_path):
+    values = np.array([[0.5, -2.0], [np.inf, 3.0]], dtype=np.float32)
+    path = tmp_path / "f.tif"
+    Image.fromarray(values).save(path)
+    back = io.read_image(path)
+    assert back.dtype == np.float32
+    np.testing.assert_array_equal(back, values)
+
+
+def test_read_one_bit(tmp_path):
+    path = tmp_path / "m.png"
+    Image.fromarray(np.array([[True, False], [False, True]])).save(path)
+    back = io.read_image(path)
+    assert back.dtype == np.uint8
+    np.testing.assert_array_equal(back, [[255, 0], [0, 255]])
+
+
+def test_read_palette_as_rgb(tmp_path):
+    im = Image.new("P", (3, 2))
+    im.putpalette([0, 0, 0, 255, 0, 0, 0, 255, 0])
+    im.putdata([0, 1, 2, 2, 1, 0])
+    path = tmp_path / "p.png"
+    im.save(path)
+    back = io.read_image(path)
+    assert back.shape == (2, 3, 3) and back.dtype == np.uint8
+    np.testing.assert_array_equal(back[0], [[0, 0, 0], [255, 0, 0], [0, 255, 0]])
+
+
+def test_read_palette_with_transparency(tmp_path):
+    im = Image.new("P", (2, 1))
+    im.putpalette([10, 20, 30, 40, 50, 60])
+    im.putdata([0, 1])
+    im.info["transparency"] = 0
+    path = tmp_path / "p.png"
+    im.save(path)
+    np.testing.assert_array_equal(io.read_image(path), [[[10, 20, 30], [40, 50, 60]]])
+
+
+def test_read_rgba_and_la_drop_alpha(tmp_path):
+    rng = np.random.default_rng(9)
+    rgba = rng.integers(0, 256, (4, 5, 4), dtype=np.uint8)
+    Image.fromarray(rgba).save(tmp_path / "a.png")
+    back = io.read_image(tmp_path / "a.png")
+    np.testing.assert_array_equal(back, rgba[..., :3])
+    Image.fromarray(rgba[..., :2], mode="LA").save(tmp_path / "la.png")
+    np.testing.assert_array_equal(io.read_image(tmp_path / "la.png"), rgba[..., 0])
+
+
+def test_read_cmyk_jpeg_becomes_rgb(tmp_path):
+    Image.new("CMYK", (4, 3), (0, 0, 0, 0)).save(tmp_path / "k.jpg")
+    back = io.read_image(tmp_path / "k.jpg")
+    assert back.shape == (3, 4, 3) and back.dtype == np.uint8
+
+
+def test_read_image_missing_file(tmp_path):
+    path = tmp_path / "x.png"
+    with pytest.raises(ValueError, match=r"cannot read image '.*x\.png': file does not exist"):
+        io.read_image(path)
+    with pytest.raises(ValueError, match="file does not exist"):
+        io.read_disparity(path, scale=1)
+
+
+def test_read_image_directory(tmp_path):
+    with pytest.raises(ValueError, match="not a regular file"):
+        io.read_image(tmp_path)
+
+
+def test_read_image_text_file(tmp_path):
+    path = tmp_path / "x.png"
+    path.write_text("this is not a PNG\n")
+    with pytest.raises(ValueError, match=r"'.*x\.png': not a recognised image format"):
+        io.read_image(path)
+
+
+def test_read_image_truncated_png(tmp_path):
+    rng = np.random.default_rng(10)
+    path = tmp_path / "t.png"
+    Image.fromarray(rng.integers(0, 256, (64, 64, 3), dtype=np.uint8)).save(path)
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+    with pytest.raises(ValueError, match=r"cannot read image '.*t\.png': truncated or corrupt"):
+        io.read_image(path)
+
+
+def test_read_image_truncated_pfm(tmp_path):
+    path = tmp_path / "t.pfm"
+    io.write_pfm(path, np.ones((8, 8)))
+    path.write_bytes(path.read_bytes()[:-10])
+    with pytest.raises(ValueError, match="data is short"):
+        io.read_image(path)
+
+
+# --- masks and RGB ------------------------------------------------------------------
+
+
+def test_write_mask_png(tmp_path):
+    mask = np.array([[True, False, True]])
+    path = tmp_path / "m.png"
+    io.write_mask_png(path, mask)
+    with Image.open(path) as im:
+        assert im.mode == "L"
+    np.testing.assert_array_equal(io.read_image(path), [[255, 0, 255]])
+
+
+def test_write_mask_png_validates(tmp_path):
+    with pytest.raises(TypeError, match="mask must be a bool array"):
+        io.write_mask_png(tmp_path / "m.png", np.ones((2, 2), dtype=np.uint8))
+    with pytest.raises(ValueError, match="mask must be 2-D"):
+        io.write_mask_png(tmp_path / "m.png", np.ones((2, 2, 1), dtype=bool))
+    assert _listing(tmp_path) == []
+
+
+@pytest.mark.parametrize("shape", [(5, 6), (5, 6, 3)])
+def test_write_rgb_png_round_trip(tmp_path, shape):
+    rng = np.random.default_rng(11)
+    image = rng.integers(0, 256, shape, dtype=np.uint8)
+    path = tmp_path / "i.png"
+    io.write_rgb_png(path, image)
+    np.testing.assert_array_equal(io.read_image(path), image)
+
+
+def test_write_rgb_png_is_png_whatever_the_suffix(tmp_path):
+    path = tmp_path / "i.jpg"
+    io.write_rgb_png(path, np.zeros((2, 2), dtype=np.uint8))
+    assert path.read_bytes().startswith(b"\x89PNG")
+
+
+def test_write_rgb_png_validates(tmp_path):
+    with pytest.raises(TypeError, match="uint8"):
+        io.write_rgb_png(tmp_path / "i.png", np.zeros((2, 2), dtype=np.float32))
+    with pytest.raises(ValueError, match=r"\(H, W\) or \(H, W, 3\)"):
+        io.write_rgb_png(tmp_path / "i.png", np.zeros((2, 2, 4), dtype=np.uint8))
+    with pytest.raises(ValueError, match="empty"):
+        io.write_rgb_png(tmp_path / "i.png", np.zeros((0, 2), dtype=np.uint8))
+    assert _listing(tmp_path) == []
