@@ -173,7 +173,7 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
         ser,
         vs,
     )
-    rows, cols = np.nonzero(np.isfinite(ser))
+    rows, cols = np.nonzero(~np.isnan(ser))  # SER is inf for a perfect match
     features = np.empty((rows.size, 5), dtype=np.float64)
     features[:, 0] = rows
     features[:, 1] = cols

@@ -349,6 +349,51 @@ def write_disparity_png16(
         Image.fromarray(stored).save(tmp, format="PNG")
 
 
+def check_disparity_suffix(path: str | os.PathLike) -> None:
+    """Raise ``ValueError`` unless ``path`` has a suffix :func:`write_disparity` knows."""
+    suffix = Path(path).suffix.lower()
+    if suffix not in _DISPARITY_SUFFIXES:
+        raise ValueError(
+            f"cannot write disparity '{path}': unsupported suffix '{suffix}', use one of "
+            f"{', '.join(_DISPARITY_SUFFIXES)}"
+        )
+
+
+def write_features_csv(path: str | os.PathLike, features: np.ndarray) -> None:
+    """Write feature pairs as CSV with the header ``row,x_left,x_right,ser,vs``, atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file.
+    features : ndarray, shape (M, 5)
+        ``(row, x_left, x_right, SER, VS)`` as in :attr:`DisparityResult.features`;
+        an infinite SER (a perfect match) is written as ``inf``.
+    """
+    table = np.asarray(features, dtype=np.float64)
+    if table.ndim != 2 or table.shape[1] != 5:
+        raise ValueError(f"features must have shape (M, 5), got {table.shape}")
+    lines = ["row,x_left,x_right,ser,vs"]
+    for row, x_left, x_right, ser, vs in table:
+        lines.append(f"{int(row)},{int(x_left)},{int(x_right)},{ser:.6g},{vs:.6g}")
+    with atomic_write(path) as tmp:
+        tmp.write_text("\n".join(lines) + "\n", encoding="ascii")
+
+
+def read_features_csv(path: str | os.PathLike) -> np.ndarray:
+    """Read a file written by :func:`write_features_csv` back as an (M, 5) float64 array."""
+    _check_readable(path, "features")
+    try:
+        table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, dtype=np.float64)
+    except ValueError as exc:
+        raise ValueError(f"cannot read features '{path}': {exc}") from None
+    if table.size == 0:
+        return np.empty((0, 5))
+    if table.shape[1] != 5:
+        raise ValueError(f"cannot read features '{path}': expected 5 columns")
+    return table
+
+
 def write_disparity(path: str | os.PathLike, disparity: np.ndarray, **options) -> None:
     """Write a disparity map in the format given by the file suffix, atomically.
 
@@ -362,12 +407,8 @@ def write_disparity(path: str | os.PathLike, disparity: np.ndarray, **options) -
     **options
         Passed to the writer: ``scale`` for ``.png``; none for ``.pfm``.
     """
+    check_disparity_suffix(path)
     suffix = Path(path).suffix.lower()
-    if suffix not in _DISPARITY_SUFFIXES:
-        raise ValueError(
-            f"cannot write disparity '{path}': unsupported suffix '{suffix}', use one of "
-            f"{', '.join(_DISPARITY_SUFFIXES)}"
-        )
     d = _check_disparity(disparity)
     if suffix == ".png":
         write_disparity_png16(path, d, **options)

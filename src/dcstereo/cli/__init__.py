@@ -1,0 +1,21 @@
+"""The ``dcstereo`` command: a thin click layer, one module per subcommand.
+
+Every command parses its options, builds parameters, calls one library function, writes
+its outputs atomically and returns an exit code. Errors print one line and exit non-zero.
+"""
+
+import click
+
+from .. import __version__
+from .demo import demo
+from .run import run
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="dcstereo")
+def main():
+    """Dense stereo disparity with explicit occlusions (Tsai and Katsaggelos)."""
+
+
+main.add_command(run)
+main.add_command(demo)

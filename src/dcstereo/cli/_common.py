@@ -1,0 +1,101 @@
+"""Options and error handling shared by the subcommands."""
+
+import functools
+from pathlib import Path
+
+import click
+
+from ..params import DEFAULT_OCCLUSION_COST, METHODS
+
+#: Methods whose result carries feature pairs.
+FEATURE_METHODS = ("dc", "dc-linear")
+
+
+class CommandError(click.ClickException):
+    """A one-line user-facing error (exit code 1)."""
+
+    def show(self, file=None):
+        """Print ``Error: <message>`` on one line, never a traceback."""
+        click.echo(f"Error: {self.format_message()}", err=True, file=file)
+
+
+def one_line_errors(func):
+    """Turn the library's ValueError/TypeError/OSError into a one-line CLI error."""
+
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        try:
+            return func(*args, **kwargs)
+        except (ValueError, TypeError, OSError) as exc:
+            message = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise CommandError(message) from None
+
+    return wrapper
+
+
+def check_output_paths(*paths):
+    """Fail before any work when an output folder is missing or an output is a folder."""
+    for path in paths:
+        if path is None:
+            continue
+        path = Path(path)
+        parent = path.parent if str(path.parent) else Path(".")
+        if not parent.is_dir():
+            raise CommandError(f"cannot write '{path}': directory '{parent}' does not exist")
+        if path.is_dir():
+            raise CommandError(f"cannot write '{path}': it is a directory")
+
+
+def set_threads(threads):
+    """Cap numba's thread count (None keeps numba's default)."""
+    if threads is None:
+        return
+    import numba
+
+    if threads < 1 or threads > numba.config.NUMBA_NUM_THREADS:
+        raise CommandError(
+            f"--threads must be between 1 and {numba.config.NUMBA_NUM_THREADS}, got {threads}"
+        )
+    numba.set_num_threads(threads)
+
+
+def matching_options(func):
+    """Options of :func:`dcstereo.match` shared by run and demo."""
+    options = [
+        click.option(
+            "--method",
+            type=click.Choice(METHODS),
+            default="dc",
+            show_default=True,
+            help="Matching method.",
+        ),
+        click.option(
+            "--window",
+            type=int,
+            default=5,
+            show_default=True,
+            help="Odd side of the square SAD window.",
+        ),
+        click.option(
+            "--occlusion-cost",
+            type=float,
+            default=DEFAULT_OCCLUSION_COST,
+            show_default=True,
+            help="Cost of one occluded pixel, in gray levels of mean absolute difference.",
+        ),
+        click.option(
+            "--fill/--no-fill",
+            default=False,
+            show_default=True,
+            help="Fill occluded pixels with the background disparity (dense map).",
+        ),
+        click.option(
+            "--threads",
+            type=int,
+            default=None,
+            help="Number of threads (default: all cores).",
+        ),
+    ]
+    for option in reversed(options):
+        func = option(func)
+    return func

@@ -1,0 +1,140 @@
+"""``dcstereo run``: match one rectified pair and write the disparity and its companions."""
+
+import time
+
+import click
+
+from ._common import (
+    FEATURE_METHODS,
+    check_output_paths,
+    matching_options,
+    one_line_errors,
+    set_threads,
+)
+
+
+@click.command()
+@click.argument("left", type=click.Path(dir_okay=False))
+@click.argument("right", type=click.Path(dir_okay=False))
+@click.option(
+    "-o",
+    "--output",
+    required=True,
+    type=click.Path(dir_okay=False),
+    help="Disparity output: .pfm (float32, inf = no estimate) or .png (16-bit, d * 256, "
+    "0 = no estimate).",
+)
+@click.option("--max-disparity", required=True, type=int, help="Largest disparity searched.")
+@click.option(
+    "--min-disparity",
+    type=int,
+    default=0,
+    show_default=True,
+    help="Smallest disparity searched.",
+)
+@matching_options
+@click.option(
+    "--occlusion-out",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Write the occlusion map (PNG, 255 = left pixel without a partner).",
+)
+@click.option(
+    "--preview",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Write a preview PNG of the disparity.",
+)
+@click.option(
+    "--preview-style",
+    type=click.Choice(["paper", "color"]),
+    default="paper",
+    show_default=True,
+    help="paper: histogram-equalized gray, occlusions brightest; color: turbo colour map.",
+)
+@click.option(
+    "--features-out",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Write the accepted feature pairs as CSV (dc methods).",
+)
+@click.option(
+    "--draw-features",
+    is_flag=True,
+    help="Mark the accepted feature pairs in red on the preview (dc methods).",
+)
+@click.option("--quiet", "-q", is_flag=True, help="Print nothing on success.")
+@one_line_errors
+def run(
+    left,
+    right,
+    output,
+    max_disparity,
+    min_disparity,
+    method,
+    window,
+    occlusion_cost,
+    fill,
+    threads,
+    occlusion_out,
+    preview,
+    preview_style,
+    features_out,
+    draw_features,
+    quiet,
+):
+    """Estimate the disparity of LEFT against RIGHT (a rectified pair).
+
+    A left pixel (x, y) matches the right pixel (x - d, y); disparities
+    MIN..MAX are searched, inclusive.
+    """
+    from .. import io, match
+    from ..viz import draw_points
+    from ..viz import preview as make_preview
+
+    check_output_paths(output, occlusion_out, preview, features_out)
+    if (features_out is not None or draw_features) and method not in FEATURE_METHODS:
+        raise ValueError(
+            f"feature output needs a method with features ({', '.join(FEATURE_METHODS)}), "
+            f"not {method}"
+        )
+    io.check_disparity_suffix(output)
+    set_threads(threads)
+    left_image = io.read_image(left)
+    right_image = io.read_image(right)
+    start = time.perf_counter()
+    result = match(
+        left_image,
+        right_image,
+        max_disparity=max_disparity,
+        min_disparity=min_disparity,
+        method=method,
+        window=window,
+        occlusion_cost=occlusion_cost,
+        fill=fill,
+    )
+    seconds = time.perf_counter() - start
+
+    io.write_disparity(output, result.disparity)
+    if occlusion_out is not None:
+        io.write_mask_png(occlusion_out, result.occluded)
+    if preview is not None:
+        picture = make_preview(result.disparity, result.occluded, style=preview_style)
+        if draw_features and len(result.features):
+            picture = draw_points(
+                picture,
+                result.features[:, 1],
+                result.features[:, 0],
+                color=(255, 0, 0),
+                radius=0,
+            )
+        io.write_rgb_png(preview, picture)
+    if features_out is not None:
+        io.write_features_csv(features_out, result.features)
+    if not quiet:
+        height, width = result.disparity.shape
+        valid = 100.0 * result.valid.mean()
+        click.echo(
+            f"{method}: {width}x{height}, disparities {min_disparity}..{max_disparity}, "
+            f"{seconds * 1000:.0f} ms, {valid:.1f} % with an estimate -> {output}"
+        )

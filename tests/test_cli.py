@@ -1,0 +1,211 @@
+"""The ``dcstereo`` command through click's test runner."""
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from PIL import Image
+
+import synthetic
+from dcstereo import io
+from dcstereo.cli import main
+
+
+@pytest.fixture
+def pair(tmp_path):
+    rng = np.random.default_rng(101)
+    left, right, truth = synthetic.object_pair(rng, 24, 64, 2, 8, (24, 44))
+    Image.fromarray(left).save(tmp_path / "left.png")
+    Image.fromarray(right).save(tmp_path / "right.png")
+    return tmp_path, truth
+
+
+def invoke(*args):
+    return CliRunner().invoke(main, [str(a) for a in args], catch_exceptions=False)
+
+
+def test_run_writes_every_output(pair):
+    folder, truth = pair
+    out = folder / "disp.pfm"
+    result = invoke(
+        "run",
+        folder / "left.png",
+        folder / "right.png",
+        "-o",
+        out,
+        "--max-disparity",
+        10,
+        "--occlusion-out",
+        folder / "occ.png",
+        "--preview",
+        folder / "preview.png",
+        "--features-out",
+        folder / "features.csv",
+        "--draw-features",
+    )
+    assert result.exit_code == 0, result.output
+    assert "dc: 64x24" in result.output
+    disparity = io.read_disparity(out)
+    assert disparity.shape == (24, 64)
+    scored = np.isfinite(truth) & np.isfinite(disparity)
+    assert np.mean(np.abs(disparity[scored] - truth[scored]) <= 1) > 0.9
+    occluded = io.read_image(folder / "occ.png")
+    np.testing.assert_array_equal(occluded == 255, ~np.isfinite(disparity))
+    assert io.read_image(folder / "preview.png").shape == (24, 64, 3)
+    features = io.read_features_csv(folder / "features.csv")
+    assert features.shape[1] == 5 and len(features) > 0
+    rows, xl, xr = features[:, 0].astype(int), features[:, 1].astype(int), features[:, 2]
+    np.testing.assert_array_equal(disparity[rows, xl], xl - xr)
+
+
+def test_run_options_reach_the_matcher(pair):
+    folder, _ = pair
+    out = folder / "disp.png"
+    result = invoke(
+        "run",
+        folder / "left.png",
+        folder / "right.png",
+        "-o",
+        out,
+        "--max-disparity",
+        10,
+        "--method",
+        "dsi3",
+        "--window",
+        3,
+        "--occlusion-cost",
+        15,
+        "--fill",
+        "--threads",
+        1,
+        "--preview",
+        folder / "p.png",
+        "--preview-style",
+        "color",
+        "-q",
+    )
+    assert result.exit_code == 0, result.output
+    assert result.output == ""
+    disparity = io.read_disparity(out)
+    assert np.isfinite(disparity).all()  # --fill gives a dense map
+    assert io.read_image(folder / "p.png").shape == (24, 64, 3)
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (
+            ["--max-disparity", 10, "-o", "{d}/x.pfm", "{d}/missing.png", "{d}/right.png"],
+            "missing.png': file does not exist",
+        ),
+        (
+            ["--max-disparity", 64, "-o", "{d}/x.pfm", "{d}/left.png", "{d}/right.png"],
+            "max_disparity=64 does not fit an image 64 pixels wide",
+        ),
+        (
+            ["--max-disparity", 10, "-o", "{d}/x.tif", "{d}/left.png", "{d}/right.png"],
+            "unsupported suffix '.tif'",
+        ),
+        (
+            ["--max-disparity", 10, "-o", "{d}/nodir/x.pfm", "{d}/left.png", "{d}/right.png"],
+            "does not exist",
+        ),
+        (
+            ["--max-disparity", 10, "-o", "{d}/x.pfm", "{d}/left.png", "{d}/small.png"],
+            "differ in shape",
+        ),
+        (
+            ["--max-disparity", 10, "-o", "{d}/x.pfm", "{d}/left.png", "{d}/notimage.png"],
+            "not a recognised image format",
+        ),
+        (
+            [
+                "--max-disparity",
+                10,
+                "--window",
+                4,
+                "-o",
+                "{d}/x.pfm",
+                "{d}/left.png",
+                "{d}/right.png",
+            ],
+            "window must be a positive odd integer",
+        ),
+        (
+            [
+                "--max-disparity",
+                10,
+                "--method",
+                "dsi5",
+                "--features-out",
+                "{d}/f.csv",
+                "-o",
+                "{d}/x.pfm",
+                "{d}/left.png",
+                "{d}/right.png",
+            ],
+            "needs a method with features",
+        ),
+        (
+            [
+                "--max-disparity",
+                3,
+                "--min-disparity",
+                5,
+                "-o",
+                "{d}/x.pfm",
+                "{d}/left.png",
+                "{d}/right.png",
+            ],
+            "min_disparity=5 is larger than max_disparity=3",
+        ),
+        (
+            [
+                "--max-disparity",
+                10,
+                "--threads",
+                0,
+                "-o",
+                "{d}/x.pfm",
+                "{d}/left.png",
+                "{d}/right.png",
+            ],
+            "--threads must be between 1",
+        ),
+    ],
+)
+def test_run_errors_are_one_line_and_write_nothing(pair, args, message):
+    folder, _ = pair
+    Image.fromarray(np.zeros((24, 60), dtype=np.uint8)).save(folder / "small.png")
+    (folder / "notimage.png").write_text("hello")
+    before = set(folder.iterdir())
+    result = invoke("run", *[str(a).format(d=folder) for a in args])
+    assert result.exit_code == 1
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("Error: "), result.output
+    assert message in lines[0]
+    assert "Traceback" not in result.output
+    assert set(folder.iterdir()) == before
+
+
+def test_usage_errors_exit_2(pair):
+    folder, _ = pair
+    result = invoke("run", folder / "left.png", folder / "right.png", "-o", folder / "x.pfm")
+    assert result.exit_code == 2
+    assert "--max-disparity" in result.output
+
+
+def test_version_and_help():
+    assert invoke("--version").output.startswith("dcstereo, version")
+    result = invoke("run", "--help")
+    assert result.exit_code == 0 and "--occlusion-cost" in result.output
+
+
+def test_demo_runs_on_the_motorcycle_pair(tmp_path):
+    pytest.importorskip("skimage")
+    out = tmp_path / "demo"
+    result = invoke("demo", "--output", out, "--method", "dsi5", "--threads", 1)
+    assert result.exit_code == 0, result.output
+    assert "Motorcycle" in result.output and "bad-1.0" in result.output
+    for name in ("disparity.pfm", "disparity.png", "occlusion.png", "preview.png"):
+        assert (out / name).is_file()
+    assert io.read_disparity(out / "disparity.pfm").shape == (500, 741)
