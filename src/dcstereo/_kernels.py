@@ -419,6 +419,124 @@ def window_ssd(left_p, right_p, y, x, j, radius):
 
 
 @nb.njit(cache=True)
+def window_variance_row(signal_p, y, radius, signal_steps, colsum, colsq, out):
+    """Window variance (gray levels squared) of every pixel of row ``y``.
+
+    ``signal_p`` is an integer signal padded by ``radius`` (edge replicated), like the
+    inputs of ``row_costs``; the variance is that of the ``(2 radius + 1)^2`` padded window,
+    as :func:`dcstereo.cost.window_variance` computes it, but from exact integer sums.
+    ``colsum`` and ``colsq`` are int64 scratch vectors as long as a padded row.
+    """
+    wp = signal_p.shape[1]
+    width = wp - 2 * radius
+    win = 2 * radius + 1
+    n = win * win
+    for xp in range(wp):
+        s = 0
+        q = 0
+        for t in range(win):
+            v = np.int64(signal_p[y + t, xp])
+            s += v
+            q += v * v
+        colsum[xp] = s
+        colsq[xp] = q
+    s = 0
+    q = 0
+    for xp in range(win):
+        s += colsum[xp]
+        q += colsq[xp]
+    norm = float(n) * float(n) * float(signal_steps) * float(signal_steps)
+    for x in range(width):
+        if x > 0:
+            s += colsum[x + win - 1] - colsum[x - 1]
+            q += colsq[x + win - 1] - colsq[x - 1]
+        out[x] = float(n * q - s * s) / norm
+
+
+@nb.njit(cache=True)
+def pixel_variance(signal_p, y, x, radius, signal_steps):
+    """Window variance of the one pixel ``(y, x)``, like ``window_variance_row``."""
+    win = 2 * radius + 1
+    n = win * win
+    s = 0
+    q = 0
+    for t in range(win):
+        for c in range(win):
+            v = np.int64(signal_p[y + t, x + c])
+            s += v
+            q += v * v
+    return float(n * q - s * s) / (float(n) * float(n) * float(signal_steps) * float(signal_steps))
+
+
+@nb.njit(cache=True)
+def reliability(var_left, var_right, ssd, vs_relative):
+    """SER (eq. 2) and VS (eq. 3) of a candidate pair, from its window statistics.
+
+    ``var_left`` and ``var_right`` are the window variances of the two pixels and ``ssd``
+    the window sum of squared differences, all in gray levels (squared). Returns
+    ``(ser, vs)``: ``ser = (var_left + var_right) / ssd`` (inf for a perfect match) and
+    ``vs = |var_left - var_right|``, divided by ``var_left + var_right`` when
+    ``vs_relative`` (0 when both variances are 0).
+    """
+    total = var_left + var_right
+    ser = total / ssd if ssd > 0 else np.inf
+    vs = abs(var_left - var_right)
+    if vs_relative:
+        vs = vs / total if total > 0 else 0.0
+    return ser, vs
+
+
+@nb.njit(cache=True)
+def _argmin_row(cost, x, k_lo, k_hi):
+    """Index of the least cost of ``cost[x, k_lo..k_hi]`` (-1 when all are inf)."""
+    best = np.inf
+    best_k = -1
+    for k in range(k_lo, k_hi + 1):
+        if cost[x, k] < best:
+            best = cost[x, k]
+            best_k = k
+    return best_k
+
+
+@nb.njit(cache=True)
+def uniqueness_ratio(cost, x, best_k):
+    """Second-least window cost of left pixel ``x`` over the band, over the cost at ``best_k``.
+
+    The second cost is the least ``cost[x, k]`` with ``|k - best_k| > 1`` (the two
+    neighbours of a minimum belong to it). The ratio is ``inf`` when the cost at ``best_k``
+    is 0 and the second is not, and 1 when both are 0; a ratio below 1 says that ``best_k``
+    is not the least cost of the band.
+    """
+    ndisp = cost.shape[1]
+    best = cost[x, best_k]
+    second = np.inf
+    for k in range(ndisp):
+        if abs(k - best_k) > 1 and cost[x, k] < second:
+            second = cost[x, k]
+    if best > 0:
+        return second / best
+    return np.inf if second > 0 else 1.0
+
+
+NOT_MATCHED = -2  # ``wta_k`` entry not computed yet
+
+
+@nb.njit(cache=True)
+def block_match(cost, x, wta_k, wta_ratio):
+    """Whole-band block match of left pixel ``x``, computed once and kept in ``wta_k``.
+
+    ``wta_k[x]`` becomes the least-cost index over the band (-1 where the band is empty)
+    and ``wta_ratio[x]`` its ``uniqueness_ratio`` (0 where the band is empty); entries
+    equal to ``NOT_MATCHED`` are computed on first use. Returns ``wta_k[x]``.
+    """
+    if wta_k[x] == NOT_MATCHED:
+        k = _argmin_row(cost, x, 0, cost.shape[1] - 1)
+        wta_k[x] = k
+        wta_ratio[x] = uniqueness_ratio(cost, x, k) if k >= 0 else 0.0
+    return wta_k[x]
+
+
+@nb.njit(cache=True)
 def fill_interval(
     cost,
     dmin,
@@ -485,13 +603,14 @@ def fill_interval(
 
 @nb.njit(cache=True)
 def divide_row(
-    y,
     cost,
     left_p,
     right_p,
+    y,
     radius,
     var_l,
-    var_r,
+    wta_k,
+    wta_ratio,
     dmin,
     occ2,
     slant2,
@@ -501,6 +620,8 @@ def divide_row(
     var_floor,
     max_candidates,
     lr_check,
+    uniqueness,
+    edge_guard,
     linear,
     signal_steps,
     table,
@@ -511,6 +632,7 @@ def divide_row(
     stack,
     disp_row,
     flag_row,
+    partner_row,
     ser_row,
     vs_row,
 ):
@@ -518,15 +640,51 @@ def divide_row(
 
     A work list (``stack``, shape (>= width + 2, 4)) of problems ``(A, C, B, D)``: match
     left pixels strictly inside ``(A, C)`` with right pixels strictly inside ``(B, D)``.
-    The candidate of highest left variance is block-matched inside the band and the right
-    interval (the ordering constraint); accepted when ``SER >= ser_min`` and
-    ``VS <= vs_max`` (eq. 2 and 3), it splits the problem in two; otherwise the next
-    strongest candidate is tried, down to ``var_floor`` and at most ``max_candidates``
-    (0: no limit). A problem without a reliable pair is filled by ``fill_interval``.
-    Returns the doubled total cost of the fill paths.
+    The candidate of highest left window variance (``var_l``, of row ``y``) is
+    block-matched inside the band and the right interval (the ordering constraint);
+    accepted when ``SER >= ser_min`` and ``VS <= vs_max`` (eq. 2 and 3, see
+    ``reliability``), it splits the problem in two; otherwise the next strongest candidate
+    is tried, down to ``var_floor`` and at most ``max_candidates`` (0: no limit). Only
+    pixels whose whole window lies inside the image, in both views, are candidates.
+
+    Beyond the paper, a candidate must also pass
+
+    * the left-right check (``lr_check``): its right pixel, block-matched back inside
+      ``(A, C)``, chooses it again;
+    * the uniqueness test (``uniqueness > 0``): the whole-band block match lies inside
+      the interval's range (so it is the match) with a ``uniqueness_ratio`` of at least
+      ``uniqueness``. The ranges of the sub-problems nest, so a candidate that fails this
+      test, the guard, SER or VS fails them in every sub-problem: it is retired for the
+      row, and only a left-right failure is retried in the sub-problems;
+    * the discontinuity guard (``edge_guard > 0``): the left pixels ``edge_guard`` columns
+      to each side block-match, over the whole band, within one disparity of the
+      candidate, with uniqueness ratios of at least ``uniqueness``.
+
+    ``wta_k`` and ``wta_ratio`` hold the whole-band block match of the left pixels and
+    its uniqueness ratio, computed on first use (``block_match``; set ``wta_k`` to
+    ``NOT_MATCHED`` for a new row). A problem without a reliable pair is filled
+    by ``fill_interval``. An accepted pair ``p <-> j`` writes ``disp_row[p] = p - j``,
+    ``partner_row[p] = j``, ``ser_row[p]`` and ``vs_row[p]``. Returns the doubled total cost
+    of the fill paths.
     """
     width, ndisp = cost.shape
     scale2 = float(signal_steps * signal_steps)
+    # candidates: a whole window inside the image, variance at least the floor, strongest
+    # first (ties: leftmost first)
+    ncand = 0
+    for p in range(radius, width - radius):
+        if var_l[p] >= var_floor:
+            ncand += 1
+    pixels = np.empty(ncand, dtype=np.int64)
+    strength = np.empty(ncand, dtype=np.float64)
+    ncand = 0
+    for p in range(radius, width - radius):
+        if var_l[p] >= var_floor:
+            pixels[ncand] = p
+            strength[ncand] = -var_l[p]
+            ncand += 1
+    order = pixels[np.argsort(strength, kind="mergesort")]
+    retired = np.zeros(width, dtype=np.bool_)
     total = 0.0
     top = 1
     stack[0, 0] = -1
@@ -541,26 +699,49 @@ def divide_row(
         e = stack[top, 3]
         found = False
         if c - a > 1 and e - b > 1:
-            order = np.argsort(-var_l[y, a + 1 : c], kind="mergesort")
             tries = 0
-            for idx in order:
-                p = a + 1 + idx
-                v_l = var_l[y, p]
-                if v_l < var_floor:
-                    break
+            kept = 0  # the scan compacts ``order``, dropping the candidates retired for good
+            i = 0
+            while i < ncand:
+                p = order[i]
+                i += 1
+                if retired[p]:
+                    continue
+                order[kept] = p
+                kept += 1
+                if p <= a or p >= c:
+                    continue
                 if max_candidates > 0 and tries >= max_candidates:
                     break
                 tries += 1
-                k_lo = max(0, p - (e - 1) - dmin)
-                k_hi = min(ndisp - 1, p - (b + 1) - dmin)
-                best = np.inf
-                best_k = -1
-                for k in range(k_lo, k_hi + 1):
-                    if cost[p, k] < best:
-                        best = cost[p, k]
-                        best_k = k
-                if best_k < 0:
-                    continue
+                # right pixels strictly inside (B, D), their whole window inside the image
+                k_lo = max(0, p - min(e - 1, width - 1 - radius) - dmin)
+                k_hi = min(ndisp - 1, p - max(b + 1, radius) - dmin)
+                if uniqueness > 0:
+                    # only the whole-band match can be unique; the ranges of the sub-problems
+                    # nest, so a candidate that fails here fails in all of them
+                    best_k = block_match(cost, p, wta_k, wta_ratio)
+                    if not k_lo <= best_k <= k_hi or wta_ratio[p] < uniqueness:
+                        retired[p] = True
+                        kept -= 1
+                        continue
+                else:
+                    best_k = _argmin_row(cost, p, k_lo, k_hi)
+                    if best_k < 0:
+                        continue
+                if edge_guard > 0:
+                    guarded = True
+                    for x2 in (p - edge_guard, p + edge_guard):
+                        x2 = min(max(x2, 0), width - 1)
+                        k2 = block_match(cost, x2, wta_k, wta_ratio)
+                        if k2 < 0 or abs(k2 - best_k) > 1 or wta_ratio[x2] < uniqueness:
+                            guarded = False
+                    if not guarded:
+                        if uniqueness > 0:
+                            retired[p] = True
+                            kept -= 1
+                        continue
+                best = cost[p, best_k]
                 j = p - dmin - best_k
                 if lr_check:
                     # the right pixel, matched back inside (A, C), must choose p again
@@ -573,17 +754,18 @@ def divide_row(
                             back = False
                             break
                     if not back:
-                        continue
-                v_r = var_r[y, j]
+                        continue  # a narrower interval may let it pass
                 ssd = window_ssd(left_p, right_p, y, p, j, radius) / scale2
-                ser = (v_l + v_r) / ssd if ssd > 0 else np.inf
-                vs = abs(v_l - v_r)
-                if vs_relative:
-                    vs = vs / (v_l + v_r) if v_l + v_r > 0 else 0.0
+                ser, vs = reliability(
+                    var_l[p], pixel_variance(right_p, y, j, radius, signal_steps), ssd, vs_relative
+                )
                 if ser >= ser_min and vs <= vs_max:
                     found = True
+                    retired[p] = True  # an anchor from now on
+                    kept -= 1
                     disp_row[p] = p - j
                     flag_row[p] = 0
+                    partner_row[p] = j
                     ser_row[p] = ser
                     vs_row[p] = vs
                     stack[top, 0] = a
@@ -596,6 +778,14 @@ def divide_row(
                     stack[top + 1, 3] = e
                     top += 2
                     break
+                if uniqueness > 0:
+                    retired[p] = True  # same pair, same SER and VS in every sub-problem
+                    kept -= 1
+            while i < ncand:
+                order[kept] = order[i]
+                kept += 1
+                i += 1
+            ncand = kept
         if not found:
             total += fill_interval(
                 cost,
@@ -623,8 +813,6 @@ def divide_row(
 def match_dc_rows(
     left_p,
     right_p,
-    var_l,
-    var_r,
     dmin,
     ndisp,
     radius,
@@ -636,22 +824,34 @@ def match_dc_rows(
     var_floor,
     max_candidates,
     lr_check,
+    uniqueness,
+    edge_guard,
     linear,
     signal_steps,
     nchunks,
     disp,
     flags,
     total,
+    partner,
     ser,
     vs,
 ):
-    """Divide-and-conquer matching of every row; rows are the only parallel loop."""
+    """Divide-and-conquer matching of every row; rows are the only parallel loop.
+
+    Outputs per pixel: ``disp``, ``flags``; per accepted feature pair ``(y, x) <-> (y, j)``:
+    ``partner[y, x] = j`` and its ``ser`` and ``vs`` (-1 and NaN elsewhere); per row, the
+    doubled cost of the fill paths in ``total``.
+    """
     height, width = disp.shape
     wp = left_p.shape[1]
     for ch in nb.prange(nchunks):
         y0, y1 = _chunk_bounds(height, nchunks, ch)
         cost = np.empty((width, ndisp), dtype=np.float64)
         colsum = np.empty(wp, dtype=np.int64)
+        colsq = np.empty(wp, dtype=np.int64)
+        var_l = np.empty(width, dtype=np.float64)
+        wta_k = np.empty(width, dtype=np.int64)
+        wta_ratio = np.empty(width, dtype=np.float64)
         table = np.empty((width, ndisp), dtype=np.float64)
         steps = np.empty((width, ndisp), dtype=np.uint8)
         path_x = np.empty(2 * width + 2, dtype=np.int64)
@@ -660,19 +860,23 @@ def match_dc_rows(
         stack = np.empty((width + 2, 4), dtype=np.int64)
         for y in range(y0, y1):
             row_costs(left_p, right_p, y, dmin, ndisp, radius, colsum, cost)
+            window_variance_row(left_p, y, radius, signal_steps, colsum, colsq, var_l)
+            wta_k[:] = NOT_MATCHED
             for x in range(width):
                 disp[y, x] = np.nan
                 flags[y, x] = FLAG_BORDER
+                partner[y, x] = -1
                 ser[y, x] = np.nan
                 vs[y, x] = np.nan
             total[y] = divide_row(
-                y,
                 cost,
                 left_p,
                 right_p,
+                y,
                 radius,
                 var_l,
-                var_r,
+                wta_k,
+                wta_ratio,
                 dmin,
                 occ2,
                 slant2,
@@ -682,6 +886,8 @@ def match_dc_rows(
                 var_floor,
                 max_candidates,
                 lr_check,
+                uniqueness,
+                edge_guard,
                 linear,
                 signal_steps,
                 table,
@@ -692,6 +898,7 @@ def match_dc_rows(
                 stack,
                 disp[y],
                 flags[y],
+                partner[y],
                 ser[y],
                 vs[y],
             )

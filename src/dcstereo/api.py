@@ -6,7 +6,6 @@ import numba
 import numpy as np
 
 from . import _kernels
-from .cost import window_variance
 from .params import MatchParams
 from .result import FLAG_FEATURE, DisparityResult
 from .signal import SIGNAL_STEPS, check_image, matching_signal
@@ -127,7 +126,7 @@ def _match_dsi(left, right, params: MatchParams) -> DisparityResult:
         radius,
         occ2,
         params.method == "dsi5",
-        float(np.rint(2.0 * params.slant_cost * scale)),
+        float(np.rint(2.0 * params.effective_slant_cost * scale)),
         nchunks,
         disparity,
         flags,
@@ -139,11 +138,8 @@ def _match_dsi(left, right, params: MatchParams) -> DisparityResult:
 def _match_dc(left, right, params: MatchParams) -> DisparityResult:
     radius = params.window // 2
     left_p, right_p = _padded_signals(left, right, radius)
-    # the variance of the same quantized signal the cost sees, in gray levels squared
-    inner = (slice(radius, radius + left.shape[0]), slice(radius, radius + left.shape[1]))
-    var_l = window_variance(left_p[inner] / SIGNAL_STEPS, params.window)
-    var_r = window_variance(right_p[inner] / SIGNAL_STEPS, params.window)
     disparity, flags, total, nchunks = _outputs(left.shape)
+    partner = np.empty(disparity.shape, dtype=np.int64)
     ser = np.empty(disparity.shape, dtype=np.float32)
     vs = np.empty(disparity.shape, dtype=np.float32)
     scale = cost_scale(params.window)
@@ -151,33 +147,34 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
     _kernels.match_dc_rows(
         left_p,
         right_p,
-        var_l,
-        var_r,
         params.min_disparity,
         params.num_disparities,
         radius,
         occ2,
-        float(np.rint(2.0 * params.slant_cost * scale)),
+        float(np.rint(2.0 * params.effective_slant_cost * scale)),
         float(params.ser_min),
         float(params.vs_max),
         params.vs_relative,
         float(params.feature_floor),
         params.max_candidates,
         params.lr_check,
+        float(params.uniqueness),
+        params.effective_edge_guard,
         params.method == "dc-linear",
         SIGNAL_STEPS,
         nchunks,
         disparity,
         flags,
         total,
+        partner,
         ser,
         vs,
     )
-    rows, cols = np.nonzero(~np.isnan(ser))  # SER is inf for a perfect match
+    rows, cols = np.nonzero(partner >= 0)
     features = np.empty((rows.size, 5), dtype=np.float64)
     features[:, 0] = rows
     features[:, 1] = cols
-    features[:, 2] = cols - disparity[rows, cols]
+    features[:, 2] = partner[rows, cols]
     features[:, 3] = ser[rows, cols]
     features[:, 4] = vs[rows, cols]
     flags[rows, cols] |= FLAG_FEATURE

@@ -9,10 +9,18 @@ METHODS = ("dc", "dc-linear", "dsi5", "dsi3", "block")
 #: Default occlusion cost per pixel, in gray levels of mean absolute difference.
 DEFAULT_OCCLUSION_COST = 10.0
 
-#: Reliability defaults of the divide-and-conquer methods (see docs for how they were chosen).
-DEFAULT_SER_MIN = 2.0
+#: Cost of a d or e step of the five-step model (eq. 5), per step, in the units of
+#: ``occlusion_cost``, for ``dsi5``: 0, the paper's model.
+DEFAULT_SLANT_COST = 0.0
+
+#: The same for the fill DP of ``dc`` and ``dc-linear`` (see ``docs/dc_tuning.md``).
+DEFAULT_DC_SLANT_COST = 8.0
+
+#: Reliability defaults of the divide-and-conquer methods (see ``docs/dc_tuning.md``).
+DEFAULT_SER_MIN = 1.0
 DEFAULT_VS_MAX = 0.2
-DEFAULT_FEATURE_FLOOR = 400.0
+DEFAULT_FEATURE_FLOOR = 100.0
+DEFAULT_UNIQUENESS = 2.0
 
 
 @dataclass(frozen=True)
@@ -35,6 +43,16 @@ class MatchParams:
     fill : bool
         Fill pixels without an estimate with the background disparity (see
         :func:`dcstereo.fill_occlusions`).
+    slant_cost : float or None
+        Extra cost of each d or e step of the five-step model (eq. 5), in the units of
+        ``occlusion_cost``; not in the paper, whose d and e steps cost only the
+        mismatch of the cells they cross, so that the path drifts through flat areas and
+        ramps across true occlusions for free. None: the method's default,
+        :data:`DEFAULT_SLANT_COST` (0, the paper's model) for ``dsi5`` and
+        :data:`DEFAULT_DC_SLANT_COST` for the fill DP of ``dc`` (and of ``dc-linear``,
+        which runs it at the two ends of each scanline). From ``occlusion_cost`` up, a d
+        or e step never beats an occlusion plus a match, and the model is the three-step
+        one. Ignored by ``dsi3`` and ``block``.
     ser_min : float
         ``dc`` methods: smallest signal-to-error ratio (eq. 2) of a reliable feature pair,
         ``(var_L + var_R) / sum_window (I_L - I_R)^2``.
@@ -45,14 +63,33 @@ class MatchParams:
         the paper's ``|var_L - var_R|`` (gray levels squared).
     feature_floor : float
         Candidates stop at this window variance (gray levels squared): flatter pixels are
-        never tried as features.
+        never tried as features. (Pixels within ``window // 2`` of the left or right image
+        edge are never candidates either, on either side: their window statistics would
+        come from replicated padding.)
     max_candidates : int
-        Candidates tried per interval before giving up on it; 0 tries every pixel above the
-        floor.
+        Candidates tried per interval before giving up on it (not counting those an
+        enclosing interval already rejected for good); 0 tries every pixel above the floor.
     lr_check : bool
         Also require the right pixel of a candidate pair to choose the same left pixel when
         block-matched back inside the interval (a left-right consistency test; not in the
         paper, which relies on SER and VS alone).
+    uniqueness : float
+        ``dc`` methods, not in the paper: a uniqueness test (0 disables it). A candidate's
+        match must be its least window cost over the whole disparity band (the ordering
+        constraint may reject it, never move it), and the second-least cost, over the
+        disparities at least two away from the match, must be at least ``uniqueness``
+        times the cost of the match. Rejects the ambiguous matches that SER and VS let
+        through: horizontal edges (high variance, no texture along the scanline) and
+        repeated texture.
+    edge_guard : int or None
+        ``dc`` methods, not in the paper: a discontinuity guard. The two windows
+        ``edge_guard`` columns left and right of a candidate must each block-match (over
+        the whole band) within one disparity of the candidate's match, with a
+        uniqueness ratio of at least ``uniqueness``; near a depth discontinuity one of
+        them lies on the other surface, or on a flat side whose match is ambiguous, which
+        is where the window fattens the foreground and most accepted pairs were wrong.
+        None: ``window // 2 + 1``, the nearest side windows that leave out the candidate's
+        own column; 0 disables the guard.
     """
 
     max_disparity: int
@@ -61,13 +98,15 @@ class MatchParams:
     window: int = 5
     occlusion_cost: float = DEFAULT_OCCLUSION_COST
     fill: bool = False
-    slant_cost: float = 0.0
+    slant_cost: float | None = None
     ser_min: float = DEFAULT_SER_MIN
     vs_max: float = DEFAULT_VS_MAX
     vs_relative: bool = True
     feature_floor: float = DEFAULT_FEATURE_FLOOR
     max_candidates: int = 0
     lr_check: bool = True
+    uniqueness: float = DEFAULT_UNIQUENESS
+    edge_guard: int | None = None
 
     def __post_init__(self):
         for name in ("max_disparity", "min_disparity", "window", "max_candidates"):
@@ -91,8 +130,10 @@ class MatchParams:
             raise ValueError(f"occlusion_cost must be a finite number, got {cost!r}")
         if cost <= 0:
             raise ValueError(f"occlusion_cost must be positive, got {cost}")
-        for name in ("ser_min", "vs_max", "feature_floor", "slant_cost"):
+        for name in ("ser_min", "vs_max", "feature_floor", "slant_cost", "uniqueness"):
             value = getattr(self, name)
+            if value is None and name == "slant_cost":
+                continue
             if isinstance(value, bool) or not isinstance(value, (int, float)) or value < 0:
                 raise ValueError(f"{name} must be a non-negative number, got {value!r}")
             if math.isnan(value):
@@ -101,6 +142,29 @@ class MatchParams:
             raise ValueError(
                 f"max_candidates must be 0 (no limit) or positive, got {self.max_candidates}"
             )
+        guard = self.edge_guard
+        if guard is not None:
+            if isinstance(guard, bool) or not isinstance(guard, int):
+                if isinstance(guard, float) and guard.is_integer():
+                    object.__setattr__(self, "edge_guard", int(guard))
+                else:
+                    raise TypeError(f"edge_guard must be an integer or None, got {guard!r}")
+            if self.edge_guard < 0:
+                raise ValueError(
+                    f"edge_guard must be None, 0 (no guard) or positive, got {self.edge_guard}"
+                )
+
+    @property
+    def effective_slant_cost(self) -> float:
+        """``slant_cost``, or the method's default when it is None."""
+        if self.slant_cost is not None:
+            return float(self.slant_cost)
+        return DEFAULT_DC_SLANT_COST if self.method in ("dc", "dc-linear") else DEFAULT_SLANT_COST
+
+    @property
+    def effective_edge_guard(self) -> int:
+        """``edge_guard``, or ``window // 2 + 1`` when it is None."""
+        return self.window // 2 + 1 if self.edge_guard is None else self.edge_guard
 
     @property
     def num_disparities(self) -> int:
