@@ -7,6 +7,7 @@ import numpy as np
 
 from . import _kernels
 from .params import MatchParams
+from .redert import match_redert as _match_redert
 from .result import FLAG_FEATURE, DisparityResult
 from .signal import SIGNAL_STEPS, check_image, matching_signal
 
@@ -40,7 +41,9 @@ def match(
         (Hannah);
         ``"dsi3"``: scanline DP over the disparity-space image with the classic three steps
         (Intille and Bobick); ``"dsi5"``: the extended five-step model of eq. 5 (Tsai and
-        Katsaggelos).
+        Katsaggelos); ``"redert"``: the DP with modelling of occlusion and object
+        orientation of Redert, Tsai, Hendriks and Katsaggelos (reconstructed; window
+        sheared by the surface slope, see :mod:`dcstereo.redert`).
     **options
         ``window`` (odd, default 5), ``occlusion_cost`` (per pixel, gray levels of mean
         absolute difference, default 20), ``fill`` (default False). See
@@ -190,4 +193,5 @@ _METHODS: dict[str, Callable[[np.ndarray, np.ndarray, MatchParams], DisparityRes
     "dsi5": _match_dsi,
     "dc": _match_dc,
     "dc-linear": _match_dc,
+    "redert": _match_redert,
 }

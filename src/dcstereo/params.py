@@ -4,7 +4,7 @@ import math
 from dataclasses import dataclass
 
 #: Methods understood by :func:`dcstereo.match`, in the order the docs present them.
-METHODS = ("dc", "dc-linear", "dsi5", "dsi3", "block")
+METHODS = ("dc", "dc-linear", "dsi5", "dsi3", "redert", "block")
 
 #: Default occlusion cost per pixel, in gray levels of mean absolute difference.
 DEFAULT_OCCLUSION_COST = 10.0
@@ -21,6 +21,12 @@ DEFAULT_SER_MIN = 1.0
 DEFAULT_VS_MAX = 0.2
 DEFAULT_FEATURE_FLOOR = 100.0
 DEFAULT_UNIQUENESS = 2.0
+
+#: ``redert``: the surface orientations (disparity slopes, px/px) of the DP states.
+DEFAULT_ORIENTATIONS = (-0.5, -0.25, 0.0, 0.25, 0.5)
+#: ``redert``: cost of a change of orientation between neighbouring matched pixels, in
+#: the units of ``occlusion_cost``.
+DEFAULT_ORIENTATION_COST = 2.0
 
 
 @dataclass(frozen=True)
@@ -90,6 +96,16 @@ class MatchParams:
         is where the window fattens the foreground and most accepted pairs were wrong.
         None: ``window // 2 + 1``, the nearest side windows that leave out the candidate's
         own column; 0 disables the guard.
+    orientations : tuple of float
+        ``redert`` only: the surface orientations of the DP states, as disparity slopes
+        (pixels of disparity per pixel), each one of ``0, +-1/4, +-1/2, +-1``, no
+        repeats; default :data:`DEFAULT_ORIENTATIONS`. The matching window is sheared by
+        the slope, and a surface of slope ``+-1/L`` runs between integer-disparity
+        nodes ``L`` pixels apart (see :mod:`dcstereo.redert`).
+    orientation_cost : float
+        ``redert`` only: cost of a change of orientation between neighbouring matched
+        pixels, in the units of ``occlusion_cost``; default
+        :data:`DEFAULT_ORIENTATION_COST`.
     """
 
     max_disparity: int
@@ -107,6 +123,8 @@ class MatchParams:
     lr_check: bool = True
     uniqueness: float = DEFAULT_UNIQUENESS
     edge_guard: int | None = None
+    orientations: tuple[float, ...] = DEFAULT_ORIENTATIONS
+    orientation_cost: float = DEFAULT_ORIENTATION_COST
 
     def __post_init__(self):
         for name in ("max_disparity", "min_disparity", "window", "max_candidates"):
@@ -153,6 +171,34 @@ class MatchParams:
                 raise ValueError(
                     f"edge_guard must be None, 0 (no guard) or positive, got {self.edge_guard}"
                 )
+        self._check_orientations()
+
+    def _check_orientations(self):
+        """Validate the ``redert`` parameters ``orientations`` and ``orientation_cost``."""
+        values = self.orientations
+        if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
+            raise ValueError(f"orientations must be a sequence of slopes, got {values!r}")
+        values = tuple(values)
+        if not values:
+            raise ValueError("orientations must hold at least one slope, got an empty sequence")
+        for value in values:
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, (int, float))
+                or abs(value) not in (0, 0.25, 0.5, 1)
+            ):
+                raise ValueError(
+                    "orientations must be slopes from 0, +-0.25, +-0.5, +-1 "
+                    f"(px of disparity per px), got {value!r}"
+                )
+        if len(set(values)) != len(values):
+            raise ValueError(f"orientations must not repeat a slope, got {values!r}")
+        object.__setattr__(self, "orientations", tuple(float(v) for v in values))
+        cost = self.orientation_cost
+        if isinstance(cost, bool) or not isinstance(cost, (int, float)) or not cost >= 0:
+            raise ValueError(f"orientation_cost must be a non-negative number, got {cost!r}")
+        if not math.isfinite(cost):
+            raise ValueError(f"orientation_cost must be finite, got {cost!r}")
 
     @property
     def effective_slant_cost(self) -> float:

@@ -1,0 +1,382 @@
+"""Compiled kernels of the ``redert`` method: sheared-window costs, the DP, the row driver.
+
+Kernels that call each other live in this one file because numba's on-disk cache
+does not notice edits made in other files. See :mod:`dcstereo.redert` for the model.
+
+Conventions (shared with ``_kernels.py``):
+
+* A left pixel ``x`` matches the right pixel ``j = x - d``; ``d = dmin + k``.
+* Orientations are disparity slopes in *quarters* of a pixel per pixel: ``oq[o]`` is
+  the integer ``4 * slope`` of orientation index ``o``, with ``-4 <= oq[o] <= 4``.
+* The matching signal is an integer; right-image samples at quarter-pixel positions
+  are linear interpolations ``(4 - f) * R[q] + f * R[q + 1]`` (``f`` quarters), compared
+  with ``4 * L``, so every window cost is an exact integer in units of a quarter
+  signal step (four times the cost of ``_kernels.row_costs`` at slope 0).
+* ``data[x, k, o]`` is the cost of matching left pixel ``x`` at disparity ``dmin + k``
+  with orientation ``o``; ``inf`` where the right pixel ``x - d`` is outside the image.
+* DP states per band node ``(x, k)``: ``0..O-1`` matched with orientation ``o``,
+  ``O`` left pixel ``x`` occluded, ``O + 1`` right pixel ``j`` occluded.
+"""
+
+import numba as nb
+import numpy as np
+
+# Reason flags (uint8 bits), mirrored in result.py.
+FLAG_OCCLUDED = 1
+FLAG_BORDER = 2
+
+# Back-pointer codes. A matched state stores 1 + 3 * o_prev + (delta + 1) when it
+# came from matched state o_prev at node (x - 1, k - delta); the other codes are
+# relative to ``3 * O`` (matched states) or ``O`` (occlusion states), see ``_code``.
+CODE_NONE = 0
+
+
+# --------------------------------------------------------------------------- costs
+
+
+@nb.njit(cache=True)
+def quarter_columns(left_p, right_p, y, radius, e_lo, out):
+    """Vertical window sums of the interpolated absolute difference, for row ``y``.
+
+    ``out[c, m]`` with quarter disparity ``e = e_lo + m``: the left column ``c`` against the
+    right position ``q = c - e / 4``, summed over the ``2 * radius + 1`` window rows,
+    ``sum_t |4 L[y + t, c] - ((4 - f) R[y + t, q0] + f R[y + t, q0 + 1])|`` with
+    ``4 q = 4 q0 + f``; ``-1`` where ``q`` is outside ``[0, width - 1]``.
+    ``left_p``/``right_p`` are the signals padded by ``radius`` (edge replicated).
+    """
+    width = left_p.shape[1] - 2 * radius
+    win = 2 * radius + 1
+    ne = out.shape[1]
+    top = 4 * (width - 1)
+    for c in range(width):
+        for m in range(ne):
+            qq = 4 * c - (e_lo + m)  # right position in quarters
+            if qq < 0 or qq > top:
+                out[c, m] = -1
+                continue
+            q0 = qq // 4
+            f = qq - 4 * q0
+            s = 0
+            if f == 0:
+                for t in range(win):
+                    s += abs(4 * left_p[y + t, c + radius] - 4 * right_p[y + t, q0 + radius])
+            else:
+                for t in range(win):
+                    r = (4 - f) * right_p[y + t, q0 + radius] + f * right_p[y + t, q0 + 1 + radius]
+                    s += abs(4 * left_p[y + t, c + radius] - r)
+            out[c, m] = s
+
+
+@nb.njit(cache=True)
+def pixel_cost(columns, e_lo, x, e, q, radius):
+    """Sheared window cost of left pixel ``x`` at quarter disparity ``e``, slope ``q / 4``.
+
+    The left window column ``x + s`` (``s = -radius..radius``) is compared with the right
+    position ``x + s - (e + q s) / 4``. Like ``_kernels.row_costs``, the window is
+    truncated to the columns whose left and right positions both lie inside the images
+    and the sum rescaled to the full window (``* W / columns used``); ``inf`` when the
+    centre position is outside.
+    """
+    width = columns.shape[0]
+    win = 2 * radius + 1
+    if columns[x, e - e_lo] < 0:
+        return np.inf
+    total = 0
+    used = 0
+    for s in range(-radius, radius + 1):
+        c = x + s
+        if c < 0 or c >= width:
+            continue
+        v = columns[c, e + q * s - e_lo]
+        if v < 0:
+            continue
+        total += v
+        used += 1
+    if used == win:
+        return float(total)
+    return total * win / used
+
+
+@nb.njit(cache=True)
+def segment_shape(q):
+    """Return ``(length, delta)`` of a segment of slope ``q / 4`` (``q`` in 0, +-1, +-2, +-4).
+
+    A segment joins integer nodes ``(x - length, d - delta)`` and ``(x, d)``: slope 0 is
+    one pixel at constant disparity, slope ``+-1/L`` spans ``L`` pixels and one disparity.
+    """
+    if q == 0:
+        return 1, 0
+    a = abs(q)
+    return 4 // a, 1 if q > 0 else -1
+
+
+@nb.njit(cache=True)
+def sheared_costs(columns, e_lo, dmin, oq, radius, node, seg):
+    """Node and segment costs of one row from :func:`quarter_columns`.
+
+    ``node[x, k, o]``: pixel ``x`` alone at integer disparity ``d = dmin + k`` with the
+    window sheared by orientation ``o`` (how a surface starts after an occlusion).
+    ``seg[x, k, o]``: the segment of orientation ``o`` that ends at node ``(x, d)``, the
+    sum over its pixels ``p = x - L + 1 .. x`` of the pixel costs at the interpolated
+    disparity ``d - delta + slope * (p - x + L)``; ``inf`` when the segment's start node
+    ``(x - L, d - delta)`` is not a node of the band inside both images.
+    """
+    width, ndisp, norient = node.shape
+    for x in range(width):
+        for k in range(ndisp):
+            d = dmin + k
+            inside = 0 <= x - d < width
+            for o in range(norient):
+                q = oq[o]
+                if not inside:
+                    node[x, k, o] = np.inf
+                    seg[x, k, o] = np.inf
+                    continue
+                here = pixel_cost(columns, e_lo, x, 4 * d, q, radius)
+                node[x, k, o] = here
+                length, delta = segment_shape(q)
+                x0 = x - length
+                k0 = k - delta
+                if x0 < 0 or k0 < 0 or k0 >= ndisp or x0 - (d - delta) < 0:
+                    seg[x, k, o] = np.inf
+                    continue
+                total = here
+                for p in range(x0 + 1, x):
+                    total += pixel_cost(columns, e_lo, p, 4 * (d - delta) + q * (p - x0), q, radius)
+                seg[x, k, o] = total
+
+
+# --------------------------------------------------------------------------- DP
+
+
+@nb.njit(cache=True)
+def scanline_dp(node, seg, dmin, oq, occ, orient, table, back, path_x, path_k, path_st):
+    """Cheapest path of one whole scanline through the (x, d, orientation) states.
+
+    Moves into band node ``(x, k)`` (``j = x - dmin - k``; DSI cell ``(x, j)``):
+
+    * matched with orientation ``o2`` by a segment (cost ``seg[x, k, o2]``): from matched
+      ``o1`` at ``(x - L, k - delta)`` (``segment_shape``), plus ``orient`` when
+      ``o1 != o2``;
+    * matched with orientation ``o2`` by a diagonal step (cost ``node[x, k, o2]``): from an
+      occlusion state, or the virtual start, at ``(x - 1, k)``: a new surface, any
+      orientation, no orientation cost;
+    * left pixel ``x`` occluded (cost ``occ``): from any state at ``(x - 1, k - 1)``;
+    * right pixel ``j`` occluded (cost ``occ``): from any state at ``(x, k + 1)``.
+
+    Virtual start nodes (``x == -1`` or ``j == -1``, in the band) cost 0 and are left
+    by a diagonal match or an occlusion. The path ends at the cheapest state of a node
+    with ``x == width - 1`` or ``j == width - 1``. Returns ``(n, total)``: the path (end
+    to start) in ``path_x/k/st[:n]``, one entry per node; ``n == 0`` when no path exists.
+
+    Back-pointer codes: a matched state stores ``1 + o1`` (segment from matched ``o1``),
+    ``O + 1`` / ``O + 2`` (diagonal from the left / right occlusion state) or ``O + 3``
+    (diagonal from the virtual start); an occlusion state stores ``1 + state`` of its
+    predecessor or ``O + 3`` (virtual start).
+    """
+    width, ndisp, norient = node.shape
+    s_left = norient
+    s_right = norient + 1
+    nstates = norient + 2
+    start_code = norient + 3
+    inf = np.inf
+    for x in range(width):
+        for k in range(ndisp):
+            for st in range(nstates):
+                table[x, k, st] = inf
+                back[x, k, st] = CODE_NONE
+        k_hi = min(ndisp - 1, x - dmin)
+        k_lo = max(0, x - (width - 1) - dmin)
+        for k in range(k_hi, k_lo - 1, -1):
+            j = x - dmin - k
+            # diagonal predecessor (x - 1, k): occlusion states or the virtual start
+            diag_best = inf
+            diag_code = CODE_NONE
+            if x - 1 == -1 or j - 1 == -1:
+                diag_best = 0.0
+                diag_code = start_code
+            else:
+                if table[x - 1, k, s_left] < diag_best:
+                    diag_best = table[x - 1, k, s_left]
+                    diag_code = norient + 1
+                if table[x - 1, k, s_right] < diag_best:
+                    diag_best = table[x - 1, k, s_right]
+                    diag_code = norient + 2
+            for o2 in range(norient):
+                best = inf
+                code = CODE_NONE
+                if node[x, k, o2] < inf and diag_code != CODE_NONE:
+                    best = diag_best + node[x, k, o2]
+                    code = diag_code
+                here = seg[x, k, o2]
+                if here < inf:
+                    length, delta = segment_shape(oq[o2])
+                    px = x - length
+                    pk = k - delta
+                    # cheapest matched predecessor, a change of orientation charged
+                    v = table[px, pk, o2]
+                    c = 1 + o2
+                    for o1 in range(norient):
+                        w = table[px, pk, o1] + orient
+                        if w < v:
+                            v = w
+                            c = 1 + o1
+                    if v + here < best:
+                        best = v + here
+                        code = c
+                table[x, k, o2] = best
+                back[x, k, o2] = code
+            # left pixel x occluded, from (x - 1, k - 1)
+            if k >= 1:
+                if x - 1 == -1:
+                    table[x, k, s_left] = occ
+                    back[x, k, s_left] = start_code
+                else:
+                    best = inf
+                    code = CODE_NONE
+                    for st in range(nstates):
+                        if table[x - 1, k - 1, st] < best:
+                            best = table[x - 1, k - 1, st]
+                            code = 1 + st
+                    if code != CODE_NONE:
+                        table[x, k, s_left] = best + occ
+                        back[x, k, s_left] = code
+            # right pixel j occluded, from (x, k + 1)
+            if k + 1 < ndisp:
+                if j - 1 == -1:
+                    table[x, k, s_right] = occ
+                    back[x, k, s_right] = start_code
+                else:
+                    best = inf
+                    code = CODE_NONE
+                    for st in range(nstates):
+                        if table[x, k + 1, st] < best:
+                            best = table[x, k + 1, st]
+                            code = 1 + st
+                    if code != CODE_NONE:
+                        table[x, k, s_right] = best + occ
+                        back[x, k, s_right] = code
+
+    # the end: nodes with x == width - 1, then nodes with j == width - 1 (x < width - 1)
+    end_x = -1
+    end_k = -1
+    end_st = -1
+    total = inf
+    for k in range(ndisp):
+        x = width - 1
+        j = x - dmin - k
+        if 0 <= j <= width - 1:
+            for st in range(nstates):
+                if table[x, k, st] < total:
+                    total = table[x, k, st]
+                    end_x, end_k, end_st = x, k, st
+    for k in range(ndisp):
+        x = width - 1 + dmin + k
+        if 0 <= x < width - 1:
+            for st in range(nstates):
+                if table[x, k, st] < total:
+                    total = table[x, k, st]
+                    end_x, end_k, end_st = x, k, st
+    if not total < inf:
+        return 0, inf
+
+    # backtrack
+    n = 0
+    x, k, st = end_x, end_k, end_st
+    while True:
+        path_x[n] = x
+        path_k[n] = k
+        path_st[n] = st
+        n += 1
+        code = back[x, k, st]
+        if code == start_code:
+            break
+        if st < norient:
+            if code == norient + 1:
+                x, st = x - 1, s_left
+            elif code == norient + 2:
+                x, st = x - 1, s_right
+            else:
+                length, delta = segment_shape(oq[st])
+                x, k, st = x - length, k - delta, code - 1
+        elif st == s_left:
+            x, k, st = x - 1, k - 1, code - 1
+        else:
+            k, st = k + 1, code - 1
+    return n, total
+
+
+@nb.njit(cache=True)
+def apply_path(path_x, path_k, path_st, n, dmin, oq, disp_row, flag_row, orient_row):
+    """Write disparities, occlusions and orientations (slopes) of a backtracked path.
+
+    A node entered by a segment writes the segment's pixels (interpolated disparities,
+    multiples of 1/4); a node entered diagonally writes its own pixel. The path is stored
+    end to start, so entry ``i + 1`` is the node before entry ``i``.
+    """
+    norient = oq.shape[0]
+    for i in range(n):
+        x = path_x[i]
+        st = path_st[i]
+        if st < norient:
+            d = dmin + path_k[i]
+            q = oq[st]
+            length = 1
+            if i + 1 < n and path_st[i + 1] < norient:  # entered by a segment
+                length = segment_shape(q)[0]
+            for p in range(x - length + 1, x + 1):
+                disp_row[p] = d + q * (p - x) / 4.0
+                flag_row[p] = 0
+                orient_row[p] = q / 4.0
+        elif st == norient:
+            disp_row[x] = np.nan
+            flag_row[x] = FLAG_OCCLUDED
+
+
+# --------------------------------------------------------------------------- driver
+
+
+@nb.njit(cache=True)
+def _chunk_bounds(height, nchunks, c):
+    step = (height + nchunks - 1) // nchunks
+    return c * step, min(height, (c + 1) * step)
+
+
+@nb.njit(parallel=True, cache=True)
+def match_redert_rows(
+    left_p, right_p, dmin, ndisp, radius, oq, occ, orient, nchunks, disp, flags, slopes, total
+):
+    """Run the orientation DP on every row; rows (in chunks) are the only parallel loop.
+
+    Per thread: the quarter-column sums (W x quarter disparities), the cost volume and
+    the DP tables (W x D x orientations); never H x W x D.
+    """
+    height, width = disp.shape
+    norient = oq.shape[0]
+    omax = 0
+    for o in range(norient):
+        omax = max(omax, abs(oq[o]))
+    e_lo = 4 * dmin - radius * omax
+    ne = 4 * (ndisp - 1) + 2 * radius * omax + 1
+    for c in nb.prange(nchunks):
+        y0, y1 = _chunk_bounds(height, nchunks, c)
+        columns = np.empty((width, ne), dtype=np.int64)
+        node = np.empty((width, ndisp, norient), dtype=np.float64)
+        seg = np.empty((width, ndisp, norient), dtype=np.float64)
+        table = np.empty((width, ndisp, norient + 2), dtype=np.float64)
+        back = np.empty((width, ndisp, norient + 2), dtype=np.uint8)
+        path_x = np.empty(2 * width + 2, dtype=np.int64)
+        path_k = np.empty(2 * width + 2, dtype=np.int64)
+        path_st = np.empty(2 * width + 2, dtype=np.int64)
+        for y in range(y0, y1):
+            quarter_columns(left_p, right_p, y, radius, e_lo, columns)
+            sheared_costs(columns, e_lo, dmin, oq, radius, node, seg)
+            for x in range(width):
+                disp[y, x] = np.nan
+                flags[y, x] = FLAG_BORDER
+                slopes[y, x] = np.nan
+            n, t = scanline_dp(
+                node, seg, dmin, oq, occ, orient, table, back, path_x, path_k, path_st
+            )
+            apply_path(path_x, path_k, path_st, n, dmin, oq, disp[y], flags[y], slopes[y])
+            total[y] = t
