@@ -10,10 +10,33 @@ The Middlebury scenes are read from ``<data dir>/middlebury/<scene>/`` (see
     meta.json                 at least ``scale`` and ``ndisp`` (exclusive disparity bound)
 
 Convention: left pixel ``(x, y)`` matches right pixel ``(x - d, y)``, ``d >= 0``.
+
+:func:`load_scene` reads a scene folder of any of the layouts below, detected from the
+files present (see :data:`LAYOUTS`):
+
+``"v2"``
+    the layout above (the project's copy of the Middlebury 2001/2003 v2 scenes);
+``"2005/2006"``
+    ``view1.png`` / ``view5.png`` and ``disp1.png`` (8-bit, 0 = unknown, disparity =
+    gray / scale with scale 1, 2 or 3 for the full, half and third size, inferred from the
+    image height 1110 / 555 / 370); ``disp5.png`` (the right view's map), when present,
+    gives the occlusions by a left-right cross-check;
+``"2014"``
+    ``im0.png`` / ``im1.png``, ``disp0GT.pfm`` (MiddEval3) or ``disp0.pfm`` (scenes2014) with
+    ``inf`` = unknown, ``calib.txt`` with ``ndisp``, and optionally ``mask0nocc.png`` (255 =
+    non-occluded, 128 = occluded, 0 = unknown) or ``disp1.pfm`` (cross-check).
+
+:data:`REGISTRY` lists public Middlebury scenes that :func:`fetch` downloads into a cache
+with pooch (``dcstereo datasets list`` / ``dcstereo datasets fetch NAME``).
 """
 
+import hashlib
 import json
+import math
 import os
+import shutil
+import tempfile
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -314,3 +337,529 @@ def load_motorcycle() -> StereoScene:
             ),
         },
     )
+
+
+# --- any layout -----------------------------------------------------------------------
+
+#: Scene layouts understood by :func:`load_scene`, and the files that identify each.
+LAYOUTS = {
+    "v2": ("left.png", "right.png", "disp_gt.png", "meta.json"),
+    "2005/2006": ("view1.png", "view5.png", "disp1.png"),
+    "2014": ("im0.png", "im1.png", "calib.txt"),
+}
+
+#: Image height of the full, half and third size 2005/2006 scenes, and the disparity
+#: scale (stored gray value per pixel of disparity) of each.
+SCALE_BY_HEIGHT_2005 = {1110: 1, 555: 2, 370: 3}
+
+#: Largest disagreement, in pixels, between the left and the right ground truth of a
+#: pixel that the cross-check still calls non-occluded.
+CROSS_CHECK_TOLERANCE = 1.0
+
+
+def scene_layout(folder: str | os.PathLike) -> str | None:
+    """Layout of a scene folder (a key of :data:`LAYOUTS`), or None when it is not one.
+
+    Parameters
+    ----------
+    folder : path-like
+        A folder.
+
+    Returns
+    -------
+    str or None
+    """
+    folder = Path(folder)
+    for layout, files in LAYOUTS.items():
+        if all((folder / name).is_file() for name in files):
+            return layout
+    return None
+
+
+def find_scenes(root: str | os.PathLike) -> list[Path]:
+    """Scene folders (of any layout) at or below ``root``, sorted by path.
+
+    A scene folder is not searched further.
+
+    Parameters
+    ----------
+    root : path-like
+        A scene folder or a folder holding scene folders at any depth.
+
+    Returns
+    -------
+    list of Path
+        Empty when there is none or ``root`` does not exist.
+    """
+    root = Path(root)
+    if scene_layout(root) is not None:
+        return [root]
+    found = []
+    for current, dirs, _ in os.walk(root):
+        dirs.sort()
+        for name in list(dirs):
+            if scene_layout(Path(current) / name) is not None:
+                found.append(Path(current) / name)
+                dirs.remove(name)
+    return sorted(found)
+
+
+def load_scene(folder: str | os.PathLike, *, scale: float | None = None) -> StereoScene:
+    """Load a scene folder of any Middlebury layout (see :data:`LAYOUTS`).
+
+    Parameters
+    ----------
+    folder : path-like
+        The scene folder.
+    scale : float, optional
+        2005/2006 layout only: stored gray value per pixel of disparity; default inferred
+        from the image height (:data:`SCALE_BY_HEIGHT_2005`).
+
+    Returns
+    -------
+    StereoScene
+        Masks ``"all"`` (pixels with known ground truth) and ``"nonocc"`` always, ``"disc"``
+        when the layout has one (v2 only). Without an occlusion mask or a right-view map,
+        ``"nonocc"`` equals ``"all"`` and ``meta["nonocc"]`` says so.
+
+    Raises
+    ------
+    ValueError
+        When the folder matches no layout (the message names the files looked for) or its
+        files are inconsistent.
+
+    Examples
+    --------
+    >>> scene = load_scene("shared/data/middlebury/tsukuba")  # doctest: +SKIP
+    >>> scene.meta["layout"]  # doctest: +SKIP
+    'v2'
+    """
+    folder = Path(folder).expanduser()
+    layout = scene_layout(folder)
+    if layout is None:
+        expected = "; ".join(f"{key}: {', '.join(files)}" for key, files in LAYOUTS.items())
+        raise ValueError(f"{folder} is not a scene folder of a known layout ({expected})")
+    if layout == "v2":
+        scene = load_middlebury(folder)
+        scene.meta.setdefault("layout", "v2")
+        return scene
+    if layout == "2005/2006":
+        return _load_2005(folder, scale)
+    return _load_2014(folder)
+
+
+def _check_same_size(folder: Path, reference: np.ndarray, arrays: dict) -> None:
+    for name, array in arrays.items():
+        if array.shape[:2] != reference.shape[:2]:
+            raise ValueError(
+                f"{folder / name} is {array.shape[1]}x{array.shape[0]} pixels but the left "
+                f"image is {reference.shape[1]}x{reference.shape[0]}"
+            )
+
+
+def cross_check(left_truth: np.ndarray, right_truth: np.ndarray, tolerance: float) -> np.ndarray:
+    """Left pixels whose ground truth the right view's ground truth confirms.
+
+    The left pixel ``x`` with disparity ``d`` lands on the right pixel ``round(x - d)``;
+    it is visible in both views when that pixel is inside the image and its disparity
+    differs from ``d`` by at most ``tolerance`` (how Middlebury derived its occlusion
+    masks).
+
+    Parameters
+    ----------
+    left_truth, right_truth : ndarray of float, shape (H, W)
+        Ground truth of the left and of the right view, NaN where unknown.
+    tolerance : float
+        Largest disagreement in pixels.
+
+    Returns
+    -------
+    ndarray of bool, shape (H, W)
+    """
+    height, width = left_truth.shape
+    known = np.isfinite(left_truth)
+    cols = np.arange(width)[None, :] - np.where(known, left_truth, 0.0)
+    target = np.rint(cols).astype(np.int64)
+    inside = known & (target >= 0) & (target < width)
+    rows = np.broadcast_to(np.arange(height)[:, None], target.shape)
+    partner = np.full(left_truth.shape, np.nan)
+    partner[inside] = right_truth[rows[inside], target[inside]]
+    with np.errstate(invalid="ignore"):
+        return inside & (np.abs(partner - left_truth) <= tolerance)
+
+
+def _load_2005(folder: Path, scale: float | None) -> StereoScene:
+    left = _read_image(folder / "view1.png")
+    right = _read_image(folder / "view5.png")
+    gray = _read_gray(folder / "disp1.png")
+    height = left.shape[0]
+    if scale is None:
+        scale = SCALE_BY_HEIGHT_2005.get(height)
+        if scale is None:
+            sizes = ", ".join(f"{h} (scale {s})" for h, s in SCALE_BY_HEIGHT_2005.items())
+            raise ValueError(
+                f"cannot infer the disparity scale of {folder}: its images are {height} "
+                f"pixels high, not one of the Middlebury 2005/2006 sizes {sizes}; give scale"
+            )
+    elif not (np.isfinite(scale) and scale > 0):
+        raise ValueError(f"scale must be a positive number, got {scale}")
+    arrays = {"view5.png": right, "disp1.png": gray}
+    truth = np.where(gray == 0, np.nan, gray / float(scale)).astype(np.float32)
+    known = np.isfinite(truth)
+    meta = {"name": folder.name, "layout": "2005/2006", "scale": float(scale)}
+    if (folder / "disp5.png").is_file():
+        gray5 = _read_gray(folder / "disp5.png")
+        arrays["disp5.png"] = gray5
+        _check_same_size(folder, left, arrays)
+        right_truth = np.where(gray5 == 0, np.nan, gray5 / float(scale))
+        nonocc = cross_check(truth, right_truth, CROSS_CHECK_TOLERANCE)
+        meta["nonocc"] = f"left-right cross-check with disp5.png, tolerance {CROSS_CHECK_TOLERANCE}"
+    else:
+        _check_same_size(folder, left, arrays)
+        nonocc = known.copy()
+        meta["nonocc"] = "no disp5.png: equals 'all' (occluded pixels included)"
+    if not known.any():
+        raise ValueError(f"{folder / 'disp1.png'} holds no known disparity (all 0)")
+    max_disparity = int(math.ceil(float(np.nanmax(truth))))
+    meta["max_disparity"] = "ceil of the largest ground-truth disparity (no ndisp in this layout)"
+    return StereoScene(
+        name=folder.name,
+        left=left,
+        right=right,
+        disparity=truth,
+        masks={"nonocc": nonocc, "all": known},
+        max_disparity=max_disparity,
+        meta=meta,
+    )
+
+
+def read_calib(path: str | os.PathLike) -> dict[str, str]:
+    """Read a Middlebury 2014 ``calib.txt`` (``key=value`` lines) into a dict of strings.
+
+    Parameters
+    ----------
+    path : path-like
+        The file.
+
+    Returns
+    -------
+    dict of str to str
+    """
+    entries = {}
+    for line in Path(path).read_text(encoding="utf-8").splitlines():
+        key, sep, value = line.partition("=")
+        if sep:
+            entries[key.strip()] = value.strip()
+    return entries
+
+
+def _load_2014(folder: Path) -> StereoScene:
+    from .io import read_pfm
+
+    truth_file = next(
+        (name for name in ("disp0GT.pfm", "disp0.pfm") if (folder / name).is_file()), None
+    )
+    if truth_file is None:
+        raise ValueError(f"2014 scene folder {folder} lacks disp0GT.pfm (or disp0.pfm)")
+    calib = read_calib(folder / "calib.txt")
+    try:
+        ndisp = int(float(calib["ndisp"]))
+    except (KeyError, ValueError):
+        raise ValueError(f"{folder / 'calib.txt'} must give an integer ndisp") from None
+    if ndisp < 1:
+        raise ValueError(f"{folder / 'calib.txt'}: ndisp must be at least 1, got {ndisp}")
+    left = _read_image(folder / "im0.png")
+    right = _read_image(folder / "im1.png")
+    stored = read_pfm(folder / truth_file)
+    if stored.ndim != 2:
+        raise ValueError(f"{folder / truth_file} must be a gray (Pf) PFM file")
+    truth = np.where(np.isfinite(stored), stored, np.nan).astype(np.float32)
+    arrays = {"im1.png": right, truth_file: truth}
+    known = np.isfinite(truth)
+    meta = {"name": folder.name, "layout": "2014", "ndisp": ndisp, "truth": truth_file}
+    if (folder / "mask0nocc.png").is_file():
+        mask = _read_gray(folder / "mask0nocc.png")
+        arrays["mask0nocc.png"] = mask
+        _check_same_size(folder, left, arrays)
+        nonocc = (mask == 255) & known
+        known &= mask != 0
+        meta["nonocc"] = "mask0nocc.png == 255"
+    elif (folder / "disp1.pfm").is_file():
+        right_truth = read_pfm(folder / "disp1.pfm")
+        arrays["disp1.pfm"] = right_truth
+        _check_same_size(folder, left, arrays)
+        right_truth = np.where(np.isfinite(right_truth), right_truth, np.nan)
+        nonocc = cross_check(truth, right_truth, CROSS_CHECK_TOLERANCE)
+        meta["nonocc"] = f"left-right cross-check with disp1.pfm, tolerance {CROSS_CHECK_TOLERANCE}"
+    else:
+        _check_same_size(folder, left, arrays)
+        nonocc = known.copy()
+        meta["nonocc"] = "no mask0nocc.png or disp1.pfm: equals 'all' (occluded pixels included)"
+    return StereoScene(
+        name=folder.name,
+        left=left,
+        right=right,
+        disparity=truth,
+        masks={"nonocc": nonocc, "all": known},
+        max_disparity=ndisp - 1,
+        meta=meta,
+    )
+
+
+# --- registry and fetcher -------------------------------------------------------------
+
+#: Environment variable that overrides the download cache of :func:`fetch`.
+CACHE_ENV_VAR = "DCSTEREO_CACHE"
+
+_MIDDLEBURY = "https://vision.middlebury.edu/stereo/data"
+_CITE_2005 = (
+    "D. Scharstein and C. Pal. Learning conditional random fields for stereo. CVPR 2007; "
+    "H. Hirschmueller and D. Scharstein. Evaluation of cost functions for stereo matching. "
+    "CVPR 2007."
+)
+_CITE_2014 = (
+    "D. Scharstein, H. Hirschmueller, Y. Kitajima, G. Krathwohl, N. Nesic, X. Wang and "
+    "P. Westling. High-resolution stereo datasets with subpixel-accurate ground truth. "
+    "GCPR 2014."
+)
+
+
+@dataclass(frozen=True)
+class RemoteFile:
+    """One file of a registry entry.
+
+    Attributes
+    ----------
+    url : str
+        Where to download it.
+    sha256 : str or None
+        Its SHA-256 checksum (64 hex digits); None when it has not been verified by the
+        project, in which case :func:`fetch` refuses it unless told to accept it.
+    """
+
+    url: str
+    sha256: str | None = None
+
+
+@dataclass(frozen=True)
+class RegistryEntry:
+    """A downloadable scene (or set of scenes).
+
+    Attributes
+    ----------
+    name : str
+        Registry key.
+    layout : str
+        A key of :data:`LAYOUTS`.
+    files : tuple of RemoteFile
+        Zip archives are extracted, other files are stored as they are.
+    folder : str
+        The scene folder (or the folder of scenes) inside the entry's cache folder once
+        the files are in place; ``""`` for the entry's folder itself.
+    description : str
+    citation : str
+    """
+
+    name: str
+    layout: str
+    files: tuple[RemoteFile, ...]
+    folder: str
+    description: str
+    citation: str
+
+    @property
+    def verified(self) -> bool:
+        """Whether every file has a checksum."""
+        return all(f.sha256 is not None for f in self.files)
+
+
+def _registry() -> dict[str, RegistryEntry]:
+    # The checksums are None: this project could not download the files to hash them.
+    # `dcstereo datasets fetch NAME --allow-unverified` prints the hashes it computes;
+    # confirm them with a trusted source before writing them here.
+    entries = {}
+    for year, scenes in (
+        ("2005", ("Art", "Books", "Dolls", "Laundry", "Moebius", "Reindeer")),
+        (
+            "2006",
+            "Aloe Baby1 Baby2 Baby3 Bowling1 Bowling2 Cloth1 Cloth2 Cloth3 Cloth4 Flowerpots "
+            "Lampshade1 Lampshade2 Midd1 Midd2 Monopoly Plastic Rocks1 Rocks2 Wood1 "
+            "Wood2".split(),
+        ),
+    ):
+        for scene in scenes:
+            name = f"{scene.lower()}-{year}-third"
+            url = f"{_MIDDLEBURY}/scenes{year}/ThirdSize/zip-2views/{scene}-2views.zip"
+            entries[name] = RegistryEntry(
+                name=name,
+                layout="2005/2006",
+                files=(RemoteFile(url),),
+                folder=scene,
+                description=f"Middlebury {year} {scene}, third size, views 1 and 5",
+                citation=_CITE_2005,
+            )
+    for scene in (
+        "Adirondack Backpack Bicycle1 Cable Classroom1 Couch Flowers Jadeplant Mask "
+        "Motorcycle Piano Pipes Playroom Playtable Recycle Shelves Shopvac Sticks Storage "
+        "Sword1 Sword2 Umbrella Vintage".split()
+    ):
+        name = f"{scene.lower()}-2014"
+        base = f"{_MIDDLEBURY}/scenes2014/datasets/{scene}-perfect"
+        entries[name] = RegistryEntry(
+            name=name,
+            layout="2014",
+            files=tuple(
+                RemoteFile(f"{base}/{file}")
+                for file in ("im0.png", "im1.png", "disp0.pfm", "disp1.pfm", "calib.txt")
+            ),
+            folder="",
+            description=f"Middlebury 2014 {scene} (perfect rectification), full size",
+            citation=_CITE_2014,
+        )
+    entries["middeval3-training-q"] = RegistryEntry(
+        name="middeval3-training-q",
+        layout="2014",
+        files=(
+            RemoteFile("https://vision.middlebury.edu/stereo/submit3/zip/MiddEval3-data-Q.zip"),
+            RemoteFile("https://vision.middlebury.edu/stereo/submit3/zip/MiddEval3-GT0-Q.zip"),
+        ),
+        folder="MiddEval3/trainingQ",
+        description="Middlebury v3 (MiddEval3) training set, quarter size, 15 scenes",
+        citation=_CITE_2014,
+    )
+    return entries
+
+
+#: Public Middlebury scenes :func:`fetch` can download, by name. Every checksum is
+#: currently None (unverified): see :class:`RemoteFile`.
+REGISTRY: dict[str, RegistryEntry] = _registry()
+
+
+def default_cache_dir() -> Path:
+    """Download cache of :func:`fetch`: ``$DCSTEREO_CACHE``, else pooch's user cache.
+
+    Returns
+    -------
+    Path
+    """
+    override = os.environ.get(CACHE_ENV_VAR)
+    if override:
+        return Path(override).expanduser()
+    import pooch
+
+    return Path(pooch.os_cache("dcstereo"))
+
+
+def _extract_zip(archive: Path, target: Path) -> None:
+    """Extract into ``target``, refusing members that would land outside it."""
+    target = target.resolve()
+    with zipfile.ZipFile(archive) as bundle:
+        for member in bundle.namelist():
+            destination = (target / member).resolve()
+            if destination != target and target not in destination.parents:
+                raise ValueError(f"{archive} holds a file outside its folder: {member!r}")
+        bundle.extractall(target)
+
+
+def fetch(
+    name: str,
+    *,
+    cache: str | os.PathLike | None = None,
+    allow_unverified: bool = False,
+    registry: dict[str, RegistryEntry] | None = None,
+) -> tuple[Path, dict[str, str]]:
+    """Download a registry entry into the cache (once) and return its scene folder.
+
+    Each file is downloaded with pooch and checked against its SHA-256 checksum; a
+    mismatch deletes the download and raises. Zip archives are then extracted into
+    ``<cache>/<name>/``, other files copied there.
+
+    Parameters
+    ----------
+    name : str
+        A key of the registry.
+    cache : path-like, optional
+        Cache folder; :func:`default_cache_dir` by default.
+    allow_unverified : bool
+        Download files whose checksum the registry does not know (they are not checked;
+        the returned hashes let you confirm them).
+    registry : dict, optional
+        The registry to use; :data:`REGISTRY` by default.
+
+    Returns
+    -------
+    folder : Path
+        The scene folder (or folder of scenes) of the entry.
+    hashes : dict of str to str
+        SHA-256 of every file, by URL.
+
+    Raises
+    ------
+    ValueError
+        Unknown name, an unverified entry without ``allow_unverified``, a checksum
+        mismatch (one line; nothing is left in the cache), or a bad archive.
+    OSError
+        When a download fails.
+    """
+    import pooch
+
+    registry = REGISTRY if registry is None else registry
+    if name not in registry:
+        raise ValueError(
+            f"unknown dataset {name!r}; see `dcstereo datasets list` ({len(registry)} entries)"
+        )
+    entry = registry[name]
+    if not entry.verified and not allow_unverified:
+        raise ValueError(
+            f"the checksum of {name} is not verified in the registry; fetch it with "
+            "--allow-unverified (allow_unverified=True) and compare the printed sha256 with a "
+            "trusted source"
+        )
+    cache = Path(cache).expanduser() if cache is not None else default_cache_dir()
+    target = cache / name
+    done = target / ".complete.json"
+    if done.is_file():
+        return target / entry.folder, json.loads(done.read_text(encoding="utf-8"))
+    downloads = cache / "downloads"
+    downloads.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{name}-", dir=cache))
+    hashes = {}
+    logger = pooch.get_logger()
+    level = logger.level
+    logger.setLevel("WARNING")  # the hashes are returned; pooch's notes would repeat them
+    try:
+        for remote in entry.files:
+            file_name = f"{name}-{remote.url.rstrip('/').rsplit('/', 1)[-1]}"
+            known = f"sha256:{remote.sha256}" if remote.sha256 else None
+            try:
+                path = Path(
+                    pooch.retrieve(
+                        remote.url, known, fname=file_name, path=downloads, progressbar=False
+                    )
+                )
+            except ValueError as err:
+                text = str(err)
+                if "does not match the known hash" in text:
+                    got = text.split(" but got ", 1)[-1].split(".", 1)[0].split()[0]
+                    raise ValueError(
+                        f"checksum mismatch for {name}: {remote.url} has sha256 {got}, the "
+                        f"registry expects {remote.sha256}; the download was deleted"
+                    ) from None
+                raise
+            except Exception as err:  # requests' and pooch's own errors, made one kind
+                raise OSError(f"cannot download {remote.url}: {err}") from None
+            digest = hashlib.sha256(path.read_bytes()).hexdigest()
+            hashes[remote.url] = digest
+            if zipfile.is_zipfile(path):
+                _extract_zip(path, staging)
+            else:
+                shutil.copyfile(path, staging / path.name[len(name) + 1 :])
+        (staging / ".complete.json").write_text(json.dumps(hashes, indent=1), encoding="utf-8")
+        if target.exists():
+            shutil.rmtree(target)
+        staging.rename(target)
+    finally:
+        logger.setLevel(level)
+        if staging.exists():
+            shutil.rmtree(staging)
+    return target / entry.folder, hashes
