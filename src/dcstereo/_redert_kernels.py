@@ -150,14 +150,14 @@ def sheared_costs(columns, e_lo, dmin, oq, radius, node, seg):
 
 
 @nb.njit(cache=True)
-def scanline_dp(node, seg, dmin, oq, occ, orient, table, back, path_x, path_k, path_st):
+def scanline_dp(node, seg, dmin, oq, occ, orient, slant, table, back, path_x, path_k, path_st):
     """Cheapest path of one whole scanline through the (x, d, orientation) states.
 
     Moves into band node ``(x, k)`` (``j = x - dmin - k``; DSI cell ``(x, j)``):
 
-    * matched with orientation ``o2`` by a segment (cost ``seg[x, k, o2]``): from matched
-      ``o1`` at ``(x - L, k - delta)`` (``segment_shape``), plus ``orient`` when
-      ``o1 != o2``;
+    * matched with orientation ``o2`` by a segment (cost ``seg[x, k, o2]``, plus ``slant``
+      when the segment changes the disparity): from matched ``o1`` at
+      ``(x - L, k - delta)`` (``segment_shape``), plus ``orient`` when ``o1 != o2``;
     * matched with orientation ``o2`` by a diagonal step (cost ``node[x, k, o2]``): from an
       occlusion state, or the virtual start, at ``(x - 1, k)``: a new surface, any
       orientation, no orientation cost;
@@ -211,6 +211,8 @@ def scanline_dp(node, seg, dmin, oq, occ, orient, table, back, path_x, path_k, p
                 here = seg[x, k, o2]
                 if here < inf:
                     length, delta = segment_shape(oq[o2])
+                    if delta != 0:
+                        here += slant
                     px = x - length
                     pk = k - delta
                     # cheapest matched predecessor, a change of orientation charged
@@ -344,7 +346,20 @@ def _chunk_bounds(height, nchunks, c):
 
 @nb.njit(parallel=True, cache=True)
 def match_redert_rows(
-    left_p, right_p, dmin, ndisp, radius, oq, occ, orient, nchunks, disp, flags, slopes, total
+    left_p,
+    right_p,
+    dmin,
+    ndisp,
+    radius,
+    oq,
+    occ,
+    orient,
+    slant,
+    nchunks,
+    disp,
+    flags,
+    slopes,
+    total,
 ):
     """Run the orientation DP on every row; rows (in chunks) are the only parallel loop.
 
@@ -376,7 +391,7 @@ def match_redert_rows(
                 flags[y, x] = FLAG_BORDER
                 slopes[y, x] = np.nan
             n, t = scanline_dp(
-                node, seg, dmin, oq, occ, orient, table, back, path_x, path_k, path_st
+                node, seg, dmin, oq, occ, orient, slant, table, back, path_x, path_k, path_st
             )
             apply_path(path_x, path_k, path_st, n, dmin, oq, disp[y], flags[y], slopes[y])
             total[y] = t

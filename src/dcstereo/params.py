@@ -26,7 +26,7 @@ DEFAULT_UNIQUENESS = 2.0
 DEFAULT_ORIENTATIONS = (-0.5, -0.25, 0.0, 0.25, 0.5)
 #: ``redert``: cost of a change of orientation between neighbouring matched pixels, in
 #: the units of ``occlusion_cost``.
-DEFAULT_ORIENTATION_COST = 2.0
+DEFAULT_ORIENTATION_COST = 5.0
 
 
 @dataclass(frozen=True)

@@ -64,6 +64,16 @@ def redert_cost_scale(window: int) -> float:
     return float(4 * SIGNAL_STEPS * window * window)
 
 
+#: ``redert``'s default ``slant_cost``: per unit of disparity change along a slanted
+#: surface, in the units of ``occlusion_cost``.
+DEFAULT_REDERT_SLANT_COST = 8.0
+
+
+def redert_slant_cost(params: MatchParams) -> float:
+    """``params.slant_cost``, or :data:`DEFAULT_REDERT_SLANT_COST` when it is None."""
+    return DEFAULT_REDERT_SLANT_COST if params.slant_cost is None else float(params.slant_cost)
+
+
 def orientation_quarters(orientations) -> np.ndarray:
     """Return the orientations (slopes) as int64 multiples of 1/4, as the kernel wants."""
     return np.array([int(round(4 * float(o))) for o in orientations], dtype=np.int64)
@@ -135,6 +145,7 @@ def match_redert(
         orientation_quarters(params.orientations),
         float(np.rint(params.occlusion_cost * scale)),
         float(np.rint(params.orientation_cost * scale)),
+        float(np.rint(redert_slant_cost(params) * scale)),
         nchunks,
         disparity,
         flags,

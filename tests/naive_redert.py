@@ -1,0 +1,164 @@
+"""Slow, obviously correct twins of the ``redert`` kernels (``_redert_kernels.py``).
+
+The cost functions follow the written definition (sheared window, linear interpolation)
+pixel by pixel; the DP is an exhaustive enumeration of every admissible path in the
+DSI's own ``(i, j) = (x_left, x_right)`` coordinates, with explicit states, so the two
+share no index arithmetic with the kernels.
+"""
+
+import math
+
+import numpy as np
+
+#: Path states: ("m", o) matched with orientation index o, ("l",) left pixel occluded,
+#: ("r",) right pixel occluded, ("s",) the virtual start.
+LEFT, RIGHT, START = ("l",), ("r",), ("s",)
+
+
+def pixel_cost(left, right, y, x, e, q, radius):
+    """Sheared window SAD of left pixel ``x`` at disparity ``e / 4`` and slope ``q / 4``.
+
+    In units of a quarter signal step: ``sum |4 L - 4 R(position)|`` with the right image
+    linearly interpolated at ``position = x + s - (e + q s) / 4``. Rows outside the image
+    repeat the edge row (in both views); columns where either position leaves its image
+    are skipped and the sum rescaled to the full window; inf when the centre is outside.
+    """
+    height, width = left.shape
+    win = 2 * radius + 1
+    if not 0 <= 4 * x - e <= 4 * (width - 1):
+        return math.inf
+    total = 0
+    used = 0
+    for s in range(-radius, radius + 1):
+        xl = x + s
+        pos4 = 4 * xl - (e + q * s)  # right position in quarters of a pixel
+        if not (0 <= xl < width and 0 <= pos4 <= 4 * (width - 1)):
+            continue
+        used += 1
+        base, frac = divmod(pos4, 4)
+        for t in range(-radius, radius + 1):
+            yy = min(max(y + t, 0), height - 1)
+            sample = (4 - frac) * int(right[yy, base])
+            if frac:
+                sample += frac * int(right[yy, base + 1])
+            total += abs(4 * int(left[yy, xl]) - sample)
+    return float(total) if used == win else total * win / used
+
+
+def segment(q):
+    """``(length, delta)`` of a segment of slope ``q / 4``: the pixels it spans and the
+    disparity change between its end nodes (slope 0: one pixel; slope +-1/L: L pixels)."""
+    if q == 0:
+        return 1, 0
+    return {1: 4, 2: 2, 4: 1}[abs(q)], (1 if q > 0 else -1)
+
+
+def row_costs(left, right, y, dmin, ndisp, oq, radius):
+    """``node[x, k, o]`` and ``seg[x, k, o]`` of row ``y`` as documented in the kernels."""
+    width = left.shape[1]
+    node = np.full((width, ndisp, len(oq)), np.inf)
+    seg = np.full((width, ndisp, len(oq)), np.inf)
+    for x in range(width):
+        for k in range(ndisp):
+            d = dmin + k
+            if not 0 <= x - d < width:
+                continue
+            for o, q in enumerate(oq):
+                node[x, k, o] = pixel_cost(left, right, y, x, 4 * d, q, radius)
+                length, delta = segment(q)
+                x0, d0 = x - length, d - delta
+                if not (0 <= x0 and 0 <= x0 - d0 < width and dmin <= d0 < dmin + ndisp):
+                    continue
+                # pixels x0 + 1 .. x on the line from (x0, d0) to (x, d)
+                seg[x, k, o] = sum(
+                    pixel_cost(left, right, y, p, 4 * d0 + q * (p - x0), q, radius)
+                    for p in range(x0 + 1, x + 1)
+                )
+    return node, seg
+
+
+def _cell(array, dmin, i, j, o):
+    k = i - j - dmin
+    if i < 0 or j < 0 or i >= array.shape[0] or not 0 <= k < array.shape[1]:
+        return math.inf
+    return array[i, k, o]
+
+
+def moves(node_ij, state, node, seg, dmin, oq, occ, orient):
+    """Every move out of ``node_ij`` in ``state``: yields ``(next_node, next_state, cost)``.
+
+    * a matched state ``o2`` is entered either by a segment of slope ``oq[o2] / 4`` from a
+      matched state ``o1``: ``(i, j) -> (i + L, j + L - delta)``, cost
+      ``seg + orient * (o1 != o2)``; or diagonally, ``(i, j) -> (i + 1, j + 1)``, from an
+      occlusion state or the start, cost ``node``; both need a finite cost;
+    * a left occlusion ``(i, j) -> (i + 1, j)`` and a right occlusion ``(i, j) -> (i, j + 1)``
+      cost ``occ`` from any state;
+    * every node after the start lies inside both images and in the band
+      ``dmin <= i - j < dmin + ndisp``.
+    """
+    width, ndisp, _ = node.shape
+    i, j = node_ij
+
+    def inside(a, b):
+        return 0 <= a < width and 0 <= b < width and dmin <= a - b <= dmin + ndisp - 1
+
+    for o2, q in enumerate(oq):
+        if state[0] == "m":
+            length, delta = segment(q)
+            ni, nj = i + length, j + length - delta
+            if inside(ni, nj) and _cell(seg, dmin, ni, nj, o2) < math.inf:
+                extra = orient if state[1] != o2 else 0.0
+                yield (ni, nj), ("m", o2), _cell(seg, dmin, ni, nj, o2) + extra
+        elif inside(i + 1, j + 1) and _cell(node, dmin, i + 1, j + 1, o2) < math.inf:
+            yield (i + 1, j + 1), ("m", o2), _cell(node, dmin, i + 1, j + 1, o2)
+    if inside(i + 1, j):
+        yield (i + 1, j), LEFT, occ
+    if inside(i, j + 1):
+        yield (i, j + 1), RIGHT, occ
+
+
+def enumerate_paths(node, seg, dmin, oq, occ, orient):
+    """Every admissible path of one whole scanline, with its cost.
+
+    Yields ``(total, path)``, ``path`` a list of ``((i, j), state)`` from the virtual start
+    to the end: the start is any virtual node with ``i == -1`` or ``j == -1`` (both
+    ``>= -1``) in the band, at no cost; the moves are those of :func:`moves`; the path ends
+    at any node after the start with ``i == W - 1`` or ``j == W - 1``.
+    """
+    width, ndisp, _ = node.shape
+
+    def walk(path, total):
+        (i, j), state = path[-1]
+        if len(path) > 1 and (i == width - 1 or j == width - 1):
+            yield total, list(path)
+        for nxt, nstate, c in moves((i, j), state, node, seg, dmin, oq, occ, orient):
+            path.append((nxt, nstate))
+            yield from walk(path, total + c)
+            path.pop()
+
+    for i in range(-1, width):
+        for j in range(-1, width):
+            if (i == -1 or j == -1) and dmin <= i - j <= dmin + ndisp - 1:
+                yield from walk([((i, j), START)], 0.0)
+
+
+def best_path_cost(node, seg, dmin, oq, occ, orient):
+    """The optimal cost over all admissible paths (inf when there is none)."""
+    return min((t for t, _ in enumerate_paths(node, seg, dmin, oq, occ, orient)), default=math.inf)
+
+
+def path_cost(path, node, seg, dmin, oq, occ, orient):
+    """Cost of a given path under the oracle's rules, or raise AssertionError."""
+    width = node.shape[0]
+    (i, j), state = path[0]
+    assert state == START and (i == -1 or j == -1), f"bad start {path[0]}"
+    total = 0.0
+    for (prev, prev_state), (cur, cur_state) in zip(path[:-1], path[1:], strict=True):
+        options = {
+            (n, s): c for n, s, c in moves(prev, prev_state, node, seg, dmin, oq, occ, orient)
+        }
+        assert (cur, cur_state) in options, f"inadmissible step {prev} {prev_state} -> {cur}"
+        total += options[(cur, cur_state)]
+    i, j = path[-1][0]
+    assert len(path) > 1 and (i == width - 1 or j == width - 1), f"bad end {path[-1]}"
+    return total
