@@ -84,13 +84,14 @@ def _cell(array, dmin, i, j, o):
     return array[i, k, o]
 
 
-def moves(node_ij, state, node, seg, dmin, oq, occ, orient):
+def moves(node_ij, state, node, seg, dmin, oq, occ, orient, slant):
     """Every move out of ``node_ij`` in ``state``: yields ``(next_node, next_state, cost)``.
 
     * a matched state ``o2`` is entered either by a segment of slope ``oq[o2] / 4`` from a
       matched state ``o1``: ``(i, j) -> (i + L, j + L - delta)``, cost
-      ``seg + orient * (o1 != o2)``; or diagonally, ``(i, j) -> (i + 1, j + 1)``, from an
-      occlusion state or the start, cost ``node``; both need a finite cost;
+      ``seg + orient * (o1 != o2) + slant * (delta != 0)``; or diagonally,
+      ``(i, j) -> (i + 1, j + 1)``, from an occlusion state or the start, cost ``node``;
+      both need a finite cost;
     * a left occlusion ``(i, j) -> (i + 1, j)`` and a right occlusion ``(i, j) -> (i, j + 1)``
       cost ``occ`` from any state;
     * every node after the start lies inside both images and in the band
@@ -107,7 +108,7 @@ def moves(node_ij, state, node, seg, dmin, oq, occ, orient):
             length, delta = segment(q)
             ni, nj = i + length, j + length - delta
             if inside(ni, nj) and _cell(seg, dmin, ni, nj, o2) < math.inf:
-                extra = orient if state[1] != o2 else 0.0
+                extra = (orient if state[1] != o2 else 0.0) + (slant if delta else 0.0)
                 yield (ni, nj), ("m", o2), _cell(seg, dmin, ni, nj, o2) + extra
         elif inside(i + 1, j + 1) and _cell(node, dmin, i + 1, j + 1, o2) < math.inf:
             yield (i + 1, j + 1), ("m", o2), _cell(node, dmin, i + 1, j + 1, o2)
@@ -117,7 +118,7 @@ def moves(node_ij, state, node, seg, dmin, oq, occ, orient):
         yield (i, j + 1), RIGHT, occ
 
 
-def enumerate_paths(node, seg, dmin, oq, occ, orient):
+def enumerate_paths(node, seg, dmin, oq, occ, orient, slant):
     """Every admissible path of one whole scanline, with its cost.
 
     Yields ``(total, path)``, ``path`` a list of ``((i, j), state)`` from the virtual start
@@ -131,7 +132,7 @@ def enumerate_paths(node, seg, dmin, oq, occ, orient):
         (i, j), state = path[-1]
         if len(path) > 1 and (i == width - 1 or j == width - 1):
             yield total, list(path)
-        for nxt, nstate, c in moves((i, j), state, node, seg, dmin, oq, occ, orient):
+        for nxt, nstate, c in moves((i, j), state, node, seg, dmin, oq, occ, orient, slant):
             path.append((nxt, nstate))
             yield from walk(path, total + c)
             path.pop()
@@ -142,12 +143,14 @@ def enumerate_paths(node, seg, dmin, oq, occ, orient):
                 yield from walk([((i, j), START)], 0.0)
 
 
-def best_path_cost(node, seg, dmin, oq, occ, orient):
+def best_path_cost(node, seg, dmin, oq, occ, orient, slant):
     """The optimal cost over all admissible paths (inf when there is none)."""
-    return min((t for t, _ in enumerate_paths(node, seg, dmin, oq, occ, orient)), default=math.inf)
+    return min(
+        (t for t, _ in enumerate_paths(node, seg, dmin, oq, occ, orient, slant)), default=math.inf
+    )
 
 
-def path_cost(path, node, seg, dmin, oq, occ, orient):
+def path_cost(path, node, seg, dmin, oq, occ, orient, slant):
     """Cost of a given path under the oracle's rules, or raise AssertionError."""
     width = node.shape[0]
     (i, j), state = path[0]
@@ -155,7 +158,8 @@ def path_cost(path, node, seg, dmin, oq, occ, orient):
     total = 0.0
     for (prev, prev_state), (cur, cur_state) in zip(path[:-1], path[1:], strict=True):
         options = {
-            (n, s): c for n, s, c in moves(prev, prev_state, node, seg, dmin, oq, occ, orient)
+            (n, s): c
+            for n, s, c in moves(prev, prev_state, node, seg, dmin, oq, occ, orient, slant)
         }
         assert (cur, cur_state) in options, f"inadmissible step {prev} {prev_state} -> {cur}"
         total += options[(cur, cur_state)]
