@@ -1,5 +1,6 @@
 """``dcstereo run``: match one rectified pair and write the disparity and its companions."""
 
+import functools
 import time
 
 import click
@@ -63,6 +64,13 @@ from ._common import (
     is_flag=True,
     help="Mark the accepted feature pairs in red on the preview (dc methods).",
 )
+@click.option(
+    "--tile-rows",
+    type=int,
+    default=None,
+    help="Match in bands of this many rows (plus the window's overlap): less memory, "
+    "the same result.",
+)
 @click.option("--quiet", "-q", is_flag=True, help="Print nothing on success.")
 @one_line_errors
 def run(
@@ -81,6 +89,7 @@ def run(
     preview_style,
     features_out,
     draw_features,
+    tile_rows,
     quiet,
 ):
     """Estimate the disparity of LEFT against RIGHT (a rectified pair).
@@ -103,6 +112,10 @@ def run(
     left_image = io.read_image(left)
     right_image = io.read_image(right)
     start = time.perf_counter()
+    if tile_rows is not None:
+        from ..tiling import match_tiled
+
+        match = functools.partial(match_tiled, tile_rows=tile_rows)
     result = match(
         left_image,
         right_image,
