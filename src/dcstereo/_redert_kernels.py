@@ -12,8 +12,10 @@ Conventions (shared with ``_kernels.py``):
   are linear interpolations ``(4 - f) * R[q] + f * R[q + 1]`` (``f`` quarters), compared
   with ``4 * L``, so every window cost is an exact integer in units of a quarter
   signal step (four times the cost of ``_kernels.row_costs`` at slope 0).
-* ``data[x, k, o]`` is the cost of matching left pixel ``x`` at disparity ``dmin + k``
-  with orientation ``o``; ``inf`` where the right pixel ``x - d`` is outside the image.
+* ``node[x, k, o]`` is the cost of matching left pixel ``x`` alone at disparity
+  ``dmin + k`` with orientation ``o``; ``seg[x, k, o]`` the cost of the segment of
+  orientation ``o`` ending at that node (see :func:`sheared_costs`); ``inf`` where the
+  right pixel ``x - d`` (or the segment's start node) is outside the image.
 * DP states per band node ``(x, k)``: ``0..O-1`` matched with orientation ``o``,
   ``O`` left pixel ``x`` occluded, ``O + 1`` right pixel ``j`` occluded.
 """
@@ -25,9 +27,7 @@ import numpy as np
 FLAG_OCCLUDED = 1
 FLAG_BORDER = 2
 
-# Back-pointer codes. A matched state stores 1 + 3 * o_prev + (delta + 1) when it
-# came from matched state o_prev at node (x - 1, k - delta); the other codes are
-# relative to ``3 * O`` (matched states) or ``O`` (occlusion states), see ``_code``.
+# Back-pointer code of an unreachable state (the others: see ``scanline_dp``).
 CODE_NONE = 0
 
 

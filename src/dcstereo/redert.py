@@ -13,35 +13,39 @@ From the figure labels
     * the matching window ``W`` around ``x_L`` is *mapped into the right image*.
 
 Our choices (the reconstruction)
-    * An orientation is a disparity slope ``o`` (pixels of disparity per pixel), from a
-      small set (``MatchParams.orientations``, multiples of 1/4 in ``[-1, 1]``; default
-      ``-1/2, -1/4, 0, 1/4, 1/2``). It lives on the half-pixel node between pixels
-      ``x - 1`` and ``x``; the DP state of pixel ``x`` is ``(d, o)``.
+    * An orientation is a disparity slope ``o`` (pixels of disparity per pixel) from a
+      small set (``MatchParams.orientations``, each one of ``0, +-1/4, +-1/2, +-1``;
+      default ``-1/2, -1/4, 0, 1/4, 1/2``). The DP state of a node is ``(x, d, o)``.
+    * Nodes carry integer disparities. A surface of slope ``o = +-1/L`` runs from node
+      ``(x - L, d -+ 1)`` to node ``(x, d)`` in one *segment*; the ``L - 1`` pixels in
+      between lie on the line (disparities in quarter pixels), and the half-pixel node
+      of the labels is this segment with its orientation. Slope 0 is a one-pixel segment
+      at constant disparity. So a plane of slope 1/2 is followed node to node, two pixels
+      at a time (``d, d + 1/2, d + 1, ...``), with exact matches and no occlusion; with
+      integer nodes on every pixel instead, every other pixel of such a plane sits half a
+      pixel off its node and the DP prefers occlusions (we tried it).
     * Mapping the window: the left window of side ``W = 2 r + 1`` centred at ``x`` with
       disparity ``d`` and slope ``o`` compares left column ``x + s`` with the right position
-      ``x + s - (d + o s)``, ``s = -r..r`` (the window is stretched or compressed by the
-      slant of the surface), sampled by linear interpolation; the cost is the sum of
-      absolute differences over the ``W x W`` window, in the units of the other methods
-      (mean absolute difference per pixel, 0..255 gray levels). At ``o = 0`` it is eq. 4.
-    * Consistency of disparity and orientation: the disparity change between matched
-      pixels ``x - 1`` and ``x`` must be ``floor(o)`` or ``ceil(o)`` for the orientation
-      ``o`` of the half-pixel node between them, so a plane of slope 1/2 is followed by the
-      integer staircase ``d, d, d+1, d+1, ...`` with no occlusion at all, and a
-      fronto-parallel run (``o = 0``) keeps its disparity. A change ``-1`` skips one right
-      pixel (it falls between two left pixels, like the d step of eq. 5); a change ``+1``
-      maps two left pixels on the same right pixel (the surface is foreshortened in the
-      right view).
-    * A change of orientation between consecutive matched pixels costs
-      ``MatchParams.orientation_cost`` (same units as the occlusion cost).
+      ``x + s - (d + o s)``, ``s = -r..r`` (stretched or compressed by the slant), sampled by
+      linear interpolation; the cost is the sum of absolute differences over the ``W x W``
+      window, in the units of the other methods (mean absolute difference per pixel,
+      0..255 gray levels). At ``o = 0`` it is eq. 4; a segment costs the sum over its
+      pixels.
+    * A change of orientation between consecutive segments costs
+      ``MatchParams.orientation_cost``; each disparity step of a slanted segment costs
+      ``MatchParams.slant_cost`` (None: :data:`DEFAULT_REDERT_SLANT_COST`). Neither is in
+      the labels. Without the slant cost, two orientation changes buy a ramp of any
+      length, and in flat areas the path drifts down ramps to wrong disparities (venus
+      bad-1.0 nonocc 5.3 % instead of 4.2 %). Both are in the units of the occlusion cost.
     * Occlusions are explicit states: a left pixel without a partner, or a right pixel
       without a partner, costs ``MatchParams.occlusion_cost`` each, as in ``dsi3``; after
-      an occlusion the next match starts a new surface (a diagonal step, any orientation,
-      no orientation cost), so disparity jumps happen only through occlusions.
+      an occlusion the next match starts a new surface (a diagonal step into any
+      orientation, no orientation cost). With ``orientations=(0,)`` the model is exactly
+      the three-step DP of ``dsi3``.
     * The scanline ends are those of ``dsi3``: a free virtual start where one image has
       consumed nothing, and the path ends when either image's last column is reached;
       pixels left over are ``FLAG_BORDER``.
-    * Disparities are integers on the nodes (we do not output the half-pixel values);
-      the orientation of each matched pixel is returned on request.
+    * The orientation of each matched pixel is returned on request.
 
 Memory is O(W x D x orientations) per thread; rows are independent and run in parallel.
 """
