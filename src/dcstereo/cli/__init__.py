@@ -7,8 +7,13 @@ its outputs atomically and returns an exit code. Errors print one line and exit 
 import click
 
 from .. import __version__
+from .bench import bench
+from .compare import compare
+from .datasets import datasets
 from .demo import demo
+from .eval import eval_command
 from .run import run
+from .scanline import scanline
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -19,3 +24,8 @@ def main():
 
 main.add_command(run)
 main.add_command(demo)
+main.add_command(eval_command)
+main.add_command(bench)
+main.add_command(datasets)
+main.add_command(compare)
+main.add_command(scanline)

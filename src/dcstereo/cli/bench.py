@@ -1,0 +1,60 @@
+"""``dcstereo bench``: run methods over every scene under a folder and tabulate the scores."""
+
+import json
+
+import click
+
+from ._common import check_output_paths, one_line_errors, set_threads
+
+
+@click.command()
+@click.argument("data_dir", type=click.Path(file_okay=False))
+@click.option(
+    "--methods",
+    default="all",
+    show_default=True,
+    help="Comma-separated methods (dcstereo's, opencv-sgbm, opencv-bm); all: every "
+    "dcstereo method, and OpenCV's when it is installed.",
+)
+@click.option("--window", type=int, default=5, show_default=True, help="Odd window side.")
+@click.option(
+    "--json",
+    "json_out",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Also write every score (sparse and dense, all masks) to this JSON file.",
+)
+@click.option("--threads", type=int, default=None, help="Number of threads (default: all).")
+@click.option("--quiet", "-q", is_flag=True, help="Print only the table.")
+@one_line_errors
+def bench(data_dir, methods, window, json_out, threads, quiet):
+    """Run METHODS on every scene folder under DATA_DIR and print a table.
+
+    Scene folders of any layout are found at any depth (v2, 2005/2006, 2014). The table
+    gives bad-1.0 (%) of the filled (dense) maps in the nonocc, all and disc masks, the
+    density of the raw map and the time per run, then the mean of each method.
+    """
+    from .. import io
+    from ..evaluation import (
+        bench_folder,
+        bench_table,
+        json_rows,
+        machine_description,
+        parse_methods,
+        render,
+    )
+
+    check_output_paths(json_out)
+    names = parse_methods(methods)
+    set_threads(threads)
+
+    def progress(scene, method, seconds):
+        if not quiet:
+            click.echo(f"{scene:>14s} {method:<12s} {1000 * seconds:8.0f} ms", err=True)
+
+    rows = bench_folder(data_dir, names, options={"window": window}, progress=progress)
+    click.echo(render(bench_table(rows, title=f"bench {data_dir}")), nl=False)
+    if json_out is not None:
+        payload = {"machine": machine_description(), "window": window, "rows": json_rows(rows)}
+        with io.atomic_write(json_out) as tmp:
+            tmp.write_text(json.dumps(payload, indent=1), encoding="utf-8")

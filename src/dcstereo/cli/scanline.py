@@ -1,0 +1,59 @@
+"""``dcstereo scanline``: one row's DSI, optimal paths, feature pairs and profiles."""
+
+import click
+
+from ._common import check_output_paths, one_line_errors
+
+
+@click.command()
+@click.argument("left", type=click.Path(dir_okay=False))
+@click.argument("right", type=click.Path(dir_okay=False))
+@click.option("--row", "-y", required=True, type=int, help="The scanline (0 = top).")
+@click.option("--max-disparity", required=True, type=int, help="Largest disparity searched.")
+@click.option("--min-disparity", type=int, default=0, show_default=True)
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="PNG.")
+@click.option(
+    "--methods",
+    default="dsi3,dsi5,dc",
+    show_default=True,
+    help="Comma-separated dcstereo methods whose paths are drawn.",
+)
+@click.option("--window", type=int, default=5, show_default=True, help="Odd window side.")
+@click.option("--width", type=int, default=1200, show_default=True, help="Picture width, px.")
+@click.option("--height", type=int, default=800, show_default=True, help="Picture height, px.")
+@one_line_errors
+def scanline(
+    left, right, row, max_disparity, min_disparity, output, methods, window, width, height
+):
+    """Draw row ROW of LEFT/RIGHT as the paper's Fig. 1 / 2 do.
+
+    The disparity-space image of the row (x across, disparity up, dark = good match),
+    the optimal paths of the methods, the feature pairs dc accepted (yellow circles) and
+    the two intensity profiles.
+    """
+    from .. import io
+    from ..evaluation import parse_methods
+    from ..explore import scanline as gather
+    from ..explore import scanline_figure
+    from ..opencv import OPENCV_METHODS
+
+    check_output_paths(output)
+    names = parse_methods(methods)
+    if any(name in OPENCV_METHODS for name in names):
+        raise ValueError("scanline draws dcstereo's methods only (OpenCV gives no path)")
+    if width < 200 or height < 200:
+        raise ValueError(f"--width and --height must be at least 200, got {width}x{height}")
+    left_image = io.read_image(left)
+    right_image = io.read_image(right)
+    data = gather(
+        left_image,
+        right_image,
+        row,
+        max_disparity=max_disparity,
+        min_disparity=min_disparity,
+        window=window,
+        methods=names,
+    )
+    io.write_rgb_png(output, scanline_figure(data, width=width, height=height))
+    pairs = sum(len(p) for p in data["features"].values())
+    click.echo(f"row {row}: {', '.join(names)}, {pairs} feature pairs -> {output}")

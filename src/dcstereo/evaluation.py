@@ -1,0 +1,416 @@
+"""Score disparity maps against Middlebury ground truth, and benchmark methods over scenes.
+
+Used by ``dcstereo eval``, ``dcstereo bench`` and ``scripts/make_results.py``. The numbers
+come from :func:`dcstereo.metrics.evaluate`: the denominator of every rate is the masked
+pixels with known ground truth, and a pixel without an estimate counts as bad (Middlebury
+v3). Each method is scored twice: as it comes (``"sparse"``, with its density) and after
+the project's hole filling, :meth:`DisparityResult.filled` (``"dense"``), which is applied
+to every method alike, OpenCV's included.
+"""
+
+import io
+import os
+import platform
+import time
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from .datasets import StereoScene, find_scenes, load_scene
+from .metrics import DEFAULT_THRESHOLDS, evaluate
+from .opencv import OPENCV_METHODS
+from .params import METHODS
+from .result import DisparityResult
+
+#: Order of the masks in reports.
+MASK_ORDER = ("nonocc", "all", "disc")
+
+
+def opencv_available() -> bool:
+    """Whether ``cv2`` can be imported."""
+    try:
+        import cv2  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def available_methods(include_opencv: bool | None = None) -> list[str]:
+    """Every method :func:`run_method` knows: :data:`dcstereo.params.METHODS`, then OpenCV's.
+
+    Parameters
+    ----------
+    include_opencv : bool, optional
+        Add ``opencv-sgbm`` and ``opencv-bm``; default when OpenCV is installed.
+
+    Returns
+    -------
+    list of str
+    """
+    if include_opencv is None:
+        include_opencv = opencv_available()
+    return list(METHODS) + (list(OPENCV_METHODS) if include_opencv else [])
+
+
+def parse_methods(text: str | None) -> list[str]:
+    """Turn ``"dc,dsi5"`` into a checked list of names; None or ``"all"``: every method.
+
+    Parameters
+    ----------
+    text : str or None
+        Comma-separated method names.
+
+    Returns
+    -------
+    list of str
+
+    Raises
+    ------
+    ValueError
+        For an unknown or repeated name, or an empty list.
+    """
+    if text is None or text.strip() == "all":
+        return available_methods()
+    names = [part.strip() for part in text.split(",") if part.strip()]
+    known = list(METHODS) + list(OPENCV_METHODS)
+    for name in names:
+        if name not in known:
+            raise ValueError(f"unknown method {name!r}; choose from {', '.join(known)}")
+    if len(set(names)) != len(names):
+        raise ValueError(f"a method is repeated in {text!r}")
+    if not names:
+        raise ValueError("no method given")
+    return names
+
+
+def run_method(
+    method: str, left: np.ndarray, right: np.ndarray, *, max_disparity: int, **options
+) -> DisparityResult:
+    """Run one method by name: :func:`dcstereo.match` or :func:`dcstereo.opencv.match_opencv`.
+
+    Parameters
+    ----------
+    method : str
+        A name of :func:`available_methods`.
+    left, right : ndarray
+        The rectified pair.
+    max_disparity : int
+        Largest disparity searched.
+    **options
+        Passed on (``min_disparity``, ``window``, ...).
+
+    Returns
+    -------
+    DisparityResult
+        As the method gives it (not filled).
+    """
+    if method in OPENCV_METHODS:
+        from .opencv import match_opencv
+
+        return match_opencv(
+            left, right, max_disparity=max_disparity, method=OPENCV_METHODS[method], **options
+        )
+    from .api import match
+
+    return match(left, right, max_disparity=max_disparity, method=method, **options)
+
+
+def score(
+    disparity: np.ndarray,
+    scene: StereoScene,
+    thresholds: Sequence[float] = DEFAULT_THRESHOLDS,
+) -> dict[str, dict[str, float]]:
+    """All metrics of one disparity map against a scene, for each of its masks.
+
+    Parameters
+    ----------
+    disparity : ndarray, shape (H, W)
+        Estimate in pixels, NaN where there is none.
+    scene : StereoScene
+        Ground truth and masks.
+    thresholds : sequence of float
+        Bad-pixel thresholds.
+
+    Returns
+    -------
+    dict
+        ``{mask: {"bad-0.5": %, ..., "mae": px, "rms": px, "density": %}}``, masks in the
+        order of :data:`MASK_ORDER`.
+
+    Raises
+    ------
+    ValueError
+        When the map and the scene differ in size.
+    """
+    disparity = np.asarray(disparity)
+    if disparity.shape != scene.shape:
+        raise ValueError(
+            f"the prediction is {disparity.shape[-1]}x{disparity.shape[0]} pixels but scene "
+            f"{scene.name} is {scene.shape[1]}x{scene.shape[0]}"
+        )
+    names = [m for m in MASK_ORDER if m in scene.masks]
+    names += [m for m in scene.masks if m not in names]
+    return evaluate(disparity, scene.disparity, {m: scene.masks[m] for m in names}, thresholds)
+
+
+def evaluate_file(prediction: str | os.PathLike, scene_dir: str | os.PathLike) -> dict:
+    """Score a disparity file (PFM, or 16-bit PNG of ``d * 256``) against a scene folder.
+
+    Parameters
+    ----------
+    prediction : path-like
+        The disparity map of the scene's left view.
+    scene_dir : path-like
+        A scene folder of any layout (:func:`dcstereo.datasets.load_scene`).
+
+    Returns
+    -------
+    dict
+        ``{"prediction", "scene", "layout", "size", "scores"}`` with ``scores`` as in
+        :func:`score`.
+    """
+    from .io import read_disparity
+
+    scene = load_scene(scene_dir)
+    disparity = read_disparity(prediction)
+    return {
+        "prediction": str(prediction),
+        "scene": scene.name,
+        "layout": scene.meta.get("layout", ""),
+        "size": [scene.shape[1], scene.shape[0]],
+        "scores": score(disparity, scene),
+    }
+
+
+def _warm_up(method: str, scene: StereoScene, options: dict, done: set) -> None:
+    """Run once on a few rows so that compiling is not timed (numba caches per process)."""
+    if method in done or method in OPENCV_METHODS:
+        return
+    rows = min(scene.shape[0], 12)
+    run_method(
+        method,
+        scene.left[:rows],
+        scene.right[:rows],
+        max_disparity=scene.max_disparity,
+        min_disparity=scene.min_disparity,
+        **options,
+    )
+    done.add(method)
+
+
+def bench(
+    scenes: Iterable[StereoScene | str | os.PathLike],
+    methods: Sequence[str],
+    *,
+    options: dict | None = None,
+    thresholds: Sequence[float] = DEFAULT_THRESHOLDS,
+    progress=None,
+    keep_results: bool = False,
+) -> list[dict]:
+    """Run every method on every scene and score it, sparse and dense.
+
+    Parameters
+    ----------
+    scenes : iterable of StereoScene or path-like
+        Scenes, or scene folders (loaded with :func:`load_scene`).
+    methods : sequence of str
+        Names from :func:`available_methods`.
+    options : dict, optional
+        Passed to every method (for example ``{"window": 5}``).
+    thresholds : sequence of float
+        Bad-pixel thresholds.
+    progress : callable, optional
+        Called with ``(scene_name, method, seconds)`` after each run.
+    keep_results : bool
+        Keep the :class:`DisparityResult` of each run under ``"result"``.
+
+    Returns
+    -------
+    list of dict
+        One row per (scene, method): ``{"scene", "method", "size", "max_disparity",
+        "seconds", "sparse": scores, "dense": scores}`` with scores as in :func:`score`.
+        ``seconds`` is the wall time of one call, compilation excluded.
+    """
+    options = dict(options or {})
+    warmed: set = set()
+    rows = []
+    for item in scenes:
+        scene = item if isinstance(item, StereoScene) else load_scene(item)
+        for method in methods:
+            _warm_up(method, scene, options, warmed)
+            start = time.perf_counter()
+            result = run_method(
+                method,
+                scene.left,
+                scene.right,
+                max_disparity=scene.max_disparity,
+                min_disparity=scene.min_disparity,
+                **options,
+            )
+            seconds = time.perf_counter() - start
+            row = {
+                "scene": scene.name,
+                "method": method,
+                "size": [scene.shape[1], scene.shape[0]],
+                "max_disparity": scene.max_disparity,
+                "seconds": seconds,
+                "sparse": score(result.disparity, scene, thresholds),
+                "dense": score(result.filled().disparity, scene, thresholds),
+            }
+            if keep_results:
+                row["result"] = result
+            rows.append(row)
+            if progress is not None:
+                progress(scene.name, method, seconds)
+    return rows
+
+
+def bench_folder(data_dir: str | os.PathLike, methods: Sequence[str], **kwargs) -> list[dict]:
+    """:func:`bench` over every scene folder under ``data_dir`` (:func:`find_scenes`).
+
+    Raises
+    ------
+    ValueError
+        When there is no scene under ``data_dir``.
+    """
+    folders = find_scenes(data_dir)
+    if not folders:
+        raise ValueError(f"no scene folder (of any known layout) under {data_dir}")
+    return bench(folders, methods, **kwargs)
+
+
+def mean_rows(rows: Sequence[dict]) -> list[dict]:
+    """Average every number over the scenes, per method (masks missing in a scene skipped).
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        Rows of :func:`bench`.
+
+    Returns
+    -------
+    list of dict
+        One row per method, in first-seen order, shaped like the rows of :func:`bench`
+        with ``scene`` = ``"mean"`` and ``"scenes"`` the number of scenes averaged.
+    """
+    methods = list(dict.fromkeys(row["method"] for row in rows))
+    means = []
+    for method in methods:
+        mine = [row for row in rows if row["method"] == method]
+        mean = {"scene": "mean", "method": method, "scenes": len(mine)}
+        mean["seconds"] = float(np.mean([row["seconds"] for row in mine]))
+        for kind in ("sparse", "dense"):
+            mean[kind] = {}
+            masks = dict.fromkeys(m for row in mine for m in row[kind])
+            for mask in masks:
+                values = [row[kind][mask] for row in mine if mask in row[kind]]
+                mean[kind][mask] = {
+                    key: float(np.mean([v[key] for v in values])) for key in values[0]
+                }
+        means.append(mean)
+    return means
+
+
+def _cell(scores: dict, mask: str, key: str, digits: int = 2) -> str:
+    value = scores.get(mask, {}).get(key)
+    if value is None:
+        return "-"
+    return "nan" if value != value else f"{value:.{digits}f}"
+
+
+def bench_table(rows: Sequence[dict], *, title: str | None = None):
+    """Build a rich table of :func:`bench` rows, then the mean row of each method.
+
+    Columns: scene, method, dense bad-1.0 in the nonocc / all / disc masks (%), the
+    sparse map's density over ``all`` (%), and the time (ms).
+
+    Returns
+    -------
+    rich.table.Table
+    """
+    from rich.table import Table
+
+    table = Table(title=title)
+    for name, justify in [
+        ("scene", "left"),
+        ("method", "left"),
+        ("bad-1.0 nonocc %", "right"),
+        ("bad-1.0 all %", "right"),
+        ("bad-1.0 disc %", "right"),
+        ("density %", "right"),
+        ("time ms", "right"),
+    ]:
+        table.add_column(name, justify=justify)
+    means = mean_rows(rows)
+    for index, row in enumerate(list(rows) + means):
+        if index == len(rows):
+            table.add_section()
+        table.add_row(
+            row["scene"],
+            row["method"],
+            _cell(row["dense"], "nonocc", "bad-1.0"),
+            _cell(row["dense"], "all", "bad-1.0"),
+            _cell(row["dense"], "disc", "bad-1.0"),
+            _cell(row["sparse"], "all", "density", 1),
+            f"{1000 * row['seconds']:.0f}",
+        )
+    return table
+
+
+def scores_table(result: dict):
+    """Build a rich table of :func:`evaluate_file`: one row per mask, one column per metric."""
+    from rich.table import Table
+
+    scores = result["scores"]
+    keys = list(next(iter(scores.values())))
+    table = Table(title=f"{result['prediction']} against {result['scene']}")
+    table.add_column("mask")
+    for key in keys:
+        unit = "px" if key in ("mae", "rms") else "%"
+        table.add_column(f"{key} {unit}", justify="right")
+    for mask in scores:
+        table.add_row(mask, *[_cell(scores, mask, key) for key in keys])
+    return table
+
+
+def render(table, width: int = 120) -> str:
+    """Render a rich table as plain text (no colour codes), for printing or files."""
+    from rich.console import Console
+
+    console = Console(file=io.StringIO(), width=width, color_system=None, force_terminal=False)
+    console.print(table)
+    return console.file.getvalue()
+
+
+def json_rows(rows: Sequence[dict]) -> list[dict]:
+    """Rows of :func:`bench` without the results, ready for :func:`json.dumps`."""
+    return [{k: v for k, v in row.items() if k != "result"} for row in rows]
+
+
+def machine_description() -> dict:
+    """Describe what the timings ran on: CPU, cores, numba threads, Python and library versions."""
+    import numba
+
+    cpu = platform.processor() or platform.machine()
+    cpuinfo = Path("/proc/cpuinfo")
+    if cpuinfo.is_file():
+        for line in cpuinfo.read_text(errors="replace").splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    info = {
+        "cpu": cpu,
+        "cores": os.cpu_count(),
+        "numba_threads": numba.get_num_threads(),
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "numba": numba.__version__,
+        "system": platform.platform(),
+    }
+    if opencv_available():
+        import cv2
+
+        info["opencv"] = cv2.__version__
+        info["opencv_threads"] = cv2.getNumThreads()
+    return info

@@ -1,0 +1,244 @@
+"""OpenCV's StereoSGBM and StereoBM as baselines, returning a :class:`DisparityResult`.
+
+OpenCV returns int16 fixed point (disparity times 16) with a sentinel,
+``(min_disparity - 1) * 16``, for pixels without an estimate. :func:`match_opencv` turns
+that into the project's convention: float32 pixels, ``x_right = x_left - d``, NaN where
+there is no estimate (flagged :data:`~dcstereo.result.FLAG_OCCLUDED`), so the same
+metrics and the same hole filling (:meth:`DisparityResult.filled`) apply to both.
+
+OpenCV is an optional dependency: ``pip install "dcstereo[opencv]"``.
+
+References
+----------
+H. Hirschmueller, "Stereo processing by semiglobal matching and mutual information",
+IEEE TPAMI 30(2):328-341, 2008 (SGBM); K. Konolige, "Small vision systems: hardware and
+implementation", ISRR 1997 (BM).
+"""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .result import FLAG_OCCLUDED, DisparityResult
+from .signal import check_image, intensity
+
+#: OpenCV methods, by the names the benchmark uses.
+OPENCV_METHODS = {"opencv-sgbm": "sgbm", "opencv-bm": "bm"}
+
+_MODES = ("sgbm", "hh", "sgbm3way", "hh4")
+
+
+@dataclass(frozen=True)
+class OpenCVParams:
+    """The settings of one OpenCV run (stands in for ``MatchParams`` in the result).
+
+    Attributes
+    ----------
+    method : str
+        ``"opencv-sgbm"`` or ``"opencv-bm"``.
+    max_disparity, min_disparity : int
+        The range asked for (inclusive).
+    num_disparities : int
+        What OpenCV searched: ``max_disparity - min_disparity + 1`` rounded up to a
+        multiple of 16 (OpenCV requires it). Estimates above ``max_disparity`` are
+        dropped (NaN), so both matchers answer within the same range.
+    window : int
+        ``blockSize`` (odd).
+    p1, p2 : int
+        SGBM smoothness penalties for a change of 1 and of more than 1 pixel (0 for BM).
+    mode : str
+        SGBM mode: ``"sgbm"`` (``MODE_SGBM``, 5 directions, one pass), ``"hh"``
+        (``MODE_HH``, 8 directions), ``"sgbm3way"``, ``"hh4"``; ``""`` for BM.
+    uniqueness_ratio, disp12_max_diff, speckle_window, speckle_range, pre_filter_cap : int
+        Passed to OpenCV as they are.
+    fill : bool
+        Always False: fill with :meth:`DisparityResult.filled`.
+    """
+
+    method: str
+    max_disparity: int
+    min_disparity: int
+    num_disparities: int
+    window: int
+    p1: int
+    p2: int
+    mode: str
+    uniqueness_ratio: int
+    disp12_max_diff: int
+    speckle_window: int
+    speckle_range: int
+    pre_filter_cap: int
+    fill: bool = False
+
+
+def _import_cv2():
+    try:
+        import cv2
+    except ImportError as err:
+        raise ImportError(
+            'OpenCV is not installed; install the extra: pip install "dcstereo[opencv]"'
+        ) from err
+    return cv2
+
+
+def match_opencv(
+    left: np.ndarray,
+    right: np.ndarray,
+    *,
+    max_disparity: int,
+    min_disparity: int = 0,
+    method: str = "sgbm",
+    window: int = 5,
+    p1: int | None = None,
+    p2: int | None = None,
+    mode: str = "sgbm",
+    uniqueness_ratio: int | None = None,
+    disp12_max_diff: int = 1,
+    speckle_window: int = 100,
+    speckle_range: int = 2,
+    pre_filter_cap: int | None = None,
+) -> DisparityResult:
+    """Disparity of the left image with OpenCV's semi-global or block matcher.
+
+    Both images are turned into 8-bit gray with the project's luma (so OpenCV sees what
+    :func:`dcstereo.match` sees; ``cn = 1`` below).
+
+    Parameters
+    ----------
+    left, right : ndarray, shape (H, W) or (H, W, 3|4)
+        Rectified pair, as for :func:`dcstereo.match`.
+    max_disparity, min_disparity : int
+        Inclusive search range in pixels. OpenCV searches ``numDisparities`` =
+        ``max - min + 1`` rounded up to a multiple of 16; estimates beyond
+        ``max_disparity`` become NaN.
+    method : {"sgbm", "bm"}
+        ``cv2.StereoSGBM`` or ``cv2.StereoBM``.
+    window : int
+        Odd ``blockSize``; BM needs 5 or more.
+    p1, p2 : int, optional
+        SGBM penalties; default the values OpenCV's documentation suggests,
+        ``P1 = 8 * cn * window**2`` and ``P2 = 32 * cn * window**2`` with ``cn = 1``.
+    mode : {"sgbm", "hh", "sgbm3way", "hh4"}
+        SGBM mode; default ``MODE_SGBM`` (5 directions in one pass, OpenCV's default).
+    uniqueness_ratio : int, optional
+        Percent margin of the best cost over the second; default 10 (SGBM), 15 (BM).
+    disp12_max_diff : int
+        Left-right check tolerance in pixels (-1 disables it); default 1.
+    speckle_window, speckle_range : int
+        Speckle filter: regions under ``speckle_window`` pixels whose disparity varies by
+        at most ``speckle_range`` are invalidated; default 100 and 2 (0 disables).
+    pre_filter_cap : int, optional
+        Clip of the x-derivative prefilter; default 63 (SGBM), 31 (BM).
+
+    Returns
+    -------
+    DisparityResult
+        float32 disparity, NaN where OpenCV gives no estimate; ``params`` is an
+        :class:`OpenCVParams`; ``path_cost`` is NaN (OpenCV does not report it).
+
+    Raises
+    ------
+    ImportError
+        When OpenCV is not installed (the message names the extra).
+    ValueError
+        For a bad image, range, window or mode.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> right = rng.integers(0, 256, (40, 80), dtype=np.uint8)
+    >>> left = np.roll(right, 3, axis=1)
+    >>> result = match_opencv(left, right, max_disparity=8)  # doctest: +SKIP
+    >>> float(np.nanmedian(result.disparity[:, 20:]))  # doctest: +SKIP
+    3.0
+    """
+    if method not in ("sgbm", "bm"):
+        raise ValueError(f"method must be 'sgbm' or 'bm', got {method!r}")
+    for name, value in (("max_disparity", max_disparity), ("min_disparity", min_disparity)):
+        if isinstance(value, bool) or not isinstance(value, int | np.integer):
+            raise TypeError(f"{name} must be an integer, got {value!r}")
+    if max_disparity < min_disparity:
+        raise ValueError(
+            f"max_disparity ({max_disparity}) must not be smaller than min_disparity "
+            f"({min_disparity})"
+        )
+    if isinstance(window, bool) or not isinstance(window, int) or window < 1 or window % 2 == 0:
+        raise ValueError(f"window must be a positive odd integer, got {window!r}")
+    if method == "bm" and window < 5:
+        raise ValueError(f"OpenCV's block matcher needs window >= 5, got {window}")
+    if method == "sgbm" and mode not in _MODES:
+        raise ValueError(f"mode must be one of {', '.join(_MODES)}, got {mode!r}")
+    left = check_image(left, "left")
+    right = check_image(right, "right")
+    if left.shape != right.shape:
+        raise ValueError(f"left and right images differ in shape: {left.shape} vs {right.shape}")
+    cv2 = _import_cv2()
+
+    gray_left = np.clip(np.rint(intensity(left)), 0, 255).astype(np.uint8)
+    gray_right = np.clip(np.rint(intensity(right)), 0, 255).astype(np.uint8)
+    num = 16 * math.ceil((max_disparity - min_disparity + 1) / 16)
+    if method == "sgbm":
+        p1 = 8 * window * window if p1 is None else int(p1)
+        p2 = 32 * window * window if p2 is None else int(p2)
+        uniqueness_ratio = 10 if uniqueness_ratio is None else int(uniqueness_ratio)
+        pre_filter_cap = 63 if pre_filter_cap is None else int(pre_filter_cap)
+        modes = {
+            "sgbm": cv2.STEREO_SGBM_MODE_SGBM,
+            "hh": cv2.STEREO_SGBM_MODE_HH,
+            "sgbm3way": cv2.STEREO_SGBM_MODE_SGBM_3WAY,
+            "hh4": cv2.STEREO_SGBM_MODE_HH4,
+        }
+        matcher = cv2.StereoSGBM_create(
+            minDisparity=int(min_disparity),
+            numDisparities=num,
+            blockSize=window,
+            P1=p1,
+            P2=p2,
+            disp12MaxDiff=int(disp12_max_diff),
+            preFilterCap=pre_filter_cap,
+            uniquenessRatio=uniqueness_ratio,
+            speckleWindowSize=int(speckle_window),
+            speckleRange=int(speckle_range),
+            mode=modes[mode],
+        )
+    else:
+        p1 = p2 = 0
+        mode = ""
+        uniqueness_ratio = 15 if uniqueness_ratio is None else int(uniqueness_ratio)
+        pre_filter_cap = 31 if pre_filter_cap is None else int(pre_filter_cap)
+        matcher = cv2.StereoBM_create(numDisparities=num, blockSize=window)
+        matcher.setMinDisparity(int(min_disparity))
+        matcher.setUniquenessRatio(uniqueness_ratio)
+        matcher.setPreFilterCap(pre_filter_cap)
+        matcher.setDisp12MaxDiff(int(disp12_max_diff))
+        matcher.setSpeckleWindowSize(int(speckle_window))
+        matcher.setSpeckleRange(int(speckle_range))
+    try:
+        fixed = matcher.compute(gray_left, gray_right)
+    except cv2.error as err:
+        message = str(err).strip().splitlines()[-1] if str(err).strip() else "cv2.error"
+        raise ValueError(f"OpenCV {method} failed: {message}") from None
+    disparity = fixed.astype(np.float32) / np.float32(16.0)
+    # Below min_disparity: the sentinel (min - 1) * 16 or anything OpenCV marks invalid.
+    invalid = (fixed < min_disparity * 16) | (disparity > max_disparity)
+    disparity[invalid] = np.nan
+    flags = np.where(invalid, FLAG_OCCLUDED, 0).astype(np.uint8)
+    params = OpenCVParams(
+        method=f"opencv-{method}",
+        max_disparity=int(max_disparity),
+        min_disparity=int(min_disparity),
+        num_disparities=num,
+        window=window,
+        p1=p1,
+        p2=p2,
+        mode=mode,
+        uniqueness_ratio=uniqueness_ratio,
+        disp12_max_diff=int(disp12_max_diff),
+        speckle_window=int(speckle_window),
+        speckle_range=int(speckle_range),
+        pre_filter_cap=pre_filter_cap,
+    )
+    path_cost = np.full(disparity.shape[0], np.nan)
+    return DisparityResult(disparity, flags, params, path_cost)

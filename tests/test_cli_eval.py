@@ -1,0 +1,246 @@
+"""eval, bench, compare, scanline and datasets through click's test runner."""
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from PIL import Image
+
+import synthetic
+from dcstereo import datasets as ds
+from dcstereo import io
+from dcstereo.cli import main
+from test_datasets import http_server, zipped_scene  # noqa: F401  (fixture)
+
+HEIGHT, WIDTH = 24, 64
+
+
+def invoke(*args):
+    return CliRunner().invoke(main, [str(a) for a in args], catch_exceptions=False)
+
+
+def write_v2_scene(folder, seed=5, foreground=8):
+    """A tiny scene in the v2 layout: object pair, gray = 4 * d."""
+    rng = np.random.default_rng(seed)
+    left, right, truth = synthetic.object_pair(rng, HEIGHT, WIDTH, 2, foreground, (24, 44))
+    folder.mkdir(parents=True)
+    known = np.isfinite(truth)
+    gray = np.where(known, np.rint(4 * np.nan_to_num(truth)), 0).astype(np.uint8)
+    mask = np.where(known, 255, 0).astype(np.uint8)
+    disc = np.where(known, 128, 0).astype(np.uint8)
+    disc[:, 20:28][known[:, 20:28]] = 255
+    for name, array in [
+        ("left.png", left),
+        ("right.png", right),
+        ("disp_gt.png", gray),
+        ("nonocc.png", mask),
+        ("all.png", mask),
+        ("disc.png", disc),
+    ]:
+        Image.fromarray(array).save(folder / name)
+    (folder / "meta.json").write_text(json.dumps({"name": folder.name, "scale": 4, "ndisp": 11}))
+    return truth
+
+
+def test_eval_truth_against_itself(tmp_path):
+    truth = write_v2_scene(tmp_path / "toy")
+    io.write_pfm(tmp_path / "gt.pfm", truth)
+    result = invoke("eval", tmp_path / "gt.pfm", tmp_path / "toy", "--json")
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.output)
+    assert report["scene"] == "toy" and report["layout"] == "v2"
+    assert list(report["scores"]) == ["nonocc", "all", "disc"]
+    for row in report["scores"].values():
+        assert row["bad-0.5"] == 0.0 and row["mae"] == 0.0 and row["density"] == 100.0
+    table = invoke("eval", tmp_path / "gt.pfm", tmp_path / "toy")
+    assert table.exit_code == 0 and "nonocc" in table.output and "bad-1.0" in table.output
+
+
+def test_eval_png16_with_holes(tmp_path):
+    truth = write_v2_scene(tmp_path / "toy")
+    estimate = truth.copy()
+    estimate[:, :32] = np.nan  # no estimate on the left half
+    io.write_disparity(tmp_path / "half.png", estimate)
+    result = invoke("eval", tmp_path / "half.png", tmp_path / "toy", "--json")
+    assert result.exit_code == 0, result.output
+    scores = json.loads(result.output)["scores"]["all"]
+    known = np.isfinite(truth)
+    missing = 100 * known[:, :32].sum() / known.sum()
+    assert scores["bad-1.0"] == pytest.approx(missing)
+    assert scores["density"] == pytest.approx(100 - missing)
+
+
+def test_eval_errors_are_one_line(tmp_path):
+    write_v2_scene(tmp_path / "toy")
+    io.write_pfm(tmp_path / "small.pfm", np.zeros((5, 5), np.float32))
+    result = invoke("eval", tmp_path / "small.pfm", tmp_path / "toy")
+    assert result.exit_code == 1
+    assert result.output.count("\n") == 1 and "5x5 pixels" in result.output
+    result = invoke("eval", tmp_path / "small.pfm", tmp_path)
+    assert result.exit_code == 1 and "not a scene folder" in result.output
+    assert "Traceback" not in result.output
+
+
+def test_bench_table_and_json(tmp_path):
+    write_v2_scene(tmp_path / "data" / "a", seed=5)
+    write_v2_scene(tmp_path / "data" / "b", seed=6, foreground=7)
+    out = tmp_path / "bench.json"
+    result = invoke("bench", tmp_path / "data", "--methods", "block,dsi5", "--json", out, "--quiet")
+    assert result.exit_code == 0, result.output
+    for word in ("bad-1.0 nonocc", "disc", "mean", "block", "dsi5", "time ms"):
+        assert word in result.output
+    payload = json.loads(out.read_text())
+    assert [(r["scene"], r["method"]) for r in payload["rows"]] == [
+        ("a", "block"),
+        ("a", "dsi5"),
+        ("b", "block"),
+        ("b", "dsi5"),
+    ]
+    assert payload["machine"]["numba_threads"] >= 1 and payload["window"] == 5
+    assert payload["rows"][1]["dense"]["nonocc"]["bad-1.0"] < 20.0
+
+
+def test_bench_errors(tmp_path):
+    (tmp_path / "empty").mkdir()
+    result = invoke("bench", tmp_path / "empty", "--methods", "block")
+    assert result.exit_code == 1 and "no scene folder" in result.output
+    result = invoke("bench", tmp_path / "empty", "--methods", "block,magic")
+    assert result.exit_code == 1 and "unknown method 'magic'" in result.output
+
+
+@pytest.fixture
+def pair(tmp_path):
+    truth = write_v2_scene(tmp_path / "toy")
+    return tmp_path / "toy" / "left.png", tmp_path / "toy" / "right.png", truth
+
+
+def panels(figure, rows, columns):
+    """Split a compare figure into its panels (caption strips removed)."""
+    out = {}
+    for r in range(rows):
+        for c in range(columns):
+            top = r * (HEIGHT + 16) + 16
+            left = c * (WIDTH + 4)
+            out[r, c] = figure[top : top + HEIGHT, left : left + WIDTH]
+    return out
+
+
+def test_compare_with_ground_truth(pair, tmp_path):
+    left, right, _ = pair
+    out = tmp_path / "fig.png"
+    result = invoke(
+        "compare", left, right, "-o", out, "--max-disparity", 10, "--gt", tmp_path / "toy"
+    )
+    assert result.exit_code == 0, result.output
+    figure = io.read_image(out)
+    assert figure.shape == (3 * (HEIGHT + 16), 4 * (WIDTH + 4) - 4, 3)
+    parts = panels(figure, 3, 4)
+    assert not np.array_equal(parts[0, 0], parts[0, 1])  # left image vs dsi3
+    assert not np.array_equal(parts[1, 0], parts[1, 3])  # ground truth vs dc in colour
+    assert not np.array_equal(parts[0, 1], parts[1, 1])  # paper display vs colour
+    red = (parts[2, 2] == [255, 0, 0]).all(axis=-1)
+    gray = (parts[2, 2] == [200, 200, 200]).all(axis=-1)
+    assert gray.sum() > red.sum()  # dsi5 is mostly right on this scene
+
+
+def test_compare_without_truth_and_more_methods(pair, tmp_path):
+    left, right, _ = pair
+    out = tmp_path / "fig.png"
+    result = invoke(
+        "compare", left, right, "-o", out, "--max-disparity", 10, "--methods", "block,dc"
+    )
+    assert result.exit_code == 0, result.output
+    figure = io.read_image(out)
+    assert figure.shape == (2 * (HEIGHT + 16), 3 * (WIDTH + 4) - 4, 3)
+    parts = panels(figure, 2, 3)
+    assert not np.array_equal(parts[0, 1], parts[0, 2])  # block differs from dc
+
+
+def test_compare_errors(pair, tmp_path):
+    left, right, _ = pair
+    result = invoke("compare", left, right, "-o", tmp_path / "no" / "f.png", "--max-disparity", 9)
+    assert result.exit_code == 1 and "does not exist" in result.output
+    result = invoke(
+        "compare", left, tmp_path / "missing.png", "-o", tmp_path / "f.png", "--max-disparity", 9
+    )
+    assert result.exit_code == 1 and result.output.count("\n") == 1
+
+
+def test_scanline_picture(pair, tmp_path):
+    left, right, _ = pair
+    out = tmp_path / "row.png"
+    result = invoke(
+        "scanline",
+        left,
+        right,
+        "--row",
+        12,
+        "--max-disparity",
+        10,
+        "-o",
+        out,
+        "--width",
+        400,
+        "--height",
+        300,
+    )
+    assert result.exit_code == 0, result.output
+    assert "feature pairs" in result.output
+    picture = io.read_image(out)
+    assert picture.shape == (300, 400, 3)
+    top, bottom = picture[:150], picture[150:]
+    assert not np.array_equal(top, bottom)
+    assert (picture == [255, 255, 0]).all(axis=-1).any()  # the yellow feature circles
+    result = invoke("scanline", left, right, "--row", 99, "--max-disparity", 10, "-o", out)
+    assert result.exit_code == 1 and "row must be in 0..23" in result.output
+
+
+def test_scanline_data_matches_a_full_run(pair):
+    import dcstereo
+    from dcstereo.explore import dsi_row, scanline
+
+    left, right, _ = pair
+    left, right = io.read_image(left), io.read_image(right)
+    data = scanline(left, right, 1, max_disparity=10, methods=("dsi5", "dc"))
+    full = dcstereo.match(left, right, max_disparity=10, method="dsi5")
+    np.testing.assert_array_equal(data["paths"]["dsi5"], full.disparity[1])
+    dsi = dsi_row(left, right, 1, max_disparity=10)
+    assert dsi.shape == (11, WIDTH) and np.isnan(dsi[10, :10]).all()
+    # A hand-computed cell: window 5 around (x=30, y=1), edge-replicated rows above.
+    gray_l, gray_r = left.astype(float), right.astype(float)
+    rows = np.clip(np.arange(-1, 4), 0, HEIGHT - 1)
+    patch_l = gray_l[rows][:, 28:33]
+    patch_r = gray_r[rows][:, 28 - 8 : 33 - 8]
+    assert dsi[8, 30] == pytest.approx(np.abs(patch_l - patch_r).mean())
+    feats = data["features"]["dc"]
+    assert feats.shape[1] == 2 and (feats[:, 0] - feats[:, 1] >= 0).all()
+
+
+def test_datasets_list_and_fetch(tmp_path, http_server, monkeypatch):  # noqa: F811
+    result = invoke("datasets", "list")
+    assert result.exit_code == 0
+    assert "art-2005-third" in result.output and "unverified" in result.output
+    www, base = http_server
+    digest = zipped_scene(tmp_path, www)
+    entry = ds.RegistryEntry(
+        "toy", "2014", (ds.RemoteFile(f"{base}/Toy.zip", digest),), "Toy", "", ""
+    )
+    monkeypatch.setitem(ds.REGISTRY, "toy", entry)
+    result = invoke("datasets", "fetch", "toy", "--cache", tmp_path / "cache")
+    assert result.exit_code == 0, result.output
+    assert result.output.strip().endswith(str(tmp_path / "cache" / "toy" / "Toy"))
+    assert digest in result.output
+    bad = ds.RegistryEntry(
+        "bad", "2014", (ds.RemoteFile(f"{base}/Toy.zip", "1" * 64),), "Toy", "", ""
+    )
+    monkeypatch.setitem(ds.REGISTRY, "bad", bad)
+    result = invoke("datasets", "fetch", "bad", "--cache", tmp_path / "c2")
+    assert result.exit_code == 1
+    assert (
+        result.output.startswith("Error: checksum mismatch for bad")
+        and result.output.count("\n") == 1
+    )
+    assert [p for p in (tmp_path / "c2").rglob("*") if p.is_file()] == []
+    result = invoke("datasets", "fetch", "art-2005-third", "--cache", tmp_path / "c3")
+    assert result.exit_code == 1 and "not verified" in result.output
