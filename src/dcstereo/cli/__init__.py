@@ -10,6 +10,7 @@ from .. import __version__
 from .bench import bench
 from .compare import compare
 from .datasets import datasets
+from .batch import batch
 from .demo import demo
 from .eval import eval_command
 from .run import run
@@ -24,6 +25,7 @@ def main():
 
 main.add_command(run)
 main.add_command(demo)
+main.add_command(batch)
 main.add_command(eval_command)
 main.add_command(bench)
 main.add_command(datasets)

@@ -1,0 +1,391 @@
+"""Match many stereo pairs, here or on a Dask cluster, and lose nothing.
+
+* Every output is written atomically (a temporary name in the same folder, then a
+  rename), so a file that exists is complete; a rerun *resumes*: pairs whose disparity
+  file exists are skipped, the rest are redone.
+* A pair that fails (unreadable image, sizes that differ, a bad range for its size) is
+  recorded with its reason, the others go on, and ``failures.csv`` lists them.
+* On Dask there is one task per pair; a task lost with its worker is run again
+  elsewhere (``retries``), and numba uses one thread inside each task so the worker's
+  cores are not oversubscribed. The library never starts a cluster: pass a
+  ``distributed.Client`` (the CLI's ``--scheduler local:N`` is what starts one).
+
+Workers read the input images themselves (they must see the same paths: one machine or
+a shared file system) and send the disparity back; only this process writes outputs.
+"""
+
+import csv
+import dataclasses
+import glob
+import json
+import os
+import time
+from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
+
+from . import io
+from .api import match
+from .params import MatchParams
+
+#: Image names a pair folder may use, in the order they are tried.
+PAIR_NAMES = (("left", "right"), ("im0", "im1"))
+#: The file (in the output folder) listing the pairs that failed.
+FAILURES_FILE = "failures.csv"
+#: The file (in the output folder) recording the options the outputs were made with.
+OPTIONS_FILE = "batch.json"
+
+
+@dataclasses.dataclass(frozen=True)
+class Pair:
+    """One stereo pair of a batch.
+
+    Attributes
+    ----------
+    name : str
+        Unique name; the disparity is written to ``<name>.pfm``.
+    left, right : Path or None
+        The images; None when the pair folder has no such image (the pair then fails
+        with ``problem`` as its reason).
+    problem : str or None
+        Why the pair cannot be run, found while listing it.
+    """
+
+    name: str
+    left: Path | None
+    right: Path | None
+    problem: str | None = None
+
+
+@dataclasses.dataclass
+class PairOutcome:
+    """What happened to one pair: ``status`` is ``"done"``, ``"skipped"`` or ``"failed"``."""
+
+    pair: Pair
+    status: str
+    message: str = ""
+    seconds: float = 0.0
+
+
+@dataclasses.dataclass
+class BatchReport:
+    """Outcome of :func:`run_batch`, one :class:`PairOutcome` per pair, in pair order."""
+
+    outcomes: list[PairOutcome] = dataclasses.field(default_factory=list)
+    seconds: float = 0.0
+
+    def _names(self, status):
+        return [o.pair.name for o in self.outcomes if o.status == status]
+
+    @property
+    def done(self) -> list[str]:
+        """Names of the pairs matched in this run."""
+        return self._names("done")
+
+    @property
+    def skipped(self) -> list[str]:
+        """Names of the pairs whose output was already complete."""
+        return self._names("skipped")
+
+    @property
+    def failed(self) -> list[PairOutcome]:
+        """The pairs that failed, with their reasons."""
+        return [o for o in self.outcomes if o.status == "failed"]
+
+    @property
+    def ok(self) -> bool:
+        """True when no pair failed."""
+        return not self.failed
+
+
+def find_pairs(source: str | os.PathLike) -> list[Pair]:
+    """List the pairs of a batch given as a CSV file or a folder of pair folders.
+
+    Parameters
+    ----------
+    source : str or os.PathLike
+        A ``.csv`` file whose rows are ``left,right[,name]`` (an optional header row
+        ``left,right,name``; relative paths are relative to the CSV's folder; the name
+        defaults to the left image's stem, or ``<folder>-<stem>`` when stems repeat, or
+        the folder's name when the stem is ``left`` or ``im0``), or
+        a folder holding one folder per pair, named after the pair, with ``left.*`` and
+        ``right.*`` or Middlebury's ``im0.*`` and ``im1.*``.
+
+    Returns
+    -------
+    list of Pair
+        In file order (CSV) or sorted by folder name. A pair folder without its two
+        images is listed with a ``problem`` so that it is reported, not silently lost.
+
+    Raises
+    ------
+    ValueError
+        If the source does not exist, the CSV is malformed, names repeat, or the folder
+        holds no pair folder.
+    """
+    path = Path(source)
+    if path.is_dir():
+        return _pairs_from_folder(path)
+    if not path.exists():
+        raise ValueError(f"cannot read pairs '{source}': no such file or folder")
+    return _pairs_from_csv(path)
+
+
+def _pairs_from_folder(folder: Path) -> list[Pair]:
+    pairs = []
+    for sub in sorted(p for p in folder.iterdir() if p.is_dir() and not p.name.startswith(".")):
+        files = [f for f in sub.iterdir() if f.is_file() and not f.name.startswith(".")]
+        found, problem = None, None
+        for left_stem, right_stem in PAIR_NAMES:
+            lefts = [f for f in files if f.stem.lower() == left_stem]
+            rights = [f for f in files if f.stem.lower() == right_stem]
+            if not lefts and not rights:
+                continue
+            if len(lefts) != 1 or len(rights) != 1:
+                problem = (
+                    f"folder '{sub}' needs exactly one {left_stem}.* and one {right_stem}.* "
+                    f"(found {len(lefts)} and {len(rights)})"
+                )
+            else:
+                found = (lefts[0], rights[0])
+            break
+        if found is None and problem is None:
+            problem = f"folder '{sub}' holds neither left.*/right.* nor im0.*/im1.*"
+        left, right = found if found else (None, None)
+        pairs.append(Pair(sub.name, left, right, problem))
+    if not pairs:
+        raise ValueError(f"folder '{folder}' holds no pair folders")
+    return pairs
+
+
+def _pairs_from_csv(path: Path) -> list[Pair]:
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            rows = [r for r in csv.reader(f) if r and any(cell.strip() for cell in r)]
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"cannot read pairs '{path}': {exc}") from None
+    if rows and [c.strip().lower() for c in rows[0][:2]] == ["left", "right"]:
+        rows = rows[1:]
+    if not rows:
+        raise ValueError(f"pairs file '{path}' lists no pairs")
+    base = path.parent
+    entries = []
+    for number, row in enumerate(rows, start=1):
+        cells = [c.strip() for c in row]
+        if len(cells) not in (2, 3) or not cells[0] or not cells[1]:
+            raise ValueError(
+                f"pairs file '{path}', pair {number}: expected 'left,right[,name]', got {row}"
+            )
+        left, right = (base / cells[0], base / cells[1])
+        entries.append((left, right, cells[2] if len(cells) == 3 and cells[2] else None))
+    generic = {left_stem for left_stem, _ in PAIR_NAMES}
+    stems = [left.stem for left, _, name in entries if name is None]
+    repeated = {s for s in stems if stems.count(s) > 1}
+    pairs = []
+    for left, right, name in entries:
+        if name is None and left.stem.lower() in generic:
+            name = left.parent.name  # .../scene/im0.png is the pair "scene"
+        elif name is None:
+            name = f"{left.parent.name}-{left.stem}" if left.stem in repeated else left.stem
+        pairs.append(Pair(name, left, right))
+    _check_names(pairs, str(path))
+    return pairs
+
+
+def _check_names(pairs: Sequence[Pair], where: str) -> None:
+    seen = set()
+    for pair in pairs:
+        if not pair.name or pair.name in (".", "..") or any(c in pair.name for c in "/\\"):
+            raise ValueError(f"{where}: '{pair.name}' cannot be a file name")
+        if pair.name in seen:
+            raise ValueError(f"{where}: the pair name '{pair.name}' is used twice")
+        seen.add(pair.name)
+
+
+def output_path(output_dir: str | os.PathLike, pair: Pair) -> Path:
+    """Return where :func:`run_batch` writes the disparity of ``pair`` (``<name>.pfm``)."""
+    return Path(output_dir) / f"{pair.name}.pfm"
+
+
+def run_batch(
+    pairs: Iterable[Pair],
+    output_dir: str | os.PathLike,
+    *,
+    max_disparity: int,
+    client=None,
+    resume: bool = True,
+    retries: int = 2,
+    threads: int | None = None,
+    on_outcome: Callable[[PairOutcome], None] | None = None,
+    **options,
+) -> BatchReport:
+    """Match every pair and write ``<name>.pfm`` into ``output_dir``, atomically.
+
+    Parameters
+    ----------
+    pairs : iterable of Pair
+        From :func:`find_pairs`, or built by hand.
+    output_dir : str or os.PathLike
+        Existing folder for the outputs, ``failures.csv`` (``name,left,right,error``, a
+        header only when nothing failed) and ``batch.json`` (the options).
+    max_disparity : int
+        Largest disparity searched.
+    client : distributed.Client, optional
+        Run one task per pair on this client. None: run here, one pair after the other,
+        each with all of numba's threads.
+    resume : bool
+        Skip the pairs whose output exists (complete, since writes are atomic). The
+        options must then be those recorded in ``batch.json`` by the earlier run;
+        ``resume=False`` recomputes everything.
+    retries : int
+        Dask only: times a task is run again when it raises unexpectedly (a lost
+        worker is handled by the scheduler on top of this).
+    threads : int, optional
+        numba threads per pair; default all cores here, 1 inside a Dask task.
+    on_outcome : callable, optional
+        Called with each :class:`PairOutcome` as it is known (for progress bars).
+    **options
+        The other options of :func:`dcstereo.match` (``min_disparity``, ``method``,
+        ``window``...).
+
+    Returns
+    -------
+    BatchReport
+        Failures are reported there and in ``failures.csv``, never raised.
+
+    Raises
+    ------
+    ValueError
+        For options :func:`dcstereo.match` refuses, a missing output folder, or, when
+        resuming, outputs made with other options (before any pair runs).
+    """
+    start = time.perf_counter()
+    pairs = list(pairs)
+    folder = Path(output_dir)
+    if not folder.is_dir():
+        raise ValueError(f"output folder '{folder}' does not exist")
+    _check_names(pairs, "batch")
+    params = MatchParams(max_disparity=max_disparity, **options)  # refuse bad options now
+    match_kwargs = {"max_disparity": max_disparity, **options}
+    _check_options_file(folder, dataclasses.asdict(params), resume)
+    report = BatchReport()
+    by_name: dict[str, PairOutcome] = {}
+
+    def record(outcome):
+        by_name[outcome.pair.name] = outcome
+        if on_outcome is not None:
+            on_outcome(outcome)
+
+    todo = []
+    for pair in pairs:
+        _remove_stale_temporaries(folder, pair)
+        if pair.problem is not None:
+            record(PairOutcome(pair, "failed", pair.problem))
+        elif resume and output_path(folder, pair).is_file():
+            record(PairOutcome(pair, "skipped"))
+        else:
+            todo.append(pair)
+    if client is None:
+        for pair in todo:
+            record(_finish(folder, pair, match_pair(pair, match_kwargs, threads)))
+    else:
+        _run_on_dask(client, folder, todo, match_kwargs, retries, threads, record)
+    report.outcomes = [by_name[p.name] for p in pairs]
+    _write_failures(folder, report.failed)
+    report.seconds = time.perf_counter() - start
+    return report
+
+
+def match_pair(pair: Pair, match_kwargs: dict, threads: int | None = None):
+    """Read and match one pair; return ``(disparity, seconds)`` or ``(None, reason)``.
+
+    The reasons a pair can fail on its own (unreadable image, sizes that differ, a
+    range or window that does not fit) come back as a one-line message; anything else
+    raises (and, on Dask, makes the task retry).
+    """
+    if threads is not None:
+        import numba
+
+        numba.set_num_threads(threads)
+    start = time.perf_counter()
+    try:
+        left = io.read_image(pair.left)
+        right = io.read_image(pair.right)
+        result = match(left, right, **match_kwargs)
+    except (ValueError, TypeError) as exc:
+        return None, str(exc).strip().splitlines()[0] if str(exc).strip() else repr(exc)
+    return result.disparity, time.perf_counter() - start
+
+
+def _finish(folder: Path, pair: Pair, answer) -> PairOutcome:
+    disparity, detail = answer
+    if disparity is None:
+        return PairOutcome(pair, "failed", detail)
+    io.write_disparity(output_path(folder, pair), disparity)
+    return PairOutcome(pair, "done", seconds=detail)
+
+
+def _run_on_dask(client, folder, pairs, match_kwargs, retries, threads, record):
+    from distributed import as_completed
+
+    futures = {}
+    for pair in pairs:
+        future = client.submit(
+            match_pair,
+            pair,
+            match_kwargs,
+            1 if threads is None else threads,
+            key=f"dcstereo-pair-{pair.name}-{os.urandom(4).hex()}",
+            retries=retries,
+        )
+        futures[future.key] = (future, pair)
+    for future in as_completed([f for f, _ in futures.values()]):
+        _, pair = futures.pop(future.key)
+        try:
+            answer = future.result()
+        except Exception as exc:  # the task failed for good (KilledWorker, ...)
+            answer = (None, f"task failed on the cluster: {type(exc).__name__}: {exc}")
+        record(_finish(folder, pair, answer))
+        future.release()
+
+
+def _check_options_file(folder: Path, params: dict, resume: bool) -> None:
+    recorded = folder / OPTIONS_FILE
+    current = json.loads(json.dumps(params, sort_keys=True))
+    if resume and recorded.is_file():
+        try:
+            previous = json.loads(recorded.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            previous = None
+        if previous != current:
+            raise ValueError(
+                f"'{folder}' holds outputs made with other options ({previous}, now "
+                f"{current}); recompute them with --no-resume (resume=False) or use "
+                "another folder"
+            )
+        return
+    with io.atomic_write(recorded) as tmp:
+        tmp.write_text(json.dumps(current, sort_keys=True, indent=1) + "\n", encoding="utf-8")
+
+
+def _remove_stale_temporaries(folder: Path, pair: Pair) -> None:
+    """Remove what a killed run left half-written for this pair (never a real output)."""
+    final = output_path(folder, pair)
+    for tmp in folder.glob(f".{glob.escape(final.stem)}.tmp*{final.suffix}"):
+        if len(tmp.name) == len(final.name) + 13:  # "." + stem + ".tmp" + 8 hex + suffix
+            tmp.unlink(missing_ok=True)
+
+
+def _write_failures(folder: Path, failed: list[PairOutcome]) -> None:
+    with io.atomic_write(folder / FAILURES_FILE) as tmp:
+        with open(tmp, "w", newline="", encoding="utf-8") as f:
+            writer = csv.writer(f)
+            writer.writerow(["name", "left", "right", "error"])
+            for outcome in failed:
+                pair = outcome.pair
+                writer.writerow([pair.name, pair.left or "", pair.right or "", outcome.message])
+
+
+def read_failures(output_dir: str | os.PathLike) -> list[dict[str, str]]:
+    """Read ``failures.csv`` of a batch output folder as a list of row dictionaries."""
+    with open(Path(output_dir) / FAILURES_FILE, newline="", encoding="utf-8") as f:
+        return list(csv.DictReader(f))

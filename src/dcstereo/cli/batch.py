@@ -1,0 +1,189 @@
+"""``dcstereo batch``: match many pairs, here or on Dask; resume, report failures."""
+
+import contextlib
+import re
+from pathlib import Path
+
+import click
+
+from ._common import CommandError, matching_options, one_line_errors, set_threads
+
+_LOCAL = re.compile(r"local:(\d+)$")
+
+
+def scheduler_option(func):
+    """Add the ``--scheduler`` option shared by ``batch`` and ``video``."""
+    return click.option(
+        "--scheduler",
+        default=None,
+        metavar="tcp://HOST:PORT|local:N",
+        help="Run one task per pair/frame on dask.distributed: the address of a running "
+        "scheduler, or local:N to start a local cluster of N worker processes. Default: "
+        "run here with all cores.",
+    )(func)
+
+
+@contextlib.contextmanager
+def dask_client(scheduler):
+    """Yield a ``distributed.Client`` for ``--scheduler`` (None: yield None).
+
+    ``local:N`` starts (and at the end stops) a LocalCluster of N single-threaded worker
+    processes; anything else is the address of a running scheduler.
+    """
+    if scheduler is None:
+        yield None
+        return
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:  # pragma: no cover - a dependency of the package
+        raise CommandError("--scheduler needs dask.distributed: pip install distributed") from None
+    local = _LOCAL.match(scheduler)
+    if scheduler.startswith("local"):
+        if local is None or int(local[1]) < 1:
+            raise CommandError(f"--scheduler local:N needs N >= 1 workers, got '{scheduler}'")
+        with (
+            LocalCluster(
+                n_workers=int(local[1]),
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=":0",
+            ) as cluster,
+            Client(cluster) as client,
+        ):
+            yield client
+        return
+    try:
+        client = Client(scheduler, timeout=10)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise CommandError(f"cannot connect to the Dask scheduler '{scheduler}': {exc}") from None
+    with client:
+        yield client
+
+
+def progress_bar(unit: str, quiet: bool):
+    """Return a rich progress bar on stderr: done, rate, time left (None when quiet)."""
+    if quiet:
+        return contextlib.nullcontext(None)
+    from rich.console import Console
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        ProgressColumn,
+        TextColumn,
+        TimeRemainingColumn,
+    )
+    from rich.text import Text
+
+    class RateColumn(ProgressColumn):
+        def render(self, task):
+            speed = task.finished_speed or task.speed
+            return Text("" if speed is None else f"{speed:.2f} {unit}/s")
+
+    return Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        RateColumn(),
+        TimeRemainingColumn(),
+        console=Console(stderr=True),
+        transient=False,
+    )
+
+
+@click.command()
+@click.argument("source", type=click.Path(exists=True))
+@click.option(
+    "-o",
+    "--output",
+    required=True,
+    type=click.Path(file_okay=False),
+    help="Folder for <name>.pfm per pair, failures.csv and batch.json (created if missing).",
+)
+@click.option("--max-disparity", required=True, type=int, help="Largest disparity searched.")
+@click.option(
+    "--min-disparity", type=int, default=0, show_default=True, help="Smallest disparity searched."
+)
+@matching_options
+@scheduler_option
+@click.option(
+    "--resume/--no-resume",
+    default=True,
+    show_default=True,
+    help="Skip pairs whose output is already complete; --no-resume recomputes all.",
+)
+@click.option(
+    "--retries",
+    type=click.IntRange(0),
+    default=2,
+    show_default=True,
+    help="Dask: times a task that failed unexpectedly is run again.",
+)
+@click.option("--quiet", "-q", is_flag=True, help="No progress bar; print only failures.")
+@one_line_errors
+def batch(
+    source,
+    output,
+    max_disparity,
+    min_disparity,
+    method,
+    window,
+    occlusion_cost,
+    fill,
+    threads,
+    scheduler,
+    resume,
+    retries,
+    quiet,
+):
+    """Match every pair of SOURCE and write OUTPUT/<name>.pfm for each.
+
+    SOURCE is a CSV file of left,right[,name] rows (paths relative to the CSV), or a
+    folder with one folder per pair holding left.* and right.* (or Middlebury's im0.*
+    and im1.*). A pair that fails is reported (and listed in OUTPUT/failures.csv) while
+    the others go on; the exit code is 1 when any pair failed.
+    """
+    from ..batch import FAILURES_FILE, find_pairs, run_batch
+
+    folder = Path(output)
+    if folder.exists() and not folder.is_dir():
+        raise CommandError(f"cannot write into '{folder}': it is not a directory")
+    pairs = find_pairs(source)
+    if scheduler is None:
+        set_threads(threads)
+    folder.mkdir(parents=True, exist_ok=True)
+    options = {
+        "min_disparity": min_disparity,
+        "method": method,
+        "window": window,
+        "occlusion_cost": occlusion_cost,
+        "fill": fill,
+    }
+    with progress_bar("pairs", quiet) as bar, dask_client(scheduler) as client:
+        task = None if bar is None else bar.add_task("batch", total=len(pairs))
+        report = run_batch(
+            pairs,
+            folder,
+            max_disparity=max_disparity,
+            client=client,
+            resume=resume,
+            retries=retries,
+            threads=threads if scheduler is not None else None,
+            on_outcome=None if bar is None else (lambda _: bar.advance(task)),
+            **options,
+        )
+    for outcome in report.failed:
+        click.echo(f"failed: {outcome.pair.name}: {outcome.message}", err=True)
+    if not quiet:
+        click.echo(
+            f"batch: {len(report.outcomes)} pairs, {len(report.done)} matched, "
+            f"{len(report.skipped)} already complete, {len(report.failed)} failed, "
+            f"{report.seconds:.1f} s -> {folder}"
+        )
+    if not report.ok:
+        click.echo(
+            f"Error: {len(report.failed)} of {len(report.outcomes)} pairs failed; "
+            f"see {folder / FAILURES_FILE}",
+            err=True,
+        )
+        raise SystemExit(1)

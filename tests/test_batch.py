@@ -1,0 +1,293 @@
+"""Batches of pairs: serial and on a Dask LocalCluster, resume, failures, lost workers."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from dcstereo import io, match
+from dcstereo.batch import (
+    FAILURES_FILE,
+    Pair,
+    find_pairs,
+    output_path,
+    read_failures,
+    run_batch,
+)
+from dcstereo.cli import main
+from dcstereo.synthetic import synthetic_sequence
+
+distributed = pytest.importorskip("distributed")
+
+MAX_DISPARITY = 16
+
+
+def _local_cluster():
+    return distributed.LocalCluster(
+        n_workers=2, processes=True, threads_per_worker=1, dashboard_address=":0"
+    )
+
+
+@pytest.fixture(scope="module")
+def dask_client():
+    with _local_cluster() as cluster, distributed.Client(cluster) as client:
+        yield client
+
+
+def write_pairs(root: Path, frames, *, middlebury=False) -> Path:
+    names = ("im0.png", "im1.png") if middlebury else ("left.png", "right.png")
+    for i, frame in enumerate(frames):
+        folder = root / f"pair{i:02d}"
+        folder.mkdir(parents=True)
+        io.write_rgb_png(folder / names[0], frame.left)
+        io.write_rgb_png(folder / names[1], frame.right)
+    return root
+
+
+@pytest.fixture(scope="module")
+def pairs_dir(tmp_path_factory):
+    return write_pairs(tmp_path_factory.mktemp("pairs"), synthetic_sequence(6, seed=11))
+
+
+@pytest.fixture(scope="module")
+def slow_pairs_dir(tmp_path_factory):
+    """Pairs that take a few hundred milliseconds each on one thread (room to kill)."""
+    frames = synthetic_sequence(
+        8, height=360, width=600, background_disparity=(4, 12), foreground_disparity=40, seed=3
+    )
+    return write_pairs(tmp_path_factory.mktemp("slow"), frames)
+
+
+def outputs(folder: Path) -> list[Path]:
+    return [p for p in folder.glob("*.pfm") if not p.name.startswith(".")]
+
+
+def expected_pfm(pair: Pair, tmp: Path, **kwargs) -> bytes:
+    result = match(io.read_image(pair.left), io.read_image(pair.right), **kwargs)
+    path = tmp / f"expected-{pair.name}.pfm"
+    io.write_disparity(path, result.disparity)
+    return path.read_bytes()
+
+
+def test_find_pairs_in_a_folder_of_pair_folders(tmp_path):
+    frames = synthetic_sequence(2, height=32, width=48, seed=0)
+    write_pairs(tmp_path / "a", frames)
+    write_pairs(tmp_path / "b", frames, middlebury=True)
+    pairs = find_pairs(tmp_path / "a")
+    assert [p.name for p in pairs] == ["pair00", "pair01"]
+    assert pairs[0].left.name == "left.png" and pairs[0].right.name == "right.png"
+    pairs = find_pairs(tmp_path / "b")
+    assert pairs[1].left.name == "im0.png" and pairs[1].right.name == "im1.png"
+    (tmp_path / "b" / "pair01" / "im1.png").unlink()
+    (tmp_path / "b" / "zz-empty").mkdir()
+    pairs = find_pairs(tmp_path / "b")
+    assert pairs[0].problem is None
+    assert "im1" in pairs[1].problem
+    assert "neither" in pairs[2].problem
+    with pytest.raises(ValueError, match="no pair folders"):
+        find_pairs(tmp_path / "b" / "zz-empty")
+
+
+def test_find_pairs_in_a_csv(tmp_path):
+    frames = synthetic_sequence(2, height=32, width=48, seed=0)
+    write_pairs(tmp_path, frames)
+    (tmp_path / "list.csv").write_text(
+        "left,right,name\npair00/left.png,pair00/right.png,first\npair01/left.png,pair01/right.png\n"
+    )
+    pairs = find_pairs(tmp_path / "list.csv")
+    assert [p.name for p in pairs] == ["first", "pair01"]
+    assert pairs[0].left == tmp_path / "pair00" / "left.png"
+    (tmp_path / "bad.csv").write_text("a.png\n")
+    with pytest.raises(ValueError, match="pair 1"):
+        find_pairs(tmp_path / "bad.csv")
+    (tmp_path / "twice.csv").write_text("a.png,b.png,x\nc.png,d.png,x\n")
+    with pytest.raises(ValueError, match="used twice"):
+        find_pairs(tmp_path / "twice.csv")
+
+
+def test_serial_batch_writes_what_match_gives(pairs_dir, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    pairs = find_pairs(pairs_dir)
+    seen = []
+    report = run_batch(pairs, out, max_disparity=MAX_DISPARITY, on_outcome=seen.append)
+    assert report.ok and report.done == [p.name for p in pairs]
+    assert sorted(o.pair.name for o in seen) == sorted(report.done)
+    for pair in pairs:
+        expected = expected_pfm(pair, tmp_path, max_disparity=MAX_DISPARITY)
+        assert output_path(out, pair).read_bytes() == expected
+    assert read_failures(out) == []
+
+
+def test_local_cluster_gives_byte_identical_outputs(pairs_dir, tmp_path, dask_client):
+    pairs = find_pairs(pairs_dir)
+    serial, parallel = tmp_path / "serial", tmp_path / "dask"
+    serial.mkdir()
+    parallel.mkdir()
+    options = {"max_disparity": MAX_DISPARITY, "method": "dsi5", "window": 7}
+    assert run_batch(pairs, serial, **options).ok
+    report = run_batch(pairs, parallel, client=dask_client, **options)
+    assert report.ok and sorted(report.done) == [p.name for p in pairs]
+    for pair in pairs:
+        assert output_path(parallel, pair).read_bytes() == output_path(serial, pair).read_bytes()
+
+
+def test_cli_batch_on_a_scheduler_address(pairs_dir, tmp_path, dask_client):
+    out = tmp_path / "out"
+    address = dask_client.scheduler.address
+    args = ["batch", str(pairs_dir), "-o", str(out), "--max-disparity", str(MAX_DISPARITY)]
+    result = CliRunner().invoke(main, [*args, "--scheduler", address, "-q"])
+    assert result.exit_code == 0, result.output
+    for pair in find_pairs(pairs_dir):
+        expected = expected_pfm(pair, tmp_path, max_disparity=MAX_DISPARITY)
+        assert output_path(out, pair).read_bytes() == expected
+
+
+def test_a_corrupt_pair_is_reported_and_the_others_complete(pairs_dir, tmp_path):
+    broken = tmp_path / "pairs"
+    for src in sorted(pairs_dir.iterdir()):
+        (broken / src.name).mkdir(parents=True)
+        for f in src.iterdir():
+            (broken / src.name / f.name).write_bytes(f.read_bytes())
+    right = broken / "pair02" / "right.png"
+    right.write_bytes(right.read_bytes()[:200])  # truncated PNG
+    small = synthetic_sequence(1, height=40, width=64, seed=0)[0]
+    io.write_rgb_png(broken / "pair04" / "right.png", small.right)  # wrong size
+    out = tmp_path / "out"
+    args = ["batch", str(broken), "-o", str(out), "--max-disparity", str(MAX_DISPARITY)]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1
+    assert "2 of 6 pairs failed" in result.output
+    assert "Traceback" not in result.output
+    failures = read_failures(out)
+    assert [f["name"] for f in failures] == ["pair02", "pair04"]
+    assert "pair02/right.png" in failures[0]["error"]
+    assert "differ in shape" in failures[1]["error"]
+    done = sorted(p.stem for p in out.glob("*.pfm"))
+    assert done == ["pair00", "pair01", "pair03", "pair05"]
+    # The rerun skips the complete pairs and fails the same two again.
+    again = CliRunner().invoke(main, args)
+    assert again.exit_code == 1
+    assert "4 already complete, 2 failed" in again.output
+    right.write_bytes((pairs_dir / "pair02" / "right.png").read_bytes())
+    io.write_rgb_png(
+        broken / "pair04" / "right.png", io.read_image(pairs_dir / "pair04" / "right.png")
+    )
+    fixed = CliRunner().invoke(main, args)
+    assert fixed.exit_code == 0, fixed.output
+    assert "2 matched, 4 already complete, 0 failed" in fixed.output
+    assert read_failures(out) == []
+
+
+def test_resume_after_the_process_is_killed(slow_pairs_dir, tmp_path):
+    out = tmp_path / "out"
+    command = [
+        sys.executable,
+        "-c",
+        "from dcstereo.cli import main; main()",
+        "batch",
+        str(slow_pairs_dir),
+        "-o",
+        str(out),
+        "--max-disparity",
+        "48",
+        "--method",
+        "dsi5",
+        "--threads",
+        "1",
+        "-q",
+    ]
+    process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 120
+        while not outputs(out) and process.poll() is None:
+            assert time.monotonic() < deadline, "the batch wrote nothing in 120 s"
+            time.sleep(0.002)
+        os.kill(process.pid, signal.SIGKILL)
+    finally:
+        process.wait()
+        process.stderr.close()
+    assert process.returncode == -signal.SIGKILL
+    before = {p.name: p.stat().st_mtime_ns for p in outputs(out)}
+    pairs = find_pairs(slow_pairs_dir)
+    assert 0 < len(before) < len(pairs)
+    report = run_batch(pairs, out, max_disparity=48, method="dsi5")
+    assert report.ok
+    assert sorted(report.skipped) == sorted(Path(n).stem for n in before)
+    assert sorted(report.done) == sorted(p.name for p in pairs if f"{p.name}.pfm" not in before)
+    for name, mtime in before.items():
+        assert (out / name).stat().st_mtime_ns == mtime  # not recomputed
+    for pair in pairs:
+        expected = expected_pfm(pair, tmp_path, max_disparity=48, method="dsi5")
+        assert output_path(out, pair).read_bytes() == expected
+    assert not [p for p in out.iterdir() if ".tmp" in p.name]
+
+
+def test_no_resume_recomputes_and_other_options_are_refused(pairs_dir, tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    pairs = find_pairs(pairs_dir)[:2]
+    assert run_batch(pairs, out, max_disparity=MAX_DISPARITY).done == ["pair00", "pair01"]
+    assert run_batch(pairs, out, max_disparity=MAX_DISPARITY).skipped == ["pair00", "pair01"]
+    again = run_batch(pairs, out, max_disparity=MAX_DISPARITY, resume=False)
+    assert again.done == ["pair00", "pair01"]
+    with pytest.raises(ValueError, match="other options"):
+        run_batch(pairs, out, max_disparity=MAX_DISPARITY, method="block")
+    assert run_batch(pairs, out, max_disparity=MAX_DISPARITY, method="block", resume=False).ok
+
+
+def test_a_worker_killed_mid_batch_costs_only_its_tasks(slow_pairs_dir, tmp_path):
+    pairs = find_pairs(slow_pairs_dir)
+    killed = []
+
+    with _local_cluster() as cluster, distributed.Client(cluster) as client:
+
+        def kill_a_busy_worker(outcome):
+            if killed:
+                return
+            busy = [w for w, keys in client.processing().items() if keys]
+            if not busy:
+                return
+            pid = client.run(os.getpid, workers=busy[:1])[busy[0]]
+            os.kill(pid, signal.SIGKILL)
+            killed.append(pid)
+
+        report = run_batch(
+            pairs,
+            tmp_path,
+            client=client,
+            max_disparity=48,
+            method="dsi5",
+            on_outcome=kill_a_busy_worker,
+        )
+    assert killed
+    assert report.ok, report.failed
+    assert sorted(report.done) == [p.name for p in pairs]
+    for pair in pairs:
+        expected = expected_pfm(pair, tmp_path, max_disparity=48, method="dsi5")
+        assert output_path(tmp_path, pair).read_bytes() == expected
+
+
+def test_cli_scheduler_errors_are_one_line(pairs_dir, tmp_path):
+    args = ["batch", str(pairs_dir), "-o", str(tmp_path / "o"), "--max-disparity", "8"]
+    result = CliRunner().invoke(main, [*args, "--scheduler", "local:0"])
+    assert result.exit_code == 1
+    assert result.output.strip().splitlines() == [
+        "Error: --scheduler local:N needs N >= 1 workers, got 'local:0'"
+    ]
+    result = CliRunner().invoke(main, [*args, "--window", "4"])
+    assert result.exit_code == 1 and "window" in result.output
+    assert "Traceback" not in result.output
+
+
+def test_failures_file_is_written_even_when_nothing_fails(pairs_dir, tmp_path):
+    report = run_batch(find_pairs(pairs_dir)[:1], tmp_path, max_disparity=MAX_DISPARITY)
+    assert report.ok
+    assert (tmp_path / FAILURES_FILE).read_text().strip() == "name,left,right,error"
+    assert np.isfinite(io.read_pfm(tmp_path / "pair00.pfm")).mean() > 0.8
