@@ -56,6 +56,16 @@ class Pair:
     problem: str | None = None
 
 
+@dataclasses.dataclass(frozen=True)
+class FailureRow:
+    """One row of ``failures.csv``: what failed, from which inputs, and why."""
+
+    name: str
+    left: str
+    right: str
+    error: str
+
+
 @dataclasses.dataclass
 class PairOutcome:
     """What happened to one pair: ``status`` is ``"done"``, ``"skipped"`` or ``"failed"``."""
@@ -266,7 +276,7 @@ def run_batch(
     _check_names(pairs, "batch")
     params = MatchParams(max_disparity=max_disparity, **options)  # refuse bad options now
     match_kwargs = {"max_disparity": max_disparity, **options}
-    _check_options_file(folder, dataclasses.asdict(params), resume)
+    check_recorded_options(folder, dataclasses.asdict(params), resume)
     report = BatchReport()
     by_name: dict[str, PairOutcome] = {}
 
@@ -290,7 +300,13 @@ def run_batch(
     else:
         _run_on_dask(client, folder, todo, match_kwargs, retries, threads, record)
     report.outcomes = [by_name[p.name] for p in pairs]
-    _write_failures(folder, report.failed)
+    write_failures(
+        folder,
+        [
+            FailureRow(o.pair.name, str(o.pair.left or ""), str(o.pair.right or ""), o.message)
+            for o in report.failed
+        ],
+    )
     report.seconds = time.perf_counter() - start
     return report
 
@@ -348,7 +364,13 @@ def _run_on_dask(client, folder, pairs, match_kwargs, retries, threads, record):
         future.release()
 
 
-def _check_options_file(folder: Path, params: dict, resume: bool) -> None:
+def check_recorded_options(folder: Path, params: dict, resume: bool) -> None:
+    """Refuse to resume over outputs made with other options; record the options.
+
+    ``params`` (``dataclasses.asdict`` of :class:`~dcstereo.params.MatchParams`) is
+    compared with ``batch.json`` in ``folder`` when resuming, and written there otherwise
+    (or when there is none yet).
+    """
     recorded = folder / OPTIONS_FILE
     current = json.loads(json.dumps(params, sort_keys=True))
     if resume and recorded.is_file():
@@ -375,14 +397,14 @@ def _remove_stale_temporaries(folder: Path, pair: Pair) -> None:
             tmp.unlink(missing_ok=True)
 
 
-def _write_failures(folder: Path, failed: list[PairOutcome]) -> None:
+def write_failures(folder: Path, rows: list[FailureRow]) -> None:
+    """Write ``failures.csv`` (``name,left,right,error``; a header alone when none failed)."""
     with io.atomic_write(folder / FAILURES_FILE) as tmp:
         with open(tmp, "w", newline="", encoding="utf-8") as f:
             writer = csv.writer(f)
             writer.writerow(["name", "left", "right", "error"])
-            for outcome in failed:
-                pair = outcome.pair
-                writer.writerow([pair.name, pair.left or "", pair.right or "", outcome.message])
+            for row in rows:
+                writer.writerow([row.name, row.left, row.right, row.error])
 
 
 def read_failures(output_dir: str | os.PathLike) -> list[dict[str, str]]:

@@ -7,14 +7,15 @@ its outputs atomically and returns an exit code. Errors print one line and exit 
 import click
 
 from .. import __version__
+from .batch import batch
 from .bench import bench
 from .compare import compare
 from .datasets import datasets
-from .batch import batch
 from .demo import demo
 from .eval import eval_command
 from .run import run
 from .scanline import scanline
+from .video import video
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -26,6 +27,7 @@ def main():
 main.add_command(run)
 main.add_command(demo)
 main.add_command(batch)
+main.add_command(video)
 main.add_command(eval_command)
 main.add_command(bench)
 main.add_command(datasets)

@@ -1,0 +1,152 @@
+"""``dcstereo video``: a disparity and a preview per frame of a stereo sequence."""
+
+from pathlib import Path
+
+import click
+
+from ._common import CommandError, matching_options, one_line_errors, set_threads
+from .batch import dask_client, progress_bar, scheduler_option
+
+
+@click.command()
+@click.argument("left", type=click.Path(exists=True))
+@click.argument("right", type=click.Path(exists=True), required=False)
+@click.option(
+    "-o",
+    "--output",
+    required=True,
+    type=click.Path(file_okay=False),
+    help="Folder for frameNNNNN.pfm|png and frameNNNNN-preview.png (created if missing).",
+)
+@click.option("--max-disparity", required=True, type=int, help="Largest disparity searched.")
+@click.option(
+    "--min-disparity", type=int, default=0, show_default=True, help="Smallest disparity searched."
+)
+@matching_options
+@click.option(
+    "--format",
+    "disparity_format",
+    type=click.Choice(["pfm", "png"]),
+    default="pfm",
+    show_default=True,
+    help="Disparity files: PFM (float32, inf = none) or 16-bit PNG (d * 256, 0 = none).",
+)
+@click.option(
+    "--preview-style",
+    type=click.Choice(["paper", "color"]),
+    default="paper",
+    show_default=True,
+    help="paper: histogram-equalized gray, occlusions brightest; color: turbo colour map.",
+)
+@click.option(
+    "--preview-video",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Also write the previews as a video (.mp4, .mkv, .avi).",
+)
+@click.option(
+    "--fps",
+    type=float,
+    default=None,
+    help="Frame rate of the preview video (default: the input video's, or 10).",
+)
+@scheduler_option
+@click.option(
+    "--resume/--no-resume",
+    default=True,
+    show_default=True,
+    help="Skip frames whose outputs are already complete; --no-resume recomputes all.",
+)
+@click.option("--quiet", "-q", is_flag=True, help="No progress bar; print only failures.")
+@one_line_errors
+def video(
+    left,
+    right,
+    output,
+    max_disparity,
+    min_disparity,
+    method,
+    window,
+    occlusion_cost,
+    fill,
+    threads,
+    disparity_format,
+    preview_style,
+    preview_video,
+    fps,
+    scheduler,
+    resume,
+    quiet,
+):
+    """Match every frame of a stereo sequence.
+
+    LEFT and RIGHT are two folders of frames (paired in name order) or two videos;
+    LEFT alone is a side-by-side video (left view in the left half). A frame that fails
+    is reported (and listed in OUTPUT/failures.csv) while the others go on; the exit
+    code is 1 when any frame failed.
+    """
+    from ..batch import FAILURES_FILE
+    from ..video import match_sequence, open_sequence, output_paths, write_video
+
+    folder = Path(output)
+    if folder.exists() and not folder.is_dir():
+        raise CommandError(f"cannot write into '{folder}': it is not a directory")
+    if preview_video is not None:
+        if Path(preview_video).suffix.lower() not in (".mp4", ".mkv", ".avi", ".mov"):
+            raise CommandError(f"--preview-video '{preview_video}' must end in .mp4, .mkv, .avi")
+        parent = Path(preview_video).parent
+        if str(parent) and not parent.is_dir():
+            raise CommandError(f"cannot write '{preview_video}': '{parent}' does not exist")
+    if fps is not None and not fps > 0:
+        raise CommandError(f"--fps must be positive, got {fps}")
+    sequence = open_sequence(left, right)
+    if scheduler is None:
+        set_threads(threads)
+    folder.mkdir(parents=True, exist_ok=True)
+    options = {
+        "min_disparity": min_disparity,
+        "method": method,
+        "window": window,
+        "occlusion_cost": occlusion_cost,
+        "fill": fill,
+    }
+    with progress_bar("frames", quiet) as bar, dask_client(scheduler) as client:
+        task = None if bar is None else bar.add_task("video", total=len(sequence))
+        report = match_sequence(
+            sequence,
+            folder,
+            max_disparity=max_disparity,
+            client=client,
+            resume=resume,
+            disparity_format=disparity_format,
+            preview_style=preview_style,
+            threads=threads if scheduler is not None else None,
+            on_frame=None if bar is None else (lambda name, status: bar.advance(task)),
+            **options,
+        )
+    written = None
+    if preview_video is not None:
+        from .. import io
+
+        previews = [output_paths(folder, i, disparity_format)[1] for i in range(len(sequence))]
+        previews = [p for p in previews if p.is_file()]
+        rate = fps or sequence.fps or 10.0
+        written = write_video(preview_video, (io.read_image(p) for p in previews), fps=rate)
+    for row in report.failed:
+        click.echo(f"failed: {row.name} ({row.left}): {row.error}", err=True)
+    if not quiet:
+        matched = len(report.done)
+        rate = f", {matched / report.seconds:.1f} frames/s" if matched and report.seconds else ""
+        click.echo(
+            f"video: {len(sequence)} frames ({sequence.kind}), {matched} matched, "
+            f"{len(report.skipped)} already complete, {len(report.failed)} failed, "
+            f"{report.seconds:.1f} s{rate} -> {folder}"
+            + (f", preview video {preview_video} ({written} frames)" if written else "")
+        )
+    if not report.ok:
+        click.echo(
+            f"Error: {len(report.failed)} of {len(sequence)} frames failed; "
+            f"see {folder / FAILURES_FILE}",
+            err=True,
+        )
+        raise SystemExit(1)

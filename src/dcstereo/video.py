@@ -1,0 +1,474 @@
+"""Stereo sequences: frame folders or videos in, one disparity and preview per frame out.
+
+A sequence is two folders of frames (paired in name order), two videos (left and right)
+or one side-by-side video (left half, right half). :func:`match_sequence` writes, for
+frame ``i``, ``frame{i:05d}.pfm`` (or ``.png``, 16-bit) and ``frame{i:05d}-preview.png``,
+each atomically, resumes like :func:`dcstereo.batch.run_batch` (frames whose two files
+exist are skipped), reports frames that fail in ``failures.csv`` and goes on, and can run
+one Dask task per frame. :func:`write_video` turns the previews into a video.
+
+Videos are read and written with the ffmpeg binary that the ``imageio-ffmpeg`` wheel
+ships. Codecs are lossy: a pair that went through a video file is not bit for bit the
+pair that was encoded, so its disparities are close to, not equal to, those of the
+original frames.
+"""
+
+import dataclasses
+import os
+import re
+import subprocess
+import tempfile
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import numpy as np
+
+from . import io
+from .api import match
+from .batch import FailureRow, check_recorded_options, write_failures
+from .params import MatchParams
+
+#: File suffixes taken as frames in a frame folder.
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".pgm", ".ppm", ".pfm")
+
+_VIDEO_SIZE = re.compile(r"Stream #.*?Video:.*?(\d{2,5})x(\d{2,5})")
+
+
+@dataclasses.dataclass(frozen=True)
+class Frame:
+    """One frame of a sequence: its index, name, and a function that returns the pair.
+
+    ``load()`` returns ``(left, right)`` arrays or raises ``ValueError`` (a frame of a
+    folder that cannot be read); for videos the pair is already decoded.
+    """
+
+    index: int
+    name: str
+    source: str
+    load: Callable[[], tuple[np.ndarray, np.ndarray]]
+
+
+@dataclasses.dataclass(frozen=True)
+class StereoSequence:
+    """A stereo sequence opened by :func:`open_sequence`.
+
+    Attributes
+    ----------
+    kind : str
+        ``"folders"``, ``"videos"`` or ``"side-by-side"``.
+    frame_count : int
+        Number of frames.
+    fps : float or None
+        Frame rate of a video source (None for folders).
+    """
+
+    kind: str
+    frame_count: int
+    fps: float | None
+    _frames: Callable[[], Iterator[Frame]]
+
+    def __len__(self) -> int:
+        """Return the number of frames."""
+        return self.frame_count
+
+    def frames(self) -> Iterator[Frame]:
+        """Yield the frames in order (videos are decoded once, as they are read)."""
+        return self._frames()
+
+
+def frame_name(index: int) -> str:
+    """Return the output stem of frame ``index`` (``frame00042``)."""
+    return f"frame{index:05d}"
+
+
+def open_sequence(left: str | os.PathLike, right: str | os.PathLike | None = None):
+    """Open a stereo sequence.
+
+    Parameters
+    ----------
+    left : str or os.PathLike
+        A folder of left frames, the left video, or (with ``right`` None) one
+        side-by-side video whose left half is the left view.
+    right : str or os.PathLike, optional
+        The folder of right frames or the right video.
+
+    Returns
+    -------
+    StereoSequence
+
+    Raises
+    ------
+    ValueError
+        For missing inputs, folders with different frame counts or no frames, videos
+        with different frame counts or sizes, or a side-by-side video of odd width.
+    """
+    left = Path(left)
+    if not left.exists():
+        raise ValueError(f"cannot read sequence '{left}': no such file or folder")
+    if right is not None:
+        right = Path(right)
+        if not right.exists():
+            raise ValueError(f"cannot read sequence '{right}': no such file or folder")
+    if left.is_dir():
+        if right is None or not right.is_dir():
+            raise ValueError(f"'{left}' is a folder of frames: give the folder of right frames")
+        return _folder_sequence(left, right)
+    if right is not None and right.is_dir():
+        raise ValueError(f"'{left}' is a file and '{right}' a folder: give two of a kind")
+    if right is None:
+        return _side_by_side_sequence(left)
+    return _video_pair_sequence(left, right)
+
+
+def _frame_files(folder: Path) -> list[Path]:
+    return sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES)
+
+
+def _folder_sequence(left_dir: Path, right_dir: Path) -> StereoSequence:
+    lefts, rights = _frame_files(left_dir), _frame_files(right_dir)
+    if not lefts:
+        raise ValueError(f"folder '{left_dir}' holds no frames ({', '.join(IMAGE_SUFFIXES)})")
+    if len(lefts) != len(rights):
+        raise ValueError(
+            f"'{left_dir}' holds {len(lefts)} frames but '{right_dir}' holds {len(rights)}"
+        )
+
+    def frames():
+        for index, (lp, rp) in enumerate(zip(lefts, rights, strict=True)):
+            yield Frame(
+                index,
+                frame_name(index),
+                f"{lp} | {rp}",
+                lambda lp=lp, rp=rp: (io.read_image(lp), io.read_image(rp)),
+            )
+
+    return StereoSequence("folders", len(lefts), None, frames)
+
+
+def _video_pair_sequence(left: Path, right: Path) -> StereoSequence:
+    (n_left, fps, size_left), (n_right, _, size_right) = _probe(left), _probe(right)
+    if n_left != n_right or size_left != size_right:
+        raise ValueError(
+            f"videos differ: '{left}' has {n_left} frames of {size_left[0]}x{size_left[1]}, "
+            f"'{right}' {n_right} of {size_right[0]}x{size_right[1]}"
+        )
+
+    def frames():
+        pairs = zip(read_video(left), read_video(right), strict=True)
+        for index, (lf, rf) in enumerate(pairs):
+            yield Frame(index, frame_name(index), f"{left.name}#{index}", lambda a=lf, b=rf: (a, b))
+
+    return StereoSequence("videos", n_left, fps, frames)
+
+
+def _side_by_side_sequence(path: Path) -> StereoSequence:
+    count, fps, (width, _) = _probe(path)
+    if width % 2:
+        raise ValueError(f"side-by-side video '{path}' has an odd width ({width} pixels)")
+    half = width // 2
+
+    def frames():
+        for index, frame in enumerate(read_video(path)):
+            yield Frame(
+                index,
+                frame_name(index),
+                f"{path.name}#{index}",
+                lambda f=frame: (f[:, :half], f[:, half:]),
+            )
+
+    return StereoSequence("side-by-side", count, fps, frames)
+
+
+def _ffmpeg() -> str:
+    import imageio_ffmpeg
+
+    return imageio_ffmpeg.get_ffmpeg_exe()
+
+
+def _probe(path: Path) -> tuple[int, float, tuple[int, int]]:
+    """Return ``(frame_count, fps, (width, height))`` of a video."""
+    import imageio_ffmpeg
+
+    info = subprocess.run(
+        [_ffmpeg(), "-hide_banner", "-nostdin", "-i", str(path)],
+        capture_output=True,
+        text=True,
+        errors="replace",
+        check=False,
+    ).stderr
+    size = _VIDEO_SIZE.search(info)
+    if size is None:
+        raise ValueError(f"cannot read video '{path}': no video stream found")
+    fps = re.search(r"(\d+(?:\.\d+)?) fps", info)
+    try:
+        count, _ = imageio_ffmpeg.count_frames_and_secs(str(path))
+    except (RuntimeError, subprocess.CalledProcessError) as exc:
+        raise ValueError(f"cannot read video '{path}': {exc}") from None
+    return count, float(fps[1]) if fps else 25.0, (int(size[1]), int(size[2]))
+
+
+def read_video(path: str | os.PathLike) -> Iterator[np.ndarray]:
+    """Yield the frames of a video as uint8 RGB arrays of shape (H, W, 3).
+
+    Runs imageio-ffmpeg's ffmpeg in a subprocess that is always closed, also when the
+    caller stops early.
+    """
+    path = Path(path)
+    _, _, (width, height) = _probe(path)
+    size = width * height * 3
+    command = [_ffmpeg(), "-nostdin", "-v", "error", "-i", str(path)]
+    command += ["-f", "rawvideo", "-pix_fmt", "rgb24", "-"]
+    with tempfile.TemporaryFile() as log:
+        with subprocess.Popen(
+            command, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=log
+        ) as process:
+            try:
+                while True:
+                    data = process.stdout.read(size)
+                    if len(data) < size:
+                        break
+                    yield np.frombuffer(data, dtype=np.uint8).reshape(height, width, 3)
+            finally:
+                if process.poll() is None:
+                    process.kill()
+        if process.returncode not in (0, -9):
+            log.seek(0)
+            message = log.read().decode(errors="replace").strip().splitlines()
+            raise ValueError(
+                f"cannot read video '{path}': {message[-1] if message else 'ffmpeg failed'}"
+            )
+
+
+def write_video(path: str | os.PathLike, frames, *, fps: float = 10.0, quality: float = 8.0) -> int:
+    """Write uint8 frames (H, W) or (H, W, 3) as an H.264 video, atomically.
+
+    Odd sizes are padded by one row or column (edge pixels): the encoder needs even
+    sizes.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file; its suffix picks the container (``.mp4``, ``.mkv``, ``.avi``).
+    frames : iterable of ndarray
+        Frames of one size.
+    fps : float
+        Frame rate.
+    quality : float
+        imageio-ffmpeg quality, 0 (worst) to 10 (best).
+
+    Returns
+    -------
+    int
+        Number of frames written.
+    """
+    import imageio_ffmpeg
+
+    count, writer, shape = 0, None, None
+    with io.atomic_write(path) as tmp:
+        try:
+            for frame in frames:
+                frame = np.asarray(frame, dtype=np.uint8)
+                if frame.ndim == 2:
+                    frame = np.repeat(frame[:, :, None], 3, axis=2)
+                if shape is None:
+                    shape = frame.shape
+                    pad = ((0, shape[0] % 2), (0, shape[1] % 2), (0, 0))
+                    height, width = shape[0] + pad[0][1], shape[1] + pad[1][1]
+                    writer = imageio_ffmpeg.write_frames(
+                        str(tmp),
+                        (width, height),
+                        fps=fps,
+                        quality=quality,
+                        macro_block_size=1,
+                        ffmpeg_log_level="error",
+                    )
+                    writer.send(None)
+                elif frame.shape != shape:
+                    raise ValueError(
+                        f"cannot write video '{path}': frame {count} has shape {frame.shape}, "
+                        f"the first {shape}"
+                    )
+                writer.send(np.ascontiguousarray(np.pad(frame, pad, mode="edge")))
+                count += 1
+        finally:
+            if writer is not None:
+                writer.close()
+        if count == 0:
+            raise ValueError(f"cannot write video '{path}': no frames")
+    return count
+
+
+@dataclasses.dataclass
+class SequenceReport:
+    """What :func:`match_sequence` did: frame names per outcome, and failures."""
+
+    done: list[str] = dataclasses.field(default_factory=list)
+    skipped: list[str] = dataclasses.field(default_factory=list)
+    failed: list[FailureRow] = dataclasses.field(default_factory=list)
+    seconds: float = 0.0
+
+    @property
+    def ok(self) -> bool:
+        """True when no frame failed."""
+        return not self.failed
+
+
+def output_paths(output_dir: str | os.PathLike, index: int, fmt: str = "pfm"):
+    """Return ``(disparity, preview)`` paths of frame ``index`` in ``output_dir``."""
+    stem = Path(output_dir) / frame_name(index)
+    return stem.with_name(f"{stem.name}.{fmt}"), stem.with_name(f"{stem.name}-preview.png")
+
+
+def match_sequence(
+    sequence: StereoSequence,
+    output_dir: str | os.PathLike,
+    *,
+    max_disparity: int,
+    client=None,
+    resume: bool = True,
+    disparity_format: str = "pfm",
+    preview_style: str = "paper",
+    threads: int | None = None,
+    on_frame: Callable[[str, str], None] | None = None,
+    **options,
+) -> SequenceReport:
+    """Match every frame of a sequence; write its disparity and preview atomically.
+
+    Parameters
+    ----------
+    sequence : StereoSequence
+        From :func:`open_sequence`.
+    output_dir : str or os.PathLike
+        Existing folder for ``frameNNNNN.pfm|png``, ``frameNNNNN-preview.png``,
+        ``failures.csv`` and ``batch.json`` (the options, checked when resuming).
+    max_disparity : int
+        Largest disparity searched.
+    client : distributed.Client, optional
+        Run one task per frame on this client (frames are decoded here and sent to the
+        workers; a few frames are in flight at a time). None: match here.
+    resume : bool
+        Skip frames whose two outputs exist; False recomputes every frame.
+    disparity_format : {"pfm", "png"}
+        PFM (float32, ``inf`` = no estimate) or 16-bit PNG (``d * 256``, 0 = none).
+    preview_style : {"paper", "color"}
+        See :func:`dcstereo.viz.preview`.
+    threads : int, optional
+        numba threads per frame; default all cores here, 1 inside a Dask task.
+    on_frame : callable, optional
+        Called as ``on_frame(name, status)`` (``"done"``, ``"skipped"``, ``"failed"``).
+    **options
+        The other options of :func:`dcstereo.match`.
+
+    Returns
+    -------
+    SequenceReport
+    """
+    from .viz import preview
+
+    start = time.perf_counter()
+    folder = Path(output_dir)
+    if not folder.is_dir():
+        raise ValueError(f"output folder '{folder}' does not exist")
+    if disparity_format not in ("pfm", "png"):
+        raise ValueError(f"disparity_format must be 'pfm' or 'png', got {disparity_format!r}")
+    params = MatchParams(max_disparity=max_disparity, **options)
+    check_recorded_options(folder, dataclasses.asdict(params), resume)
+    match_kwargs = {"max_disparity": max_disparity, **options}
+    report = SequenceReport()
+
+    def note(name, status):
+        if on_frame is not None:
+            on_frame(name, status)
+
+    def finish(frame, answer):
+        disparity, occluded, detail = answer
+        if disparity is None:
+            report.failed.append(FailureRow(frame.name, frame.source, "", detail))
+            note(frame.name, "failed")
+            return
+        disparity_path, preview_path = output_paths(folder, frame.index, disparity_format)
+        io.write_disparity(disparity_path, disparity)
+        io.write_rgb_png(preview_path, preview(disparity, occluded, style=preview_style))
+        report.done.append(frame.name)
+        note(frame.name, "done")
+
+    def pending():
+        for frame in sequence.frames():
+            if resume and all(
+                p.is_file() for p in output_paths(folder, frame.index, disparity_format)
+            ):
+                report.skipped.append(frame.name)
+                note(frame.name, "skipped")
+                continue
+            try:
+                left, right = frame.load()
+            except ValueError as exc:
+                finish(frame, (None, None, str(exc)))
+                continue
+            yield frame, left, right
+
+    if client is None:
+        for frame, left, right in pending():
+            finish(frame, match_frame(left, right, match_kwargs, threads))
+    else:
+        _run_on_dask(client, pending(), match_kwargs, threads, finish)
+    report.done.sort()
+    write_failures(folder, report.failed)
+    report.seconds = time.perf_counter() - start
+    return report
+
+
+def match_frame(left, right, match_kwargs: dict, threads: int | None = None):
+    """Match one frame; return ``(disparity, occluded, seconds)`` or ``(None, None, reason)``."""
+    if threads is not None:
+        import numba
+
+        numba.set_num_threads(threads)
+    start = time.perf_counter()
+    try:
+        result = match(left, right, **match_kwargs)
+    except (ValueError, TypeError) as exc:
+        return None, None, str(exc).strip().splitlines()[0]
+    return result.disparity, result.occluded, time.perf_counter() - start
+
+
+def _run_on_dask(client, frames, match_kwargs, threads, finish):
+    from distributed import as_completed
+
+    workers = max(1, len(client.scheduler_info().get("workers", {})))
+    in_flight = 2 * workers  # frames decoded ahead; bounds the memory held here
+    owner = {}
+    queue = as_completed()
+
+    def submit(item):
+        frame, left, right = item
+        left_f, right_f = client.scatter([left, right])
+        future = client.submit(
+            match_frame,
+            left_f,
+            right_f,
+            match_kwargs,
+            1 if threads is None else threads,
+            key=f"dcstereo-frame-{frame.name}-{os.urandom(4).hex()}",
+            retries=2,
+        )
+        owner[future.key] = frame
+        queue.add(future)
+
+    frames = iter(frames)
+    for item in frames:
+        submit(item)
+        if queue.count() >= in_flight:
+            break
+    for future in queue:
+        frame = owner.pop(future.key)
+        try:
+            answer = future.result()
+        except Exception as exc:  # the task failed for good (KilledWorker, ...)
+            answer = (None, None, f"task failed on the cluster: {type(exc).__name__}: {exc}")
+        future.release()
+        finish(frame, answer)
+        item = next(frames, None)
+        if item is not None:
+            submit(item)
