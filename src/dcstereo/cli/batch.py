@@ -151,6 +151,8 @@ def batch(
     pairs = find_pairs(source)
     if scheduler is None:
         set_threads(threads)
+    elif threads is not None and threads < 1:
+        raise CommandError(f"--threads must be at least 1, got {threads}")
     folder.mkdir(parents=True, exist_ok=True)
     options = {
         "min_disparity": min_disparity,

@@ -68,8 +68,8 @@ from ._common import (
     "--tile-rows",
     type=int,
     default=None,
-    help="Match in bands of this many rows (plus the window's overlap): less memory, "
-    "the same result.",
+    help="Match in bands of this many rows (plus the window's overlap); the result is "
+    "the same as untiled.",
 )
 @click.option("--quiet", "-q", is_flag=True, help="Print nothing on success.")
 @one_line_errors
