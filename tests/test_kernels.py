@@ -21,8 +21,7 @@ def run_dp(cost, dmin, occ, five, box, anchor_start=False, anchor_end=False):
     """Call ``scanline_dp``; return (total, nodes, steps) in the oracle's format."""
     width, ndisp = cost.shape
     x_lo, x_hi, j_lo, j_hi = box
-    table = np.empty((width, ndisp))
-    steps = np.empty((width, ndisp), dtype=np.uint8)
+    table = np.empty((width + 2, ndisp + 2))
     path_x = np.empty(2 * width + 2, dtype=np.int64)
     path_k = np.empty(2 * width + 2, dtype=np.int64)
     path_s = np.empty(2 * width + 2, dtype=np.uint8)
@@ -39,7 +38,6 @@ def run_dp(cost, dmin, occ, five, box, anchor_start=False, anchor_end=False):
         anchor_start,
         anchor_end,
         table,
-        steps,
         path_x,
         path_k,
         path_s,
@@ -134,9 +132,31 @@ def test_row_costs_match_naive_window_sad(radius):
     pad = ((radius, radius), (radius, radius))
     left_p, right_p = np.pad(left, pad, mode="edge"), np.pad(right, pad, mode="edge")
     out = np.empty((width, ndisp))
-    colsum = np.empty(width + 2 * radius, dtype=np.int64)
+    fresh = np.empty((width, ndisp))
+    vcol = np.empty((width, ndisp), dtype=np.int64)
+    vcol_fresh = np.empty((width, ndisp), dtype=np.int64)
     for y in range(height):
-        _kernels.row_costs(left_p, right_p, y, dmin, ndisp, radius, colsum, out)
+        # rows after the first update the vertical sums of the row before
+        _kernels.row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, out, y > 0)
+        _kernels.row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol_fresh, fresh, False)
+        expected = naive.row_costs(left, right, y, dmin, ndisp, radius)
+        np.testing.assert_array_equal(out, expected)
+        np.testing.assert_array_equal(fresh, expected)
+
+
+@pytest.mark.parametrize("dmin", [-12, -3, 0, 4, 11])
+def test_row_costs_match_naive_when_the_band_leaves_the_image(dmin):
+    # disparities beyond the width: whole rows of the band are outside the image
+    rng = np.random.default_rng(11)
+    height, width, ndisp, radius = 4, 9, 6, 2
+    left = rng.integers(0, 4096, size=(height, width)).astype(np.int32)
+    right = rng.integers(0, 4096, size=(height, width)).astype(np.int32)
+    pad = ((radius, radius), (radius, radius))
+    left_p, right_p = np.pad(left, pad, mode="edge"), np.pad(right, pad, mode="edge")
+    out = np.empty((width, ndisp))
+    vcol = np.empty((width, ndisp), dtype=np.int64)
+    for y in range(height):
+        _kernels.row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, out, y > 0)
         np.testing.assert_array_equal(out, naive.row_costs(left, right, y, dmin, ndisp, radius))
 
 

@@ -36,7 +36,7 @@ FLAG_BORDER = 2
 
 
 @nb.njit(cache=True)
-def row_costs(left_p, right_p, y, dmin, ndisp, radius, colsum, out):
+def row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, out, incremental):
     """Windowed SAD of eq. 4 for row ``y`` into ``out[x, k]`` (inf outside the image).
 
     ``left_p``/``right_p`` are the integer signals padded by ``radius`` on every side
@@ -46,66 +46,151 @@ def row_costs(left_p, right_p, y, dmin, ndisp, radius, colsum, out):
     images, and the sum is rescaled to the full window (``* W / columns used``): padding one
     view and comparing it with real pixels of the other would charge a fake mismatch to the
     pixels within ``radius`` of an image edge. Interior cells are exact integer sums.
-    ``colsum`` is a scratch vector at least as long as the row.
+
+    ``vcol`` (int64, shape (width, ndisp)) holds the vertical window sums
+    ``sum_t |L(y + t, x) - R(y + t, x - d)|`` of every cell; with ``incremental`` it must
+    hold those of row ``y - 1`` (the previous call) and is updated by adding the row that
+    enters the window and subtracting the one that leaves it (two absolute differences per
+    cell instead of ``W``); otherwise it is computed afresh. The horizontal sum then runs
+    along ``x`` for all disparities at once (the inner loop is over ``k``, contiguous).
     """
     wp = left_p.shape[1]
     width = wp - 2 * radius
     win = 2 * radius + 1
+    # vertical sums; cells whose partner lies outside the right image hold 0
+    if incremental:
+        top = y - 1  # padded row leaving the window
+        bottom = y + 2 * radius  # padded row entering it
+        for x in range(width):
+            lt = left_p[top, x + radius]
+            lb = left_p[bottom, x + radius]
+            base = x - dmin + radius
+            k_lo = max(0, x - dmin - (width - 1))
+            k_hi = min(ndisp - 1, x - dmin)
+            for k in range(k_lo, k_hi + 1):
+                jp = base - k
+                vcol[x, k] += abs(lb - right_p[bottom, jp]) - abs(lt - right_p[top, jp])
+    else:
+        for x in range(width):
+            for k in range(ndisp):
+                vcol[x, k] = 0
+            base = x - dmin + radius
+            k_lo = max(0, x - dmin - (width - 1))
+            k_hi = min(ndisp - 1, x - dmin)
+            for t in range(win):
+                lv = left_p[y + t, x + radius]
+                for k in range(k_lo, k_hi + 1):
+                    vcol[x, k] += abs(lv - right_p[y + t, base - k])
+    # horizontal sums: running over x, every k at once; rescale the truncated windows
+    for k in range(ndisp):
+        out[0, k] = 0.0
+    for c in range(min(radius, width - 1) + 1):
+        for k in range(ndisp):
+            out[0, k] += vcol[c, k]
+    for x in range(1, width):
+        add = x + radius
+        sub = x - radius - 1
+        if add < width and sub >= 0:
+            for k in range(ndisp):
+                out[x, k] = out[x - 1, k] + (vcol[add, k] - vcol[sub, k])
+        elif add < width:
+            for k in range(ndisp):
+                out[x, k] = out[x - 1, k] + vcol[add, k]
+        elif sub >= 0:
+            for k in range(ndisp):
+                out[x, k] = out[x - 1, k] - vcol[sub, k]
+        else:
+            for k in range(ndisp):
+                out[x, k] = out[x - 1, k]
+    # outside the image, and the truncated windows near the ends of each disparity's range
     for k in range(ndisp):
         d = dmin + k
-        for x in range(width):
-            out[x, k] = np.inf
         x0 = max(0, d)
         x1 = min(width, width + d)  # exclusive; 0 <= x - d < width
-        if x0 >= x1:
-            continue
-        for x in range(x0, x1):
-            s = 0
-            for t in range(win):
-                s += abs(left_p[y + t, x + radius] - right_p[y + t, x - d + radius])
-            colsum[x] = s
-        # running sum over the truncated window [max(x - r, x0), min(x + r, x1 - 1)]
-        lo = x0
-        hi = min(x0 + radius, x1 - 1)
-        s = 0
-        for c in range(lo, hi + 1):
-            s += colsum[c]
-        for x in range(x0, x1):
-            new_lo = max(x - radius, x0)
-            new_hi = min(x + radius, x1 - 1)
-            while hi < new_hi:
-                hi += 1
-                s += colsum[hi]
-            while lo < new_lo:
-                s -= colsum[lo]
-                lo += 1
-            used = hi - lo + 1
-            if used == win:
-                out[x, k] = s
-            else:
-                out[x, k] = s * win / used
+        for x in range(0, min(x0, width)):
+            out[x, k] = np.inf
+        for x in range(max(x1, 0), width):
+            out[x, k] = np.inf
+        # only the first and last ``radius`` columns of the range have truncated windows
+        lo_end = min(x0 + radius, x1)
+        hi_start = max(x1 - radius, lo_end)
+        for x in range(x0, lo_end):
+            used = min(x + radius, x1 - 1) - max(x - radius, x0) + 1
+            if used != win:
+                out[x, k] = out[x, k] * win / used
+        for x in range(hi_start, x1):
+            used = min(x + radius, x1 - 1) - max(x - radius, x0) + 1
+            if used != win:
+                out[x, k] = out[x, k] * win / used
 
 
 # --------------------------------------------------------------------------- DP
 
 
+@nb.njit(cache=True)
+def _earlier_steps5(row, prev, prev2, here, left, k1, k2, occ2, slant2):
+    """Pass 1 of a row of the five-step DP: c, d, e, a into ``row[k + 1]``, ``k1..k2``.
+
+    ``row``, ``prev``, ``prev2``: padded table rows of columns x, x - 1, x - 2; ``here``,
+    ``left``: the cost rows of x and x - 1. A function of its own, over 1-D arrays, so
+    that the compiler vectorizes the loop (inside ``scanline_dp`` it does not).
+    """
+    for k in range(k1, k2 + 1):
+        h2 = 2.0 * here[k]
+        c = prev[k + 1] + h2
+        d = prev[k + 2] + h2 + here[k + 1] + left[k] + slant2
+        e = prev2[k] + h2 + left[k - 1] + left[k] + slant2
+        a = prev[k] + occ2
+        row[k + 1] = min(min(c, d), min(e, a))
+
+
+@nb.njit(cache=True)
+def _earlier_steps3(row, prev, here, k1, k2, occ2):
+    """Pass 1 of a row of the three-step DP: c and a (see ``_earlier_steps5``)."""
+    for k in range(k1, k2 + 1):
+        row[k + 1] = min(prev[k + 1] + 2.0 * here[k], prev[k] + occ2)
+
+
 @nb.njit(cache=True, inline="always")
-def _node(table, x, k, ndisp, dmin, x_lo, x_hi, j_lo, j_hi, anchor_start):
-    """Accumulated cost of node (x, dmin + k), with the segment's boundary rules."""
-    if k < 0 or k >= ndisp:
-        return np.inf
-    j = x - dmin - k
-    if anchor_start:
-        if x < x_lo or j < j_lo:
-            return np.inf
-    else:
-        if x < x_lo - 1 or j < j_lo - 1:
-            return np.inf
-        if x == x_lo - 1 or j == j_lo - 1:
-            return 0.0  # virtual start: nothing consumed on one side
-    if x > x_hi or j > j_hi:
-        return np.inf
-    return table[x - x_lo, k]
+def _slow_cell(cost, table, x, r, k, ndisp, occ2, slant2, slant_ok, allow_a):
+    """Best of the c, d, e (and a) steps into cell ``(x, k)``, with bounds checks."""
+    h2 = 2.0 * cost[x, k]
+    best = table[r - 1, k + 1] + h2
+    if slant_ok:
+        if k + 1 < ndisp:
+            best = min(best, table[r - 1, k + 2] + h2 + cost[x, k + 1] + cost[x - 1, k] + slant2)
+        if k >= 1:
+            best = min(best, table[r - 2, k] + h2 + cost[x - 1, k - 1] + cost[x - 1, k] + slant2)
+    if allow_a:
+        best = min(best, table[r - 1, k] + occ2)
+    return best
+
+
+@nb.njit(cache=True)
+def _step_into(cost, table, x, r, k, ndisp, occ2, slant2, slant_ok, allow_ab):
+    """Find the step the forward pass took into cell ``(x, k)``.
+
+    The candidates are evaluated again with the very expressions of the forward pass, in
+    its order of preference (c, d, e, a, b: the first of equal costs wins), and the first
+    whose cost equals the cell's is the step: exact, since the arithmetic is the same.
+    """
+    best = table[r, k + 1]
+    h2 = 2.0 * cost[x, k]
+    if table[r - 1, k + 1] + h2 == best:
+        return STEP_C
+    if slant_ok:
+        if k + 1 < ndisp:
+            if table[r - 1, k + 2] + h2 + cost[x, k + 1] + cost[x - 1, k] + slant2 == best:
+                return STEP_D
+        if k >= 1:
+            if table[r - 2, k] + h2 + cost[x - 1, k - 1] + cost[x - 1, k] + slant2 == best:
+                return STEP_E
+    if allow_ab:
+        if table[r - 1, k] + occ2 == best:
+            return STEP_A
+        if table[r, k + 2] + occ2 == best:
+            return STEP_B
+    return STEP_NONE
 
 
 @nb.njit(cache=True)
@@ -122,7 +207,6 @@ def scanline_dp(
     anchor_start,
     anchor_end,
     table,
-    steps,
     path_x,
     path_k,
     path_s,
@@ -142,104 +226,83 @@ def scanline_dp(
       the image (border) and cost nothing.
 
     ``five`` selects the five-step model (a, b, c, d, e) over the classic three.
-    Returns ``(n, total)``: the path (end to start) in ``path_x/k/s[:n]`` and its
-    doubled cost; ``n == 0`` when no admissible path exists.
+    ``table`` (shape >= (x_hi - x_lo + 3, ndisp + 2)) is padded so that every predecessor
+    is a plain read: node ``(x, dmin + k)`` lives at ``table[x - x_lo + 2, k + 1]``; rows 0
+    and 1 are the columns ``x_lo - 2`` and ``x_lo - 1`` (the virtual start), columns 0 and
+    ``ndisp + 1`` lie outside the band (inf), and the virtual start cells ``j == j_lo - 1``
+    hold 0. Each row is done in two passes: the steps from earlier columns (c, d, e, a),
+    independent across disparities and branch-free (the compiler vectorizes it), then the
+    b steps down the column, the one chain within a row. No step is stored: the backtrack
+    finds it again (``_step_into``). Returns ``(n, total)``: the path (end to start) in
+    ``path_x/k/s[:n]`` and its doubled cost; ``n == 0`` when no admissible path exists.
     """
     ndisp = cost.shape[1]
-    for x in range(x_lo, x_hi + 1):
-        r = x - x_lo
+    inf = np.inf
+    for kk in range(ndisp + 2):
+        table[0, kk] = inf
+        table[1, kk] = inf
+    if not anchor_start:
         for k in range(ndisp):
-            table[r, k] = np.inf
-            steps[r, k] = STEP_NONE
+            if x_lo - 1 - dmin - k >= j_lo - 1:
+                table[1, k + 1] = 0.0
+    k_start_cell = x_lo - j_lo - dmin if anchor_start else -9
+    k_end_cell = x_hi - j_hi - dmin if anchor_end else -9
+    for x in range(x_lo, x_hi + 1):
+        r = x - x_lo + 2
+        row = table[r]
+        prev = table[r - 1]
+        prev2 = table[r - 2]
+        here = cost[x]
+        for kk in range(ndisp + 2):
+            row[kk] = inf
         k_hi = min(ndisp - 1, x - j_lo - dmin)
         k_lo = max(0, x - j_hi - dmin)
+        if not anchor_start:
+            k_virtual = x - dmin - (j_lo - 1)
+            if 0 <= k_virtual < ndisp:
+                row[k_virtual + 1] = 0.0
+        # the anchored start and end cells, by their index in this row (-9: none here)
+        k_start = k_start_cell if x == x_lo else -9
+        k_end = k_end_cell if x == x_hi else -9
+        slant_ok = five and x >= 1
+        # pass 1: c, d, e, a; the first and last cells of the band would read outside
+        # the cost rows, and the anchored end takes no a step: those go the slow way
+        k1 = max(k_lo, 1)
+        k2 = min(k_hi, ndisp - 2)
+        if slant_ok:
+            _earlier_steps5(row, prev, prev2, here, cost[x - 1], k1, k2, occ2, slant2)
+        else:
+            _earlier_steps3(row, prev, here, k1, k2, occ2)
+        for k in (k_lo, k_hi, k_end):
+            if k_lo <= k <= k_hi and (k < k1 or k > k2 or k == k_end):
+                row[k + 1] = _slow_cell(
+                    cost, table, x, r, k, ndisp, occ2, slant2, slant_ok, k != k_end
+                )
+        # pass 2: the b steps, down the column (k descending: (x, d+1) -> (x, d))
+        # (a branch, not min(): b steps are rare, so the branch is predicted and the
+        # chain of dependent additions that min() would make is speculated away)
+        above = row[k_hi + 2]
         for k in range(k_hi, k_lo - 1, -1):
-            j = x - dmin - k
-            if anchor_start and x == x_lo:
-                if j == j_lo:
-                    table[r, k] = 0.0
-                    steps[r, k] = STEP_START
-                    continue
-            is_end = anchor_end and x == x_hi and j == j_hi
-            best = np.inf
-            step = STEP_NONE
-            here = cost[x, k]
-            if here < np.inf:
-                v = (
-                    _node(table, x - 1, k, ndisp, dmin, x_lo, x_hi, j_lo, j_hi, anchor_start)
-                    + 2.0 * here
-                )
-                if v < best:
-                    best = v
-                    step = STEP_C
-                if five and x >= 1:
-                    if k + 1 < ndisp:  # d step from (x-1, d+1) via b=(x, d+1), c=(x-1, d)
-                        extra = cost[x, k + 1] + cost[x - 1, k]
-                        v = (
-                            _node(
-                                table,
-                                x - 1,
-                                k + 1,
-                                ndisp,
-                                dmin,
-                                x_lo,
-                                x_hi,
-                                j_lo,
-                                j_hi,
-                                anchor_start,
-                            )
-                            + 2.0 * here
-                            + extra
-                            + slant2
-                        )
-                        if v < best:
-                            best = v
-                            step = STEP_D
-                    if k >= 1:  # e step from (x-2, d-1) via a=(x-1, d-1), c=(x-1, d)
-                        extra = cost[x - 1, k - 1] + cost[x - 1, k]
-                        v = (
-                            _node(
-                                table,
-                                x - 2,
-                                k - 1,
-                                ndisp,
-                                dmin,
-                                x_lo,
-                                x_hi,
-                                j_lo,
-                                j_hi,
-                                anchor_start,
-                            )
-                            + 2.0 * here
-                            + extra
-                            + slant2
-                        )
-                        if v < best:
-                            best = v
-                            step = STEP_E
-            if not is_end:
-                v = (
-                    _node(table, x - 1, k - 1, ndisp, dmin, x_lo, x_hi, j_lo, j_hi, anchor_start)
-                    + occ2
-                )
-                if v < best:
-                    best = v
-                    step = STEP_A
-                v = _node(table, x, k + 1, ndisp, dmin, x_lo, x_hi, j_lo, j_hi, anchor_start) + occ2
-                if v < best:
-                    best = v
-                    step = STEP_B
-            table[r, k] = best
-            steps[r, k] = step
+            cell = row[k + 1]
+            if k == k_start:
+                cell = 0.0
+                row[k + 1] = cell
+            elif k != k_end:
+                v = above + occ2
+                if v < cell:
+                    cell = v
+                    row[k + 1] = cell
+            above = cell
 
     # choose the end node
     end_x = -1
     end_k = -1
-    total = np.inf
+    total = inf
+    last = x_hi - x_lo + 2
     if anchor_end:
-        k = x_hi - j_hi - dmin
+        k = k_end_cell
         if 0 <= k < ndisp:
-            total = table[x_hi - x_lo, k]
+            total = table[last, k + 1]
             end_x = x_hi
             end_k = k
     else:
@@ -247,7 +310,7 @@ def scanline_dp(
         for k in range(ndisp):
             j = x_hi - dmin - k
             if j_lo <= j <= j_hi:
-                v = table[x_hi - x_lo, k]
+                v = table[last, k + 1]
                 if v < total:
                     total = v
                     end_x = x_hi
@@ -255,20 +318,35 @@ def scanline_dp(
         for k in range(ndisp):
             x = j_hi + dmin + k
             if x_lo <= x < x_hi:
-                v = table[x - x_lo, k]
+                v = table[x - x_lo + 2, k + 1]
                 if v < total:
                     total = v
                     end_x = x
                     end_k = k
-    if not total < np.inf:
-        return 0, np.inf
+    if not total < inf:
+        return 0, inf
 
     # backtrack
     n = 0
     x = end_x
     k = end_k
     while True:
-        s = steps[x - x_lo, k]
+        r = x - x_lo + 2
+        if anchor_start and x == x_lo and k == k_start_cell:
+            s = STEP_START
+        else:
+            s = _step_into(
+                cost,
+                table,
+                x,
+                r,
+                k,
+                ndisp,
+                occ2,
+                slant2,
+                five and x >= 1,
+                not (anchor_end and x == x_hi and k == k_end_cell),
+            )
         path_x[n] = x
         path_k[n] = k
         path_s[n] = s
@@ -332,18 +410,16 @@ def match_dsi_rows(
 ):
     """Run the whole-scanline DP on every row; rows are the only parallel loop."""
     height, width = disp.shape
-    wp = left_p.shape[1]
     for c in nb.prange(nchunks):
         y0, y1 = _chunk_bounds(height, nchunks, c)
         cost = np.empty((width, ndisp), dtype=np.float64)
-        colsum = np.empty(wp, dtype=np.int64)
-        table = np.empty((width, ndisp), dtype=np.float64)
-        steps = np.empty((width, ndisp), dtype=np.uint8)
+        vcol = np.empty((width, ndisp), dtype=np.int64)
+        table = np.empty((width + 2, ndisp + 2), dtype=np.float64)
         path_x = np.empty(2 * width + 2, dtype=np.int64)
         path_k = np.empty(2 * width + 2, dtype=np.int64)
         path_s = np.empty(2 * width + 2, dtype=np.uint8)
         for y in range(y0, y1):
-            row_costs(left_p, right_p, y, dmin, ndisp, radius, colsum, cost)
+            row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, y > y0)
             for x in range(width):
                 disp[y, x] = np.nan
                 flags[y, x] = FLAG_BORDER
@@ -360,7 +436,6 @@ def match_dsi_rows(
                 False,
                 False,
                 table,
-                steps,
                 path_x,
                 path_k,
                 path_s,
@@ -373,13 +448,12 @@ def match_dsi_rows(
 def match_block_rows(left_p, right_p, dmin, ndisp, radius, nchunks, disp, flags, total):
     """Winner-take-all block matching: the disparity of least window SAD per pixel."""
     height, width = disp.shape
-    wp = left_p.shape[1]
     for c in nb.prange(nchunks):
         y0, y1 = _chunk_bounds(height, nchunks, c)
         cost = np.empty((width, ndisp), dtype=np.float64)
-        colsum = np.empty(wp, dtype=np.int64)
+        vcol = np.empty((width, ndisp), dtype=np.int64)
         for y in range(y0, y1):
-            row_costs(left_p, right_p, y, dmin, ndisp, radius, colsum, cost)
+            row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, y > y0)
             t = 0.0
             for x in range(width):
                 best = np.inf
@@ -549,7 +623,6 @@ def fill_interval(
     width,
     linear,
     table,
-    steps,
     path_x,
     path_k,
     path_s,
@@ -592,7 +665,6 @@ def fill_interval(
         anchor_start,
         anchor_end,
         table,
-        steps,
         path_x,
         path_k,
         path_s,
@@ -625,7 +697,6 @@ def divide_row(
     linear,
     signal_steps,
     table,
-    steps,
     path_x,
     path_k,
     path_s,
@@ -799,7 +870,6 @@ def divide_row(
                 width,
                 linear,
                 table,
-                steps,
                 path_x,
                 path_k,
                 path_s,
@@ -847,19 +917,19 @@ def match_dc_rows(
     for ch in nb.prange(nchunks):
         y0, y1 = _chunk_bounds(height, nchunks, ch)
         cost = np.empty((width, ndisp), dtype=np.float64)
+        vcol = np.empty((width, ndisp), dtype=np.int64)
         colsum = np.empty(wp, dtype=np.int64)
         colsq = np.empty(wp, dtype=np.int64)
         var_l = np.empty(width, dtype=np.float64)
         wta_k = np.empty(width, dtype=np.int64)
         wta_ratio = np.empty(width, dtype=np.float64)
-        table = np.empty((width, ndisp), dtype=np.float64)
-        steps = np.empty((width, ndisp), dtype=np.uint8)
+        table = np.empty((width + 2, ndisp + 2), dtype=np.float64)
         path_x = np.empty(2 * width + 2, dtype=np.int64)
         path_k = np.empty(2 * width + 2, dtype=np.int64)
         path_s = np.empty(2 * width + 2, dtype=np.uint8)
         stack = np.empty((width + 2, 4), dtype=np.int64)
         for y in range(y0, y1):
-            row_costs(left_p, right_p, y, dmin, ndisp, radius, colsum, cost)
+            row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, y > y0)
             window_variance_row(left_p, y, radius, signal_steps, colsum, colsq, var_l)
             wta_k[:] = NOT_MATCHED
             for x in range(width):
@@ -891,7 +961,6 @@ def match_dc_rows(
                 linear,
                 signal_steps,
                 table,
-                steps,
                 path_x,
                 path_k,
                 path_s,
