@@ -133,8 +133,8 @@ def test_row_costs_match_naive_window_sad(radius):
     left_p, right_p = np.pad(left, pad, mode="edge"), np.pad(right, pad, mode="edge")
     out = np.empty((width, ndisp))
     fresh = np.empty((width, ndisp))
-    vcol = np.empty((width, ndisp), dtype=np.int64)
-    vcol_fresh = np.empty((width, ndisp), dtype=np.int64)
+    vcol = np.empty((width, ndisp), dtype=np.int32)
+    vcol_fresh = np.empty((width, ndisp), dtype=np.int32)
     for y in range(height):
         # rows after the first update the vertical sums of the row before
         _kernels.row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, out, y > 0)
@@ -154,7 +154,7 @@ def test_row_costs_match_naive_when_the_band_leaves_the_image(dmin):
     pad = ((radius, radius), (radius, radius))
     left_p, right_p = np.pad(left, pad, mode="edge"), np.pad(right, pad, mode="edge")
     out = np.empty((width, ndisp))
-    vcol = np.empty((width, ndisp), dtype=np.int64)
+    vcol = np.empty((width, ndisp), dtype=np.int32)
     for y in range(height):
         _kernels.row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, out, y > 0)
         np.testing.assert_array_equal(out, naive.row_costs(left, right, y, dmin, ndisp, radius))

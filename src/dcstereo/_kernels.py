@@ -47,10 +47,10 @@ def row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, out, incremental):
     view and comparing it with real pixels of the other would charge a fake mismatch to the
     pixels within ``radius`` of an image edge. Interior cells are exact integer sums.
 
-    ``vcol`` (int64, shape (width, ndisp)) holds the vertical window sums
-    ``sum_t |L(y + t, x) - R(y + t, x - d)|`` of every cell; with ``incremental`` it must
-    hold those of row ``y - 1`` (the previous call) and is updated by adding the row that
-    enters the window and subtracting the one that leaves it (two absolute differences per
+    ``vcol`` (int32, shape (width, ndisp): room for windows of 500,000 rows) holds the
+    vertical window sums ``sum_t |L(y + t, x) - R(y + t, x - d)|`` of every cell; with
+    ``incremental`` it must hold those of row ``y - 1`` (the previous call) and is updated
+    by adding the row that enters the window and subtracting the one that leaves it (two absolute differences per
     cell instead of ``W``); otherwise it is computed afresh. The horizontal sum then runs
     along ``x`` for all disparities at once (the inner loop is over ``k``, contiguous).
     """
@@ -127,13 +127,14 @@ def row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, out, incremental):
 # --------------------------------------------------------------------------- DP
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _earlier_steps5(row, prev, prev2, here, left, k1, k2, occ2, slant2):
     """Pass 1 of a row of the five-step DP: c, d, e, a into ``row[k + 1]``, ``k1..k2``.
 
     ``row``, ``prev``, ``prev2``: padded table rows of columns x, x - 1, x - 2; ``here``,
     ``left``: the cost rows of x and x - 1. A function of its own, over 1-D arrays, so
-    that the compiler vectorizes the loop (inside ``scanline_dp`` it does not).
+    that the compiler vectorizes the loop (written inline in ``scanline_dp`` it does not);
+    inlined by numba, so that no reference counting of the row views is paid per column.
     """
     for k in range(k1, k2 + 1):
         h2 = 2.0 * here[k]
@@ -144,7 +145,7 @@ def _earlier_steps5(row, prev, prev2, here, left, k1, k2, occ2, slant2):
         row[k + 1] = min(min(c, d), min(e, a))
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _earlier_steps3(row, prev, here, k1, k2, occ2):
     """Pass 1 of a row of the three-step DP: c and a (see ``_earlier_steps5``)."""
     for k in range(k1, k2 + 1):
@@ -413,7 +414,7 @@ def match_dsi_rows(
     for c in nb.prange(nchunks):
         y0, y1 = _chunk_bounds(height, nchunks, c)
         cost = np.empty((width, ndisp), dtype=np.float64)
-        vcol = np.empty((width, ndisp), dtype=np.int64)
+        vcol = np.empty((width, ndisp), dtype=np.int32)
         table = np.empty((width + 2, ndisp + 2), dtype=np.float64)
         path_x = np.empty(2 * width + 2, dtype=np.int64)
         path_k = np.empty(2 * width + 2, dtype=np.int64)
@@ -451,7 +452,7 @@ def match_block_rows(left_p, right_p, dmin, ndisp, radius, nchunks, disp, flags,
     for c in nb.prange(nchunks):
         y0, y1 = _chunk_bounds(height, nchunks, c)
         cost = np.empty((width, ndisp), dtype=np.float64)
-        vcol = np.empty((width, ndisp), dtype=np.int64)
+        vcol = np.empty((width, ndisp), dtype=np.int32)
         for y in range(y0, y1):
             row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, y > y0)
             t = 0.0
@@ -917,7 +918,7 @@ def match_dc_rows(
     for ch in nb.prange(nchunks):
         y0, y1 = _chunk_bounds(height, nchunks, ch)
         cost = np.empty((width, ndisp), dtype=np.float64)
-        vcol = np.empty((width, ndisp), dtype=np.int64)
+        vcol = np.empty((width, ndisp), dtype=np.int32)
         colsum = np.empty(wp, dtype=np.int64)
         colsq = np.empty(wp, dtype=np.int64)
         var_l = np.empty(width, dtype=np.float64)
