@@ -50,9 +50,10 @@ def row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, out, incremental):
     ``vcol`` (int32, shape (width, ndisp): room for windows of 500,000 rows) holds the
     vertical window sums ``sum_t |L(y + t, x) - R(y + t, x - d)|`` of every cell; with
     ``incremental`` it must hold those of row ``y - 1`` (the previous call) and is updated
-    by adding the row that enters the window and subtracting the one that leaves it (two absolute differences per
-    cell instead of ``W``); otherwise it is computed afresh. The horizontal sum then runs
-    along ``x`` for all disparities at once (the inner loop is over ``k``, contiguous).
+    by adding the row that enters the window and subtracting the one that leaves it (two
+    absolute differences per cell instead of ``W``); otherwise it is computed afresh. The
+    horizontal sum then runs along ``x`` for all disparities at once (the inner loop is
+    over ``k``, contiguous).
     """
     wp = left_p.shape[1]
     width = wp - 2 * radius
