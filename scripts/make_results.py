@@ -45,10 +45,34 @@ def table(rows):
     return "\n".join(lines)
 
 
+README_BEGIN = "<!-- results-table: written by scripts/make_results.py -->"
+README_END = "<!-- end of results-table -->"
+
+
+def update_readme(path: Path, mean_table: str) -> None:
+    """Replace the README's mean table (between the markers) with this run's."""
+    if not path.is_file():
+        return
+    text = path.read_text(encoding="utf-8")
+    start, end = text.find(README_BEGIN), text.find(README_END)
+    if start < 0 or end < start:
+        print(f"{path}: no results markers, left alone")
+        return
+    text = text[: start + len(README_BEGIN)] + "\n" + mean_table + "\n" + text[end:]
+    with io.atomic_write(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--data", type=Path, default=middlebury_dir())
     parser.add_argument("--docs", type=Path, default=Path("docs"))
+    parser.add_argument(
+        "--readme",
+        type=Path,
+        default=Path("README.md"),
+        help="README whose mean table (between the results markers) is rewritten",
+    )
     args = parser.parse_args(argv)
     images = args.docs / "img"
     images.mkdir(parents=True, exist_ok=True)
@@ -143,6 +167,7 @@ feature pairs dc accepted (yellow) and the two intensity profiles:
 """
     with io.atomic_write(args.docs / "RESULTS.md") as tmp:
         tmp.write_text(text, encoding="utf-8")
+    update_readme(args.readme, table(means))
     print(table(means))
     print(f"wrote {args.docs / 'RESULTS.md'} and {images}/tsukuba_{{compare,scanline}}.png")
 
