@@ -1,0 +1,739 @@
+"""Speed and memory of the dcstereo methods against OpenCV StereoBM and StereoSGBM (issue 6).
+
+Every configuration (input, method, thread count) runs in a fresh Python process, started as
+``python bench_speed.py --one SPEC``, on the same inputs:
+
+* the Middlebury development scenes (``dcstereo.datasets.load_middlebury``), and
+* a synthetic ``3000 x 2000`` pair (width x height) searched over 256 disparities: a seeded
+  random texture, smoothed with a 3x3 binomial filter so it is matchable, warped by a known
+  disparity field (a slanted plane plus a raised rectangle, disparities in 0..255) with
+  linear interpolation. It is made once by the parent and saved to a temporary ``.npz``.
+
+In the child: imports, thread count (``numba.set_num_threads`` and ``cv2.setNumThreads``),
+inputs; one call on a 32-row strip of the pair (numba compiles or loads its code); then the
+resident set size is read (``base``) and the peak RSS counter is reset
+(``/proc/self/clear_refs``); then one full-size warm-up call (left out for the large pair
+by default, whose code is already warm from the strip) and the best of ``--repeat`` timed
+calls (``time.perf_counter``; ``--repeat-large`` for the large pair).
+
+Columns: ``ms`` best call; ``Mde/s`` = ``H * W * D / 1e6 / s``, million disparity
+evaluations per second, ``D`` the disparities searched (OpenCV: rounded up to a multiple
+of 16, what it really searched); ``base MB`` RSS before the measured calls (interpreter,
+libraries, inputs, compiled code); ``peak MB`` ``ru_maxrss`` of the child at its end
+(whole-process peak); ``method MB`` the peak RSS during the measured calls minus ``base``:
+the method's own working memory (without ``/proc``: the ``ru_maxrss`` growth);
+``x SGBM`` time over OpenCV SGBM's at the same thread count (below 1 = faster).
+
+dcstereo methods run with their defaults (``window=5``); OpenCV runs through
+``dcstereo.opencv.match_opencv`` with its documented defaults (``MODE_SGBM``, 5x5 block,
+``P1 = 8 * 25``, ``P2 = 32 * 25``, uniqueness 10 (SGBM) / 15 (BM), ``disp12MaxDiff = 1``,
+speckle filter 100 px / 2): both sides include the conversion to gray and the conversion
+of the result to float32 with NaN holes.
+
+The first-call cost of each dcstereo method is measured on one scene: the first call in a
+child whose ``NUMBA_CACHE_DIR`` is a fresh empty folder (compile), then in a second child
+with that folder filled (load from the cache), and the steady-state call.
+
+    python benchmarks/bench_speed.py
+    python benchmarks/bench_speed.py --scenes teddy --methods dsi5,opencv-sgbm --threads 1
+    python benchmarks/bench_speed.py --skip-large --json speed.json --markdown speed.md
+"""
+
+import argparse
+import datetime
+import json
+import os
+import platform
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+DCSTEREO_METHODS = ("block", "dsi3", "dsi5", "dc")
+OPENCV_METHODS = ("opencv-bm", "opencv-sgbm")
+DEFAULT_METHODS = DCSTEREO_METHODS + OPENCV_METHODS
+SGBM = "opencv-sgbm"
+LARGE_NAME = "synthetic"
+RESULT_TAG = "BENCH_SPEED_RESULT "
+STRIP_ROWS = 32
+
+
+# --------------------------------------------------------------------------- inputs
+
+
+def synthetic_pair(width, height, disparities, seed=0):
+    """A textured pair warped by a slanted plane plus a raised rectangle.
+
+    Returns ``(left, right, truth)``: uint8 (H, W) images and the float32 (H, W) disparity
+    of the left view, in ``0 .. disparities - 1`` (``x_right = x_left - d``).
+    """
+    rng = np.random.default_rng(seed)
+    top = disparities - 1
+    margin = top + 2
+    texture = rng.uniform(0.0, 255.0, (height + 2, width + margin + 2)).astype(np.float32)
+    # 3x3 binomial smoothing: matchable with sub-pixel warps, still rich in texture.
+    texture = 0.25 * texture[:, :-2] + 0.5 * texture[:, 1:-1] + 0.25 * texture[:, 2:]
+    texture = 0.25 * texture[:-2] + 0.5 * texture[1:-1] + 0.25 * texture[2:]
+    x = np.arange(width, dtype=np.float32)
+    y = np.arange(height, dtype=np.float32)[:, None]
+    truth = 0.15 * top + 0.45 * top * x / max(width - 1, 1) + 0.1 * top * y / max(height - 1, 1)
+    rows = slice(height // 4, height // 2 + height // 8)
+    cols = slice(width // 3, width // 3 + width // 4)
+    truth[rows, cols] += 0.3 * top
+    truth = np.clip(truth, 0.0, top).astype(np.float32)
+    right = texture[:, margin:]
+    # left(x) = right(x - d): sample the texture at margin + x - d, linearly interpolated.
+    position = margin + x - truth
+    base = np.floor(position).astype(np.intp)
+    fraction = position - base
+    left = (1.0 - fraction) * np.take_along_axis(texture, base, axis=1)
+    left += fraction * np.take_along_axis(texture, base + 1, axis=1)
+    to_uint8 = lambda image: np.clip(np.rint(image), 0, 255).astype(np.uint8)  # noqa: E731
+    return to_uint8(left), to_uint8(right), truth
+
+
+def parse_size(text):
+    """``"3000x2000x256"`` -> (width, height, disparities)."""
+    try:
+        width, height, disparities = (int(part) for part in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected WIDTHxHEIGHTxDISPARITIES, got {text!r}"
+        ) from None
+    if min(width, height) < STRIP_ROWS // 2 or disparities < 2:
+        raise argparse.ArgumentTypeError(f"too small a pair: {text!r}")
+    return width, height, disparities
+
+
+def load_case(case):
+    """``(left, right, min_disparity, max_disparity, truth)`` of a case description."""
+    if case["kind"] == "middlebury":
+        from dcstereo.datasets import load_middlebury
+
+        scene = load_middlebury(case["name"])
+        return scene.left, scene.right, scene.min_disparity, scene.max_disparity, None
+    with np.load(case["path"]) as data:
+        return data["left"], data["right"], 0, case["disparities"] - 1, data["truth"]
+
+
+# --------------------------------------------------------------------------- child side
+
+
+def memory_status():
+    """Current and peak resident set size in bytes from /proc/self/status, or None."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as stream:
+            fields = dict(line.split(":", 1) for line in stream if ":" in line)
+        return int(fields["VmRSS"].split()[0]) * 1024, int(fields["VmHWM"].split()[0]) * 1024
+    except (OSError, KeyError, ValueError):
+        return None
+
+
+def reset_peak_rss():
+    """Reset the kernel's peak-RSS counter (Linux >= 4.0); False when it cannot."""
+    try:
+        with open("/proc/self/clear_refs", "w", encoding="ascii") as stream:
+            stream.write("5")
+        return True
+    except OSError:
+        return False
+
+
+def max_rss_bytes():
+    """``ru_maxrss`` of this process in bytes (Linux reports KiB, macOS bytes)."""
+    value = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return value if sys.platform == "darwin" else value * 1024
+
+
+def make_call(method, left, right, min_disparity, max_disparity):
+    """A no-argument matcher call for ``method``; returns (call, disparities searched)."""
+    if method in OPENCV_METHODS:
+        from dcstereo.opencv import match_opencv
+
+        kind = method.split("-", 1)[1]
+
+        def call():
+            return match_opencv(
+                left, right, max_disparity=max_disparity, min_disparity=min_disparity, method=kind
+            )
+
+        return call, 16 * -(-(max_disparity - min_disparity + 1) // 16)
+    import dcstereo
+
+    def call():
+        return dcstereo.match(
+            left, right, max_disparity=max_disparity, min_disparity=min_disparity, method=method
+        )
+
+    return call, max_disparity - min_disparity + 1
+
+
+def set_threads(method, threads):
+    """Thread count for numba (always) and for OpenCV (for the OpenCV methods)."""
+    import numba
+
+    numba.set_num_threads(threads)
+    if method in OPENCV_METHODS:
+        import cv2
+
+        cv2.setNumThreads(threads)
+
+
+def run_one(spec):
+    """Measure one configuration in this process; returns the result row (a dict)."""
+    method, threads, case = spec["method"], spec["threads"], spec["case"]
+    set_threads(method, threads)
+    left, right, min_disparity, max_disparity, truth = load_case(case)
+    height, width = left.shape[:2]
+    if spec["mode"] == "first":
+        call, disparities = make_call(method, left, right, min_disparity, max_disparity)
+        start = time.perf_counter()
+        call()
+        first = time.perf_counter() - start
+        best = min(timed(call) for _ in range(spec["repeat"]))
+        return {"first_s": first, "steady_ms": 1e3 * best}
+
+    strip = slice(0, min(height, STRIP_ROWS))
+    strip_call, _ = make_call(method, left[strip], right[strip], min_disparity, max_disparity)
+    strip_call()  # numba compiles or loads its code here, before the memory baseline
+    call, disparities = make_call(method, left, right, min_disparity, max_disparity)
+    status = memory_status()
+    base_maxrss = max_rss_bytes()
+    use_proc = status is not None and reset_peak_rss()
+    base = status[0] if status is not None else base_maxrss
+    if spec["warmup"]:
+        call()
+    best = float("inf")
+    for _ in range(spec["repeat"]):
+        start = time.perf_counter()
+        result = call()
+        best = min(best, time.perf_counter() - start)
+    if use_proc:
+        method_bytes = memory_status()[1] - base
+    else:
+        method_bytes = max_rss_bytes() - base_maxrss
+    row = {
+        "scene": case["name"],
+        "height": height,
+        "width": width,
+        "disparities": int(disparities),
+        "method": method,
+        "threads": threads,
+        "ms": 1e3 * best,
+        "mde_per_s": height * width * disparities / 1e6 / best,
+        "base_mb": base / 2**20,
+        "peak_mb": max_rss_bytes() / 2**20,
+        "method_mb": max(method_bytes, 0) / 2**20,
+        "memory_source": "VmHWM" if use_proc else "ru_maxrss",
+        "repeat": spec["repeat"],
+        "warmup": "full" if spec["warmup"] else f"{STRIP_ROWS}-row strip",
+    }
+    if truth is not None:
+        disparity = result.disparity
+        known = np.isfinite(disparity)
+        row["density"] = float(known.mean())
+        row["bad_2"] = float(np.mean(np.abs(disparity[known] - truth[known]) > 2.0))
+    return row
+
+
+def timed(call):
+    start = time.perf_counter()
+    call()
+    return time.perf_counter() - start
+
+
+# --------------------------------------------------------------------------- parent side
+
+
+def run_child(spec, env=None, timeout=None):
+    """Run ``run_one(spec)`` in a fresh interpreter; returns its row or ``{"error": ...}``."""
+    command = [sys.executable, str(Path(__file__).resolve()), "--one", json.dumps(spec)]
+    try:
+        done = subprocess.run(
+            command, capture_output=True, text=True, env=env, timeout=timeout, check=False
+        )
+    except subprocess.TimeoutExpired:
+        return {"error": f"timed out after {timeout} s"}
+    for line in done.stdout.splitlines():
+        if line.startswith(RESULT_TAG):
+            return json.loads(line[len(RESULT_TAG) :])
+    lines = (done.stderr or done.stdout).strip().splitlines()
+    return {"error": f"exit {done.returncode}: {lines[-1] if lines else 'no output'}"}
+
+
+def cpu_model():
+    """CPU model name from /proc/cpuinfo, else what platform knows."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as stream:
+            for line in stream:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def machine_info(cv2):
+    """Where and with what the benchmark ran."""
+    import numba
+
+    import dcstereo
+
+    usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return {
+        "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "platform": platform.platform(),
+        "cpu": cpu_model(),
+        "cpu_count": os.cpu_count(),
+        "cpus_usable": usable,
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "numba": numba.__version__,
+        "numba_threads_max": numba.config.NUMBA_NUM_THREADS,
+        "numba_threading_layer": numba.config.THREADING_LAYER,
+        "dcstereo": dcstereo.__version__,
+        "opencv": cv2.__version__ if cv2 else None,
+        "opencv_threads_default": cv2.getNumThreads() if cv2 else None,
+    }
+
+
+def add_ratios(rows):
+    """``time_vs_sgbm``: time over SGBM's on the same scene at the same thread count."""
+    sgbm = {(r["scene"], r["threads"]): r["ms"] for r in rows if r["method"] == SGBM and "ms" in r}
+    for row in rows:
+        reference = sgbm.get((row["scene"], row["threads"]))
+        row["time_vs_sgbm"] = row["ms"] / reference if reference and "ms" in row else None
+
+
+def speedups(rows, threads):
+    """Per (scene, method): time at 1 thread over time at the largest thread count."""
+    low, high = min(threads), max(threads)
+    times = {(r["scene"], r["method"], r["threads"]): r.get("ms") for r in rows}
+    table = []
+    for row in rows:
+        if row["threads"] != low or high == low:
+            continue
+        slow = times.get((row["scene"], row["method"], low))
+        fast = times.get((row["scene"], row["method"], high))
+        table.append(
+            {
+                "scene": row["scene"],
+                "method": row["method"],
+                "threads": f"{low}->{high}",
+                "ms_low": slow,
+                "ms_high": fast,
+                "speedup": slow / fast if slow and fast else None,
+            }
+        )
+    return table
+
+
+def number(value, spec, width):
+    return f"{value:{width}{spec}}" if isinstance(value, int | float) else f"{'-':>{width}s}"
+
+
+COLUMNS = (
+    # title, key, format, width
+    ("scene", "scene", "s", 9),
+    ("size", "size", "s", 9),
+    ("D", "disparities", "d", 4),
+    ("method", "method", "s", 11),
+    ("thr", "threads", "d", 3),
+    ("ms", "ms", ".1f", 9),
+    ("Mde/s", "mde_per_s", ".1f", 8),
+    ("base MB", "base_mb", ".0f", 7),
+    ("peak MB", "peak_mb", ".0f", 7),
+    ("method MB", "method_mb", ".1f", 9),
+    ("x SGBM", "time_vs_sgbm", ".2f", 6),
+)
+
+
+def speedup_columns(threads):
+    """Columns of the speed-up table, titled with the two thread counts."""
+    return (
+        ("scene", "scene", "s", 9),
+        ("method", "method", "s", 11),
+        (f"ms {min(threads)} thr", "ms_low", ".1f", 9),
+        (f"ms {max(threads)} thr", "ms_high", ".1f", 9),
+        ("speed-up", "speedup", ".2f", 8),
+    )
+
+
+COMPILE_COLUMNS = (
+    ("scene", "scene", "s", 9),
+    ("method", "method", "s", 11),
+    ("compile s", "compile_s", ".2f", 9),
+    ("cached s", "cached_s", ".2f", 8),
+    ("steady ms", "steady_ms", ".1f", 9),
+)
+
+
+def cells(row, columns):
+    out = []
+    for _, key, spec, width in columns:
+        value = row.get(key)
+        if key == "size":
+            value = f"{row['width']}x{row['height']}" if "width" in row else "-"
+        if spec == "s":
+            out.append(f"{str(value):{width}s}" if value is not None else f"{'-':{width}s}")
+        else:
+            out.append(number(value, spec, width))
+    return out
+
+
+def text_table(rows, columns):
+    header = " ".join(
+        f"{title:{width}s}" if spec == "s" else f"{title:>{width}s}"
+        for title, _, spec, width in columns
+    )
+    lines = [header, "-" * len(header)]
+    for row in rows:
+        line = " ".join(cells(row, columns))
+        lines.append(line + (f"  error: {row['error']}" if "error" in row else ""))
+    return "\n".join(lines)
+
+
+def markdown_table(rows, columns):
+    lines = [
+        "| " + " | ".join(title for title, *_ in columns) + " |",
+        "|" + "|".join("---" if spec == "s" else "---:" for _, _, spec, _ in columns) + "|",
+    ]
+    for row in rows:
+        values = [cell.strip() for cell in cells(row, columns)]
+        if "error" in row:
+            values[-1] += f" (error: {row['error']})"
+        lines.append("| " + " | ".join(values) + " |")
+    return "\n".join(lines)
+
+
+def machine_line(machine):
+    opencv = (
+        f"OpenCV {machine['opencv']} (default {machine['opencv_threads_default']} threads)"
+        if machine["opencv"]
+        else "OpenCV not installed"
+    )
+    return (
+        f"{machine['date']}; {machine['platform']}; CPU: {machine['cpu']}, "
+        f"{machine['cpu_count']} CPUs ({machine['cpus_usable']} usable); Python "
+        f"{machine['python']}, numpy {machine['numpy']}, numba {machine['numba']} "
+        f"(up to {machine['numba_threads_max']} threads), {opencv}; dcstereo "
+        f"{machine['dcstereo']}"
+    )
+
+
+def write_atomic(path, text):
+    """Write ``text`` to ``path`` through a temporary file in the same folder."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    handle, temp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(handle, "w", encoding="utf-8") as stream:
+            stream.write(text)
+        os.replace(temp, path)
+    except BaseException:
+        Path(temp).unlink(missing_ok=True)
+        raise
+
+
+def markdown_report(payload):
+    settings = payload["settings"]
+    parts = [
+        "# Speed and memory",
+        "",
+        "Written by `benchmarks/bench_speed.py` (issue 6); rerun it after changing a kernel:",
+        "",
+        f"    python benchmarks/bench_speed.py {settings['command']}".rstrip(),
+        "",
+        f"Machine: {machine_line(payload['machine'])}.",
+        "",
+        f"Threads: {', '.join(map(str, settings['threads']))} (numba and OpenCV). "
+        f"Best of {settings['repeat']} calls after a full-size warm-up on the Middlebury "
+        f"scenes; best of {settings['repeat_large']} on the synthetic pair "
+        f"({'after a full-size warm-up' if settings['large_warmup'] else 'warmed up on a strip'}"
+        "). Each row is a fresh process.",
+        "",
+        "`Mde/s`: million disparity evaluations per second, H x W x D / s, D the disparities "
+        "searched (OpenCV: rounded up to a multiple of 16). `base MB`: resident memory "
+        "before the measured calls (interpreter, libraries, inputs, compiled code). "
+        "`peak MB`: `ru_maxrss` of the process at its end. `method MB`: peak resident "
+        "memory during the calls minus `base`. `x SGBM`: time over OpenCV StereoSGBM's "
+        "(`MODE_SGBM`) at the same thread count.",
+        "",
+        "## Time and memory",
+        "",
+        markdown_table(payload["results"], COLUMNS),
+    ]
+    if payload["speedup"]:
+        parts += [
+            "",
+            "## Speed-up with threads",
+            "",
+            markdown_table(payload["speedup"], speedup_columns(settings["threads"])),
+        ]
+    if payload["compile"]:
+        parts += [
+            "",
+            "## First call: compile and cache",
+            "",
+            "First call (compile plus one run) in a process with an empty `NUMBA_CACHE_DIR`; "
+            "first call in a second process with that cache filled; best later call. "
+            f"Threads: {payload['compile'][0].get('threads', '-')}.",
+            "",
+            markdown_table(payload["compile"], COMPILE_COLUMNS),
+        ]
+    if payload["notes"]:
+        parts += ["", "## Notes", ""] + [f"- {note}" for note in payload["notes"]]
+    return "\n".join(parts) + "\n"
+
+
+def comma_list(text):
+    return [part.strip() for part in text.split(",") if part.strip()]
+
+
+def parse_args(argv):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--one", help=argparse.SUPPRESS)
+    parser.add_argument(
+        "--scenes", help="comma-separated Middlebury scenes, or 'none' (default: every scene)"
+    )
+    parser.add_argument(
+        "--methods",
+        default=",".join(DEFAULT_METHODS),
+        help="comma-separated methods: dcstereo methods, opencv-bm, opencv-sgbm "
+        "(default: %(default)s)",
+    )
+    parser.add_argument(
+        "--threads", help="comma-separated thread counts (default: 1 and all cores)"
+    )
+    parser.add_argument("--repeat", type=int, default=5, help="timed calls per scene (5)")
+    parser.add_argument(
+        "--repeat-large", type=int, default=1, help="timed calls on the large pair (1)"
+    )
+    parser.add_argument(
+        "--large-warmup",
+        action="store_true",
+        help="also warm up on the full large pair (default: on a strip only)",
+    )
+    parser.add_argument("--skip-large", action="store_true", help="leave out the large pair")
+    parser.add_argument(
+        "--large",
+        type=parse_size,
+        default=(3000, 2000, 256),
+        metavar="WxHxD",
+        help="size of the synthetic pair (default: 3000x2000x256)",
+    )
+    parser.add_argument(
+        "--compile-scene",
+        help="input of the compile-time table (default: tsukuba, else the first input; "
+        "'none' skips it)",
+    )
+    parser.add_argument(
+        "--compile-methods",
+        help="comma-separated dcstereo methods for the compile-time table "
+        "(default: the dcstereo methods benchmarked)",
+    )
+    parser.add_argument(
+        "--timeout", type=float, default=900.0, help="seconds allowed per child process (900)"
+    )
+    parser.add_argument("--json", type=Path, help="also write the results to this JSON file")
+    parser.add_argument("--markdown", type=Path, help="also write the tables as markdown")
+    return parser.parse_args(argv)
+
+
+def fail(message):
+    print(f"error: {message}", file=sys.stderr)
+    return 2
+
+
+def main(argv=None):
+    args = parse_args(argv)
+    if args.one:
+        row = run_one(json.loads(args.one))
+        print(RESULT_TAG + json.dumps(row), flush=True)
+        return 0
+
+    import numba
+
+    import dcstereo
+    from dcstereo.datasets import list_middlebury, middlebury_dir
+
+    try:
+        import cv2
+    except ImportError:
+        cv2 = None
+
+    methods = comma_list(args.methods)
+    known = set(dcstereo.METHODS) | set(OPENCV_METHODS)
+    unknown = [m for m in methods if m not in known]
+    if unknown:
+        return fail(f"unknown method(s) {', '.join(unknown)}; choose from {', '.join(known)}")
+    notes = []
+    if cv2 is None and any(m in OPENCV_METHODS for m in methods):
+        methods = [m for m in methods if m not in OPENCV_METHODS]
+        notes.append("OpenCV (cv2) is not installed: StereoBM and StereoSGBM are left out.")
+        print(notes[-1])
+    # SGBM first in each group, so every other row can show its ratio as it is printed.
+    methods.sort(key=lambda m: m != SGBM)
+    if args.repeat < 1 or args.repeat_large < 1:
+        return fail("--repeat and --repeat-large must be at least 1")
+    limit = numba.config.NUMBA_NUM_THREADS
+    try:
+        threads = [int(t) for t in comma_list(args.threads)] if args.threads else [1, limit]
+    except ValueError:
+        return fail(f"--threads must be comma-separated integers, got {args.threads!r}")
+    threads = sorted(set(threads))
+    if not threads or threads[0] < 1 or threads[-1] > limit:
+        return fail(f"--threads must lie between 1 and {limit} (numba's limit), got {threads}")
+
+    if args.scenes is None:
+        names = list_middlebury()
+        if not names:
+            notes.append(f"No Middlebury scenes at {middlebury_dir()}: set DCSTEREO_DATA.")
+            print(notes[-1])
+    elif args.scenes.strip().lower() == "none":
+        names = []
+    else:
+        names = comma_list(args.scenes)
+        missing = [n for n in names if n not in list_middlebury()]
+        if missing:
+            return fail(f"unknown scene(s) {', '.join(missing)}; found {list_middlebury()}")
+    cases = [{"kind": "middlebury", "name": name} for name in names]
+
+    workdir = Path(tempfile.mkdtemp(prefix="bench_speed_"))
+    try:
+        if not args.skip_large:
+            width, height, disparities = args.large
+            left, right, truth = synthetic_pair(width, height, disparities)
+            path = workdir / "synthetic.npz"
+            np.savez(path, left=left, right=right, truth=truth)
+            del left, right, truth
+            cases.append(
+                {
+                    "kind": "synthetic",
+                    "name": LARGE_NAME,
+                    "path": str(path),
+                    "disparities": disparities,
+                }
+            )
+        if not cases:
+            return fail("nothing to measure: no scenes and --skip-large")
+        return measure(args, cases, methods, threads, notes, workdir, cv2)
+    finally:
+        shutil.rmtree(workdir, ignore_errors=True)
+
+
+def measure(args, cases, methods, threads, notes, workdir, cv2):
+    machine = machine_info(cv2)
+    print(machine_line(machine))
+    print(
+        f"threads {threads}; best of {args.repeat} (scenes) / {args.repeat_large} (large) "
+        "calls; one fresh process per row\n",
+        flush=True,
+    )
+    rows = []
+    print(text_table([], COLUMNS), flush=True)
+    for case in cases:
+        large = case["kind"] == "synthetic"
+        for count in threads:
+            for method in methods:
+                spec = {
+                    "case": case,
+                    "method": method,
+                    "threads": count,
+                    "mode": "measure",
+                    "repeat": args.repeat_large if large else args.repeat,
+                    "warmup": args.large_warmup or not large,
+                }
+                row = run_child(spec, timeout=args.timeout)
+                if "error" in row:
+                    row.update(scene=case["name"], method=method, threads=count)
+                rows.append(row)
+                add_ratios(rows)
+                print(text_table([row], COLUMNS).splitlines()[-1], flush=True)
+
+    speedup = speedups(rows, threads)
+    if speedup:
+        print("\nSpeed-up from", threads[0], "to", threads[-1], "threads\n")
+        print(text_table(speedup, speedup_columns(threads)), flush=True)
+
+    compile_rows = first_call_table(args, cases, methods, threads, workdir)
+    if compile_rows:
+        print(text_table(compile_rows, COMPILE_COLUMNS), flush=True)
+
+    settings = {
+        "command": " ".join(sys.argv[1:]) if sys.argv[0].endswith("bench_speed.py") else "",
+        "methods": methods,
+        "threads": threads,
+        "repeat": args.repeat,
+        "repeat_large": args.repeat_large,
+        "large_warmup": args.large_warmup,
+        "large": None if args.skip_large else list(args.large),
+    }
+    payload = {
+        "machine": machine,
+        "settings": settings,
+        "results": rows,
+        "speedup": speedup,
+        "compile": compile_rows,
+        "notes": notes,
+    }
+    if args.json:
+        write_atomic(args.json, json.dumps(payload, indent=2) + "\n")
+        print(f"\nwrote {args.json}")
+    if args.markdown:
+        write_atomic(args.markdown, markdown_report(payload))
+        print(f"wrote {args.markdown}")
+    return 0
+
+
+def first_call_table(args, cases, methods, threads, workdir):
+    """Compile, load-from-cache and steady-state times of the dcstereo methods on one input."""
+    if args.compile_methods is not None:
+        chosen = comma_list(args.compile_methods)
+    else:
+        chosen = [m for m in methods if m not in OPENCV_METHODS]
+    by_name = {case["name"]: case for case in cases}
+    name = args.compile_scene or ("tsukuba" if "tsukuba" in by_name else cases[0]["name"])
+    if not chosen or name.lower() == "none":
+        return []
+    if name not in by_name:
+        print(f"\n--compile-scene {name!r} is not among the inputs; compile table left out")
+        return []
+    count = max(threads)
+    print(
+        f"\nFirst call on {name} ({count} threads): compile (empty NUMBA_CACHE_DIR), "
+        "load from cache (second process), steady state\n",
+        flush=True,
+    )
+    rows = []
+    for method in chosen:
+        cache = workdir / f"numba_cache_{method}"
+        cache.mkdir()
+        env = dict(os.environ, NUMBA_CACHE_DIR=str(cache))
+        spec = {
+            "case": by_name[name],
+            "method": method,
+            "threads": count,
+            "mode": "first",
+            "repeat": args.repeat,
+        }
+        cold = run_child(spec, env=env, timeout=args.timeout)
+        warm = run_child(spec, env=env, timeout=args.timeout)
+        row = {"scene": name, "method": method, "threads": count}
+        row["compile_s"] = cold.get("first_s")
+        row["cached_s"] = warm.get("first_s")
+        row["steady_ms"] = warm.get("steady_ms", cold.get("steady_ms"))
+        errors = [r["error"] for r in (cold, warm) if "error" in r]
+        if errors:
+            row["error"] = errors[0]
+        rows.append(row)
+    return rows
+
+
+if __name__ == "__main__":
+    sys.exit(main())
