@@ -305,3 +305,17 @@ def test_dc_reaches_the_middlebury_dp_entry(middlebury_root, scene, limit):
     result = dcstereo.match(data.left, data.right, max_disparity=data.max_disparity, fill=True)
     bad = bad_pixel_rate(result.disparity, data.disparity, mask=data.masks["nonocc"])
     assert bad <= limit, f"{scene}: bad-1.0 nonocc {bad:.2f}% > {limit}%"
+
+
+@pytest.mark.parametrize("method", ["dc", "dc-linear"])
+def test_a_4000_pixel_scanline_is_split_thousands_of_times_without_recursion(method):
+    # a textured row gives a reliable pair every few pixels: the work list holds
+    # thousands of intervals at once (a recursive driver would nest as deep)
+    rng = np.random.default_rng(4000)
+    left, right = synthetic.constant_pair(rng, 5, 4000, 6)
+    result = dcstereo.match(left, right, max_disparity=10, method=method)
+    per_row = np.bincount(result.features[:, 0].astype(np.int64), minlength=5)
+    assert per_row.min() > 1000
+    np.testing.assert_array_equal(result.features[:, 1] - result.features[:, 2], 6)
+    inside = result.disparity[:, 10:-10]
+    assert np.count_nonzero(inside != 6) <= 0.001 * inside.size
