@@ -1,0 +1,120 @@
+"""Smoke test of benchmarks/bench_speed.py on a tiny synthetic pair (no timing assertions)."""
+
+import importlib.util
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_speed.py"
+
+
+@pytest.fixture(scope="module")
+def bench():
+    spec = importlib.util.spec_from_file_location("bench_speed", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_synthetic_pair_follows_its_disparity(bench):
+    left, right, truth = bench.synthetic_pair(60, 40, 8, seed=1)
+    assert left.shape == right.shape == truth.shape == (40, 60)
+    assert left.dtype == right.dtype == np.uint8
+    assert 0.0 <= truth.min() and truth.max() <= 7.0
+    # left(x) = right(x - d), linearly interpolated and rounded to uint8.
+    columns = np.arange(60, dtype=np.float64)
+    for row in range(40):
+        inside = columns - truth[row] >= 0
+        expected = np.interp(columns - truth[row], columns, right[row].astype(np.float64))
+        assert np.abs(left[row, inside] - expected[inside]).max() <= 1.0
+
+
+def run_tiny(bench, tmp_path, methods):
+    out_json = tmp_path / "speed.json"
+    out_md = tmp_path / "speed.md"
+    code = bench.main(
+        [
+            "--scenes",
+            "none",
+            "--large",
+            "60x40x8",
+            "--methods",
+            ",".join(methods),
+            "--threads",
+            "1",
+            "--repeat",
+            "1",
+            "--compile-methods",
+            "block",
+            "--json",
+            str(out_json),
+            "--markdown",
+            str(out_md),
+        ]
+    )
+    assert code == 0
+    return json.loads(out_json.read_text()), out_md.read_text()
+
+
+def is_number(value):
+    return isinstance(value, int | float) and math.isfinite(value)
+
+
+def test_dcstereo_methods_table(bench, tmp_path):
+    payload, markdown = run_tiny(bench, tmp_path, ["block", "dsi5"])
+    rows = payload["results"]
+    assert [(r["scene"], r["method"], r["threads"]) for r in rows] == [
+        ("synthetic", "block", 1),
+        ("synthetic", "dsi5", 1),
+    ]
+    for row in rows:
+        assert "error" not in row
+        assert (row["height"], row["width"], row["disparities"]) == (40, 60, 8)
+        for key in ("ms", "mde_per_s", "base_mb", "peak_mb", "method_mb"):
+            assert is_number(row[key]), key
+        assert row["peak_mb"] >= row["base_mb"] > 0
+        assert row["time_vs_sgbm"] is None  # no SGBM row to compare with
+    (compiled,) = payload["compile"]
+    assert compiled["method"] == "block"
+    assert all(is_number(compiled[k]) for k in ("compile_s", "cached_s", "steady_ms"))
+    assert payload["speedup"] == []  # one thread count only
+    assert "| synthetic | 60x40 | 8 | block | 1 |" in markdown
+    assert "## First call: compile and cache" in markdown
+
+
+def test_opencv_rows_and_ratios(bench, tmp_path):
+    pytest.importorskip("cv2")
+    payload, _ = run_tiny(bench, tmp_path, ["block", "opencv-bm", "opencv-sgbm"])
+    rows = payload["results"]
+    # SGBM runs first in its group so the others can be compared with it as they print.
+    assert [r["method"] for r in rows] == ["opencv-sgbm", "block", "opencv-bm"]
+    by_method = {r["method"]: r for r in rows}
+    assert by_method["opencv-sgbm"]["disparities"] == 16  # 8 rounded up to 16
+    assert by_method["opencv-sgbm"]["time_vs_sgbm"] == pytest.approx(1.0)
+    for row in rows:
+        assert "error" not in row
+        for key in ("ms", "mde_per_s", "base_mb", "peak_mb", "method_mb", "time_vs_sgbm"):
+            assert is_number(row[key]), key
+
+
+def test_speedups_and_ratios_from_rows(bench):
+    rows = [
+        {"scene": "s", "method": "opencv-sgbm", "threads": 1, "ms": 10.0},
+        {"scene": "s", "method": "dsi5", "threads": 1, "ms": 20.0},
+        {"scene": "s", "method": "opencv-sgbm", "threads": 2, "ms": 8.0},
+        {"scene": "s", "method": "dsi5", "threads": 2, "ms": 10.0},
+    ]
+    bench.add_ratios(rows)
+    assert [r["time_vs_sgbm"] for r in rows] == [1.0, 2.0, 1.0, 1.25]
+    table = bench.speedups(rows, [1, 2])
+    assert [(r["method"], r["speedup"]) for r in table] == [("opencv-sgbm", 1.25), ("dsi5", 2.0)]
+
+
+def test_bad_arguments_fail_cleanly(bench, capsys):
+    assert bench.main(["--scenes", "none", "--skip-large"]) == 2
+    assert bench.main(["--methods", "nosuch", "--skip-large"]) == 2
+    assert bench.main(["--threads", "0", "--skip-large"]) == 2
+    assert "error:" in capsys.readouterr().err
