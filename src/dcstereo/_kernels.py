@@ -758,6 +758,11 @@ def divide_row(
             ncand += 1
     order = pixels[np.argsort(strength, kind="mergesort")]
     retired = np.zeros(width, dtype=np.bool_)
+    # the left-right check of a pair p <-> j depends on the interval only through the
+    # nearest competing left pixels below and above p (computed once per pair, kept)
+    lr_j = np.full(width, -1, dtype=np.int64)
+    lr_below = np.empty(width, dtype=np.int64)
+    lr_above = np.empty(width, dtype=np.int64)
     total = 0.0
     top = 1
     stack[0, 0] = -1
@@ -817,16 +822,21 @@ def divide_row(
                 best = cost[p, best_k]
                 j = p - dmin - best_k
                 if lr_check:
-                    # the right pixel, matched back inside (A, C), must choose p again
-                    back = True
-                    for k in range(ndisp):
-                        x = j + dmin + k
-                        if x <= a or x >= c or x == p:
-                            continue
-                        if cost[x, k] <= best:
-                            back = False
-                            break
-                    if not back:
+                    # the right pixel, matched back inside (A, C), must choose p again: no
+                    # other left pixel of the interval may cost as little as p with it
+                    if lr_j[p] != j:
+                        lr_j[p] = j
+                        lr_below[p] = -1
+                        lr_above[p] = width
+                        for k in range(ndisp):
+                            x = j + dmin + k
+                            if x < 0 or x >= width or x == p or not cost[x, k] <= best:
+                                continue
+                            if x < p:
+                                lr_below[p] = max(lr_below[p], x)
+                            else:
+                                lr_above[p] = min(lr_above[p], x)
+                    if lr_below[p] > a or lr_above[p] < c:
                         continue  # a narrower interval may let it pass
                 ssd = window_ssd(left_p, right_p, y, p, j, radius) / scale2
                 ser, vs = reliability(
