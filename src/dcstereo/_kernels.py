@@ -408,9 +408,12 @@ def _chunk_bounds(height, nchunks, c):
 
 @nb.njit(parallel=True, cache=True)
 def match_dsi_rows(
-    left_p, right_p, dmin, ndisp, radius, occ2, five, slant2, nchunks, disp, flags, total
+    left_p, right_p, dmin, ndisp, radius, bt, occ2, five, slant2, nchunks, disp, flags, total
 ):
-    """Run the whole-scanline DP on every row; rows are the only parallel loop."""
+    """Run the whole-scanline DP on every row; rows are the only parallel loop.
+
+    ``bt``: the Birchfield-Tomasi cost (``row_costs_bt``) instead of the SAD of eq. 4.
+    """
     height, width = disp.shape
     for c in nb.prange(nchunks):
         y0, y1 = _chunk_bounds(height, nchunks, c)
@@ -421,7 +424,7 @@ def match_dsi_rows(
         path_k = np.empty(2 * width + 2, dtype=np.int64)
         path_s = np.empty(2 * width + 2, dtype=np.uint8)
         for y in range(y0, y1):
-            row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, y > y0)
+            _row_costs_any(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, y > y0, bt)
             for x in range(width):
                 disp[y, x] = np.nan
                 flags[y, x] = FLAG_BORDER
@@ -447,15 +450,18 @@ def match_dsi_rows(
 
 
 @nb.njit(parallel=True, cache=True)
-def match_block_rows(left_p, right_p, dmin, ndisp, radius, nchunks, disp, flags, total):
-    """Winner-take-all block matching: the disparity of least window SAD per pixel."""
+def match_block_rows(left_p, right_p, dmin, ndisp, radius, bt, nchunks, disp, flags, total):
+    """Winner-take-all block matching: the disparity of least window cost per pixel.
+
+    ``bt``: the Birchfield-Tomasi cost (``row_costs_bt``) instead of the SAD of eq. 4.
+    """
     height, width = disp.shape
     for c in nb.prange(nchunks):
         y0, y1 = _chunk_bounds(height, nchunks, c)
         cost = np.empty((width, ndisp), dtype=np.float64)
         vcol = np.empty((width, ndisp), dtype=np.int32)
         for y in range(y0, y1):
-            row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, y > y0)
+            _row_costs_any(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, y > y0, bt)
             t = 0.0
             for x in range(width):
                 best = np.inf
@@ -898,6 +904,7 @@ def match_dc_rows(
     dmin,
     ndisp,
     radius,
+    bt,
     occ2,
     slant2,
     ser_min,
@@ -922,7 +929,8 @@ def match_dc_rows(
 
     Outputs per pixel: ``disp``, ``flags``; per accepted feature pair ``(y, x) <-> (y, j)``:
     ``partner[y, x] = j`` and its ``ser`` and ``vs`` (-1 and NaN elsewhere); per row, the
-    doubled cost of the fill paths in ``total``.
+    doubled cost of the fill paths in ``total``. ``bt``: the Birchfield-Tomasi cost
+    (``row_costs_bt``) instead of the SAD of eq. 4.
     """
     height, width = disp.shape
     wp = left_p.shape[1]
@@ -941,7 +949,7 @@ def match_dc_rows(
         path_s = np.empty(2 * width + 2, dtype=np.uint8)
         stack = np.empty((width + 2, 4), dtype=np.int64)
         for y in range(y0, y1):
-            row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, y > y0)
+            _row_costs_any(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, y > y0, bt)
             window_variance_row(left_p, y, radius, signal_steps, colsum, colsq, var_l)
             wta_k[:] = NOT_MATCHED
             for x in range(width):
@@ -982,4 +990,322 @@ def match_dc_rows(
                 partner[y],
                 ser[y],
                 vs[y],
+            )
+
+
+# --------------------------------------------------------------------------- Birchfield-Tomasi
+
+
+@nb.njit(cache=True, inline="always")
+def _bt_pixel2(left_p, right_p, r, xp, jp, lo, hi):
+    """Twice the Birchfield-Tomasi dissimilarity of padded row ``r``, columns ``xp <-> jp``.
+
+    ``xp`` and ``jp`` are padded column indices, ``lo..hi`` the padded columns of the
+    image itself: a neighbour outside them is replaced by the pixel itself. Doubled, the
+    half-pixel interpolations ``(I[x] + I[x +- 1]) / 2`` are the integers ``I[x] + I[x +- 1]``.
+    """
+    lv = left_p[r, xp]
+    l2 = 2 * lv
+    l_m = lv + left_p[r, max(xp - 1, lo)]
+    l_p = lv + left_p[r, min(xp + 1, hi)]
+    rv = right_p[r, jp]
+    r2 = 2 * rv
+    r_m = rv + right_p[r, max(jp - 1, lo)]
+    r_p = rv + right_p[r, min(jp + 1, hi)]
+    r_min = min(r2, min(r_m, r_p))
+    r_max = max(r2, max(r_m, r_p))
+    l_min = min(l2, min(l_m, l_p))
+    l_max = max(l2, max(l_m, l_p))
+    d_lr = max(0, max(l2 - r_max, r_min - l2))
+    d_rl = max(0, max(r2 - l_max, l_min - r2))
+    return min(d_lr, d_rl)
+
+
+@nb.njit(cache=True)
+def row_costs_bt(left_p, right_p, y, dmin, ndisp, radius, vcol, out, incremental):
+    """Windowed Birchfield-Tomasi dissimilarity of row ``y`` into ``out[x, k]``.
+
+    The contract of ``row_costs`` (same arguments, padded inputs, band, ``inf`` outside
+    the image, window truncated at the image edges and rescaled to ``W`` columns, ``vcol``
+    kept across the rows of a chunk with ``incremental``), with the per-pixel absolute
+    difference replaced by the sampling-insensitive dissimilarity of Birchfield and
+    Tomasi (1998): ``min(d_LR, d_RL)`` with
+    ``d_LR = max(0, I_L(x) - I_R^max, I_R^min - I_L(x))``, where ``I_R^min/max`` are
+    the least and largest of the linearly interpolated right values at ``j - 1/2``,
+    ``j`` and ``j + 1/2`` (``j = x - d``), and ``d_RL`` symmetrically. At the image's
+    first and last columns the missing neighbour is the pixel itself. ``vcol`` holds
+    *doubled* dissimilarities (exact integers); ``out`` is halved at the end, so its
+    units are those of ``row_costs`` (half-integers, still exact in float64).
+    """
+    wp = left_p.shape[1]
+    width = wp - 2 * radius
+    win = 2 * radius + 1
+    lo = radius
+    hi = radius + width - 1
+    if incremental:
+        top = y - 1
+        bottom = y + 2 * radius
+        for x in range(width):
+            base = x - dmin + radius
+            k_lo = max(0, x - dmin - (width - 1))
+            k_hi = min(ndisp - 1, x - dmin)
+            for k in range(k_lo, k_hi + 1):
+                jp = base - k
+                vcol[x, k] += _bt_pixel2(left_p, right_p, bottom, x + radius, jp, lo, hi)
+                vcol[x, k] -= _bt_pixel2(left_p, right_p, top, x + radius, jp, lo, hi)
+    else:
+        for x in range(width):
+            for k in range(ndisp):
+                vcol[x, k] = 0
+            base = x - dmin + radius
+            k_lo = max(0, x - dmin - (width - 1))
+            k_hi = min(ndisp - 1, x - dmin)
+            for t in range(win):
+                for k in range(k_lo, k_hi + 1):
+                    vcol[x, k] += _bt_pixel2(left_p, right_p, y + t, x + radius, base - k, lo, hi)
+    for k in range(ndisp):
+        d = dmin + k
+        x0 = max(0, d)
+        x1 = min(width, width + d)  # exclusive; 0 <= x - d < width
+        for x in range(0, min(x0, width)):
+            out[x, k] = np.inf
+        for x in range(max(x1, 0), width):
+            out[x, k] = np.inf
+        if x0 >= x1:
+            continue
+        s = 0
+        for c in range(x0, min(x0 + radius, x1 - 1) + 1):
+            s += vcol[c, k]
+        for x in range(x0, x1):
+            if x > x0:
+                if x + radius < x1:
+                    s += vcol[x + radius, k]
+                if x - radius - 1 >= x0:
+                    s -= vcol[x - radius - 1, k]
+            used = min(x + radius, x1 - 1) - max(x - radius, x0) + 1
+            if used == win:
+                out[x, k] = 0.5 * s
+            else:
+                out[x, k] = s * win / used * 0.5
+
+
+@nb.njit(cache=True)
+def _row_costs_any(left_p, right_p, y, dmin, ndisp, radius, vcol, out, incremental, bt):
+    """``row_costs_bt`` when ``bt``, else ``row_costs`` (the windowed SAD of eq. 4)."""
+    if bt:
+        row_costs_bt(left_p, right_p, y, dmin, ndisp, radius, vcol, out, incremental)
+    else:
+        row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, out, incremental)
+
+
+# --------------------------------------------------------------------------- ground control points
+
+
+@nb.njit(cache=True)
+def select_gcps(cost, var_l, dmin, radius, uniqueness, var_floor, gcp_x, gcp_j):
+    """Ground control points of one scanline (Intille and Bobick): returns their number.
+
+    A left pixel ``x`` with its whole-band least-cost match ``j = x - dmin - k``
+    (``_argmin_row``, the first of equal costs) is a candidate when
+
+    * both windows lie inside the image: ``radius <= x, j < width - radius``;
+    * it is textured: its window variance ``var_l[x]`` is at least ``var_floor``;
+    * it is unambiguous: ``uniqueness_ratio(cost, x, k) >= uniqueness``;
+    * it is left-right consistent: over the right pixel's band, ``x`` is the one left
+      pixel of least cost (every other ``x2 = j + dmin + k2`` costs strictly more).
+
+    Each right pixel then has at most one candidate. Of the candidates (in increasing
+    ``x``), the kept ones are the longest subsequence strictly increasing in ``j`` as
+    well (the ordering constraint), and of those of that length the first in
+    lexicographic order of the candidates' indices. They go to ``gcp_x[:n]``,
+    ``gcp_j[:n]``, increasing in both.
+    """
+    width, ndisp = cost.shape
+    cand_x = np.empty(width, dtype=np.int64)
+    cand_j = np.empty(width, dtype=np.int64)
+    m = 0
+    for x in range(radius, width - radius):
+        if not var_l[x] >= var_floor:
+            continue
+        k = _argmin_row(cost, x, 0, ndisp - 1)
+        if k < 0:
+            continue
+        j = x - dmin - k
+        if j < radius or j >= width - radius:
+            continue
+        if uniqueness_ratio(cost, x, k) < uniqueness:
+            continue
+        best = cost[x, k]
+        back = True
+        for k2 in range(ndisp):
+            x2 = j + dmin + k2
+            if x2 == x or x2 < 0 or x2 >= width:
+                continue
+            if cost[x2, k2] <= best:
+                back = False
+                break
+        if not back:
+            continue
+        cand_x[m] = x
+        cand_j[m] = j
+        m += 1
+    # longest strictly increasing subsequence in j, lexicographically first in the index:
+    # ``length[i]``: the longest one that starts at candidate i
+    length = np.zeros(m, dtype=np.int64)
+    longest = 0
+    for i in range(m - 1, -1, -1):
+        best_len = 0
+        for i2 in range(i + 1, m):
+            if cand_j[i2] > cand_j[i] and length[i2] > best_len:
+                best_len = length[i2]
+        length[i] = best_len + 1
+        longest = max(longest, length[i])
+    n = 0
+    need = longest
+    last_j = -1
+    for i in range(m):
+        if need == 0:
+            break
+        if length[i] == need and cand_j[i] > last_j:
+            gcp_x[n] = cand_x[i]
+            gcp_j[n] = cand_j[i]
+            last_j = cand_j[i]
+            n += 1
+            need -= 1
+    return n
+
+
+@nb.njit(cache=True)
+def gcp_row(
+    cost,
+    var_l,
+    dmin,
+    radius,
+    occ2,
+    uniqueness,
+    var_floor,
+    table,
+    path_x,
+    path_k,
+    path_s,
+    gcp_x,
+    gcp_j,
+    disp_row,
+    flag_row,
+    partner_row,
+):
+    """Run the three-step DP of one scanline, forced through its ground control points.
+
+    ``select_gcps`` picks the points; between consecutive ones (and from the scanline's
+    free start to the first, from the last to its free end) ``scanline_dp`` runs with
+    ``five=False`` and anchored ends, as ``fill_interval`` does for ``dc`` (also between
+    neighbouring points, so that the right pixels skipped between them pay their
+    occlusions). Without any point it is exactly the whole-scanline ``dsi3`` DP. A point
+    ``x <-> j`` writes ``disp_row[x] = x - j`` and ``partner_row[x] = j``. Returns the
+    doubled path cost.
+    """
+    width = cost.shape[0]
+    n = select_gcps(cost, var_l, dmin, radius, uniqueness, var_floor, gcp_x, gcp_j)
+    total = 0.0
+    a = -1
+    b = -1
+    for i in range(n + 1):
+        if i < n:
+            c = gcp_x[i]
+            e = gcp_j[i]
+        else:
+            c = width
+            e = width
+        if c < width or a < width - 1:  # else the last point ends the row: nothing left
+            anchor_start = a >= 0
+            anchor_end = c < width
+            n_path, t = scanline_dp(
+                cost,
+                dmin,
+                occ2,
+                False,
+                0.0,
+                a if anchor_start else 0,
+                c if anchor_end else width - 1,
+                b if anchor_start else 0,
+                e if anchor_end else width - 1,
+                anchor_start,
+                anchor_end,
+                table,
+                path_x,
+                path_k,
+                path_s,
+            )
+            apply_path(path_x, path_k, path_s, n_path, dmin, disp_row, flag_row)
+            total += t
+        if i < n:
+            disp_row[c] = c - e
+            flag_row[c] = 0
+            partner_row[c] = e
+        a = c
+        b = e
+    return total
+
+
+@nb.njit(parallel=True, cache=True)
+def match_gcp_rows(
+    left_p,
+    right_p,
+    dmin,
+    ndisp,
+    radius,
+    bt,
+    occ2,
+    uniqueness,
+    var_floor,
+    signal_steps,
+    nchunks,
+    disp,
+    flags,
+    total,
+    partner,
+):
+    """``dsi3`` through ground control points on every row (``gcp_row``); rows in parallel.
+
+    ``partner[y, x] = j`` for each control point ``(y, x) <-> (y, j)``, -1 elsewhere.
+    """
+    height, width = disp.shape
+    wp = left_p.shape[1]
+    for ch in nb.prange(nchunks):
+        y0, y1 = _chunk_bounds(height, nchunks, ch)
+        cost = np.empty((width, ndisp), dtype=np.float64)
+        vcol = np.empty((width, ndisp), dtype=np.int32)
+        colsum = np.empty(wp, dtype=np.int64)
+        colsq = np.empty(wp, dtype=np.int64)
+        var_l = np.empty(width, dtype=np.float64)
+        table = np.empty((width + 2, ndisp + 2), dtype=np.float64)
+        path_x = np.empty(2 * width + 2, dtype=np.int64)
+        path_k = np.empty(2 * width + 2, dtype=np.int64)
+        path_s = np.empty(2 * width + 2, dtype=np.uint8)
+        gcp_x = np.empty(width, dtype=np.int64)
+        gcp_j = np.empty(width, dtype=np.int64)
+        for y in range(y0, y1):
+            _row_costs_any(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, y > y0, bt)
+            window_variance_row(left_p, y, radius, signal_steps, colsum, colsq, var_l)
+            for x in range(width):
+                disp[y, x] = np.nan
+                flags[y, x] = FLAG_BORDER
+                partner[y, x] = -1
+            total[y] = gcp_row(
+                cost,
+                var_l,
+                dmin,
+                radius,
+                occ2,
+                uniqueness,
+                var_floor,
+                table,
+                path_x,
+                path_k,
+                path_s,
+                gcp_x,
+                gcp_j,
+                disp[y],
+                flags[y],
+                partner[y],
             )

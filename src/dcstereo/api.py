@@ -43,10 +43,14 @@ def match(
         (Intille and Bobick); ``"dsi5"``: the extended five-step model of eq. 5 (Tsai and
         Katsaggelos); ``"redert"``: the DP with modelling of occlusion and object
         orientation of Redert, Tsai, Hendriks and Katsaggelos (reconstructed; window
-        sheared by the surface slope, see :mod:`dcstereo.redert`).
+        sheared by the surface slope, see :mod:`dcstereo.redert`); ``"dsi3-gcp"``: the
+        three-step DP forced through Intille and Bobick's ground control points (textured,
+        unambiguous, left-right consistent matches kept in order; see
+        :class:`~dcstereo.params.MatchParams`).
     **options
         ``window`` (odd, default 5), ``occlusion_cost`` (per pixel, gray levels of mean
-        absolute difference, default 20), ``fill`` (default False). See
+        absolute difference, default 10), ``fill`` (default False), ``cost``
+        (``"sad"`` or ``"bt"``, Birchfield-Tomasi). See
         :class:`~dcstereo.params.MatchParams`.
 
     Returns
@@ -107,6 +111,7 @@ def _match_block(left, right, params: MatchParams) -> DisparityResult:
         params.min_disparity,
         params.num_disparities,
         radius,
+        params.cost == "bt",
         nchunks,
         disparity,
         flags,
@@ -127,6 +132,7 @@ def _match_dsi(left, right, params: MatchParams) -> DisparityResult:
         params.min_disparity,
         params.num_disparities,
         radius,
+        params.cost == "bt",
         occ2,
         params.method == "dsi5",
         float(np.rint(2.0 * params.effective_slant_cost * scale)),
@@ -153,6 +159,7 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
         params.min_disparity,
         params.num_disparities,
         radius,
+        params.cost == "bt",
         occ2,
         float(np.rint(2.0 * params.effective_slant_cost * scale)),
         float(params.ser_min),
@@ -187,10 +194,53 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
     return DisparityResult(disparity, flags, params, path_cost, features)
 
 
+def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
+    """``dsi3-gcp``: the three-step DP forced through ground control points.
+
+    Intille and Bobick's ground control points (see ``_kernels.select_gcps`` and
+    :class:`~dcstereo.params.MatchParams`): per row, the left pixels of window variance at
+    least ``gcp_variance_floor`` whose whole-band match passes the ``gcp_uniqueness``
+    ratio test and the exact left-right check, then the longest subset increasing in both
+    ``x_left`` and ``x_right``. They come back as ``features`` (SER and VS NaN) and carry
+    ``FLAG_FEATURE``.
+    """
+    radius = params.window // 2
+    left_p, right_p = _padded_signals(left, right, radius)
+    disparity, flags, total, nchunks = _outputs(left.shape)
+    partner = np.empty(disparity.shape, dtype=np.int64)
+    scale = cost_scale(params.window)
+    occ2 = float(np.rint(2.0 * params.occlusion_cost * scale))
+    _kernels.match_gcp_rows(
+        left_p,
+        right_p,
+        params.min_disparity,
+        params.num_disparities,
+        radius,
+        params.cost == "bt",
+        occ2,
+        float(params.gcp_uniqueness),
+        float(params.gcp_variance_floor),
+        SIGNAL_STEPS,
+        nchunks,
+        disparity,
+        flags,
+        total,
+        partner,
+    )
+    rows, cols = np.nonzero(partner >= 0)
+    features = np.full((rows.size, 5), np.nan, dtype=np.float64)
+    features[:, 0] = rows
+    features[:, 1] = cols
+    features[:, 2] = partner[rows, cols]
+    flags[rows, cols] |= FLAG_FEATURE
+    return DisparityResult(disparity, flags, params, total / (2.0 * scale), features)
+
+
 _METHODS: dict[str, Callable[[np.ndarray, np.ndarray, MatchParams], DisparityResult]] = {
     "block": _match_block,
     "dsi3": _match_dsi,
     "dsi5": _match_dsi,
+    "dsi3-gcp": _match_gcp,
     "dc": _match_dc,
     "dc-linear": _match_dc,
     "redert": _match_redert,

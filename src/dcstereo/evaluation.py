@@ -75,13 +75,27 @@ def parse_methods(text: str | None) -> list[str]:
     names = [part.strip() for part in text.split(",") if part.strip()]
     known = list(METHODS) + list(OPENCV_METHODS)
     for name in names:
-        if name not in known:
-            raise ValueError(f"unknown method {name!r}; choose from {', '.join(known)}")
+        if name not in known and not _bt_method(name):
+            raise ValueError(
+                f"unknown method {name!r}; choose from {', '.join(known)} "
+                f"(a name of {', '.join(m for m in METHODS if m != 'redert')} may end in "
+                f"{BT_SUFFIX!r} to match with the Birchfield-Tomasi cost)"
+            )
     if len(set(names)) != len(names):
         raise ValueError(f"a method is repeated in {text!r}")
     if not names:
         raise ValueError("no method given")
     return names
+
+
+#: Suffix of a method name that runs it with ``cost="bt"`` (``"dsi5+bt"``) in bench.
+BT_SUFFIX = "+bt"
+
+
+def _bt_method(name: str) -> bool:
+    """Whether ``name`` is a method of ours (not redert) with :data:`BT_SUFFIX`."""
+    base = name.removesuffix(BT_SUFFIX)
+    return name.endswith(BT_SUFFIX) and base in METHODS and base != "redert"
 
 
 def run_method(
@@ -92,7 +106,8 @@ def run_method(
     Parameters
     ----------
     method : str
-        A name of :func:`available_methods`.
+        A name of :func:`available_methods`; a name of ours ending in :data:`BT_SUFFIX`
+        runs that method with ``cost="bt"`` (Birchfield-Tomasi).
     left, right : ndarray
         The rectified pair.
     max_disparity : int
@@ -113,6 +128,9 @@ def run_method(
         )
     from .api import match
 
+    if _bt_method(method):
+        method = method.removesuffix(BT_SUFFIX)
+        options = {**options, "cost": "bt"}
     return match(left, right, max_disparity=max_disparity, method=method, **options)
 
 

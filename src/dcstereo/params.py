@@ -4,7 +4,7 @@ import math
 from dataclasses import dataclass
 
 #: Methods understood by :func:`dcstereo.match`, in the order the docs present them.
-METHODS = ("dc", "dc-linear", "dsi5", "dsi3", "redert", "block")
+METHODS = ("dc", "dc-linear", "dsi5", "dsi3", "dsi3-gcp", "redert", "block")
 
 #: Default occlusion cost per pixel, in gray levels of mean absolute difference.
 DEFAULT_OCCLUSION_COST = 10.0
@@ -21,6 +21,14 @@ DEFAULT_SER_MIN = 1.0
 DEFAULT_VS_MAX = 0.2
 DEFAULT_FEATURE_FLOOR = 100.0
 DEFAULT_UNIQUENESS = 2.0
+
+#: ``dsi3-gcp`` defaults (measured on the dev scenes, ``scripts/measure_gcp_bt.py``).
+DEFAULT_GCP_UNIQUENESS = 3.0
+DEFAULT_GCP_VARIANCE_FLOOR = 100.0
+
+#: Matching costs: the paper's windowed SAD (eq. 4) and Birchfield-Tomasi's
+#: sampling-insensitive dissimilarity summed over the same window.
+COSTS = ("sad", "bt")
 
 #: ``redert``: the surface orientations (disparity slopes, px/px) of the DP states.
 DEFAULT_ORIENTATIONS = (-0.5, -0.25, 0.0, 0.25, 0.5)
@@ -97,6 +105,28 @@ class MatchParams:
         is where the window fattens the foreground and most accepted pairs were wrong.
         None: ``window // 2 + 1``, the nearest side windows that leave out the candidate's
         own column; 0 disables the guard.
+    cost : str
+        The per-pixel dissimilarity summed over the ``W x W`` window: ``"sad"`` (default,
+        eq. 4, the absolute difference) or ``"bt"``, the sampling-insensitive
+        dissimilarity of Birchfield and Tomasi: the distance of each pixel's value to the
+        range of the other image's linear interpolation over half a pixel on either side
+        of its partner, the least of the two directions (see
+        ``dcstereo._kernels.row_costs_bt``). Same units (gray levels of mean
+        dissimilarity), same edge handling. Every method but ``redert``, whose window is
+        sheared, takes both.
+    gcp_uniqueness : float
+        ``dsi3-gcp`` only: a ground control point's window cost must be its least over
+        the disparity band, and the second-least cost (over the disparities at least two
+        away) at least ``gcp_uniqueness`` times it (the ratio test of ``uniqueness``);
+        0 disables the test. Default :data:`DEFAULT_GCP_UNIQUENESS`.
+    gcp_variance_floor : float
+        ``dsi3-gcp`` only: least window variance (gray levels squared) of a control point's
+        left pixel (textured areas only). Default :data:`DEFAULT_GCP_VARIANCE_FLOOR`.
+        A control point must also be left-right consistent (its right pixel's least
+        cost over the band is with this left pixel and no other), lie at least
+        ``window // 2`` from the image edges in both views, and the points kept on a row
+        are the longest subset strictly increasing in both ``x_left`` and ``x_right``
+        (the ordering constraint). The three-step DP is forced through them.
     orientations : tuple of float
         ``redert`` only: the surface orientations of the DP states, as disparity slopes
         (pixels of disparity per pixel), each one of ``0, +-1/4, +-1/2, +-1``, no
@@ -126,6 +156,9 @@ class MatchParams:
     edge_guard: int | None = None
     orientations: tuple[float, ...] = DEFAULT_ORIENTATIONS
     orientation_cost: float = DEFAULT_ORIENTATION_COST
+    cost: str = "sad"
+    gcp_uniqueness: float = DEFAULT_GCP_UNIQUENESS
+    gcp_variance_floor: float = DEFAULT_GCP_VARIANCE_FLOOR
 
     def __post_init__(self):
         for name in ("max_disparity", "min_disparity", "window", "max_candidates"):
@@ -149,7 +182,19 @@ class MatchParams:
             raise ValueError(f"occlusion_cost must be a finite number, got {cost!r}")
         if cost <= 0:
             raise ValueError(f"occlusion_cost must be positive, got {cost}")
-        for name in ("ser_min", "vs_max", "feature_floor", "slant_cost", "uniqueness"):
+        if self.cost not in COSTS:
+            raise ValueError(f"unknown cost {self.cost!r}; choose one of {', '.join(COSTS)}")
+        if self.cost == "bt" and self.method == "redert":
+            raise ValueError("cost='bt' is not supported by redert (its window is sheared)")
+        for name in (
+            "ser_min",
+            "vs_max",
+            "feature_floor",
+            "slant_cost",
+            "uniqueness",
+            "gcp_uniqueness",
+            "gcp_variance_floor",
+        ):
             value = getattr(self, name)
             if value is None and name == "slant_cost":
                 continue

@@ -8,7 +8,7 @@ import click
 from ..params import DEFAULT_OCCLUSION_COST, METHODS
 
 #: Methods whose result carries feature pairs.
-FEATURE_METHODS = ("dc", "dc-linear")
+FEATURE_METHODS = ("dc", "dc-linear", "dsi3-gcp")
 
 
 class CommandError(click.ClickException):
