@@ -209,3 +209,26 @@ def test_demo_runs_on_the_motorcycle_pair(tmp_path):
     for name in ("disparity.pfm", "disparity.png", "occlusion.png", "preview.png"):
         assert (out / name).is_file()
     assert io.read_disparity(out / "disparity.pfm").shape == (500, 741)
+
+
+@pytest.mark.parametrize("cost", ["sad", "bt"])
+def test_run_cost_option_gives_the_library_result(pair, cost):
+    import dcstereo
+
+    folder, _ = pair
+    out = folder / f"{cost}.pfm"
+    args = ["run", folder / "left.png", folder / "right.png", "-o", out, "--max-disparity", 10]
+    result = invoke(*args, "--method", "dsi5", "--cost", cost, "-q")
+    assert result.exit_code == 0, result.output
+    left, right = io.read_image(folder / "left.png"), io.read_image(folder / "right.png")
+    expected = dcstereo.match(left, right, max_disparity=10, method="dsi5", cost=cost)
+    np.testing.assert_array_equal(io.read_disparity(out), expected.disparity)
+
+
+def test_run_unknown_cost_is_a_usage_error(pair):
+    folder, _ = pair
+    args = ["run", folder / "left.png", folder / "right.png", "-o", folder / "x.pfm"]
+    result = invoke(*args, "--max-disparity", 10, "--cost", "ncc")
+    assert result.exit_code == 2
+    assert "'ncc' is not one of 'sad', 'bt'" in result.output
+    assert not (folder / "x.pfm").exists()

@@ -84,6 +84,14 @@ def matching_options(func):
             help="Cost of one occluded pixel, in gray levels of mean absolute difference.",
         ),
         click.option(
+            "--cost",
+            type=click.Choice(["sad", "bt"]),
+            default="sad",
+            show_default=True,
+            help="Matching cost: windowed SAD (the paper's eq. 4) or Birchfield-Tomasi "
+            "(sampling-insensitive, summed over the same window).",
+        ),
+        click.option(
             "--fill/--no-fill",
             default=False,
             show_default=True,

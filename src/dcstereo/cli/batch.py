@@ -129,6 +129,7 @@ def batch(
     method,
     window,
     occlusion_cost,
+    cost,
     fill,
     threads,
     scheduler,
@@ -159,6 +160,7 @@ def batch(
         "method": method,
         "window": window,
         "occlusion_cost": occlusion_cost,
+        "cost": cost,
         "fill": fill,
     }
     with progress_bar("pairs", quiet) as bar, dask_client(scheduler) as client:

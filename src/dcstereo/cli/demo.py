@@ -26,7 +26,7 @@ from ._common import CommandError, matching_options, one_line_errors, set_thread
 )
 @matching_options
 @one_line_errors
-def demo(output, max_disparity, method, window, occlusion_cost, fill, threads):
+def demo(output, max_disparity, method, window, occlusion_cost, cost, fill, threads):
     """Run dcstereo on scikit-image's Middlebury 2014 Motorcycle pair and score it.
 
     Writes disparity.pfm, disparity.png (16-bit), occlusion.png, preview.png (the
@@ -50,6 +50,7 @@ def demo(output, max_disparity, method, window, occlusion_cost, fill, threads):
         "method": method,
         "window": window,
         "occlusion_cost": occlusion_cost,
+        "cost": cost,
     }
     match(scene.left, scene.right, **options)  # compile (cached on disk after the first run)
     start = time.perf_counter()

@@ -82,6 +82,7 @@ def run(
     method,
     window,
     occlusion_cost,
+    cost,
     fill,
     threads,
     occlusion_out,
@@ -124,6 +125,7 @@ def run(
         method=method,
         window=window,
         occlusion_cost=occlusion_cost,
+        cost=cost,
         fill=fill,
     )
     seconds = time.perf_counter() - start

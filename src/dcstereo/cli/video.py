@@ -68,6 +68,7 @@ def video(
     method,
     window,
     occlusion_cost,
+    cost,
     fill,
     threads,
     disparity_format,
@@ -110,6 +111,7 @@ def video(
         "method": method,
         "window": window,
         "occlusion_cost": occlusion_cost,
+        "cost": cost,
         "fill": fill,
     }
     with progress_bar("frames", quiet) as bar, dask_client(scheduler) as client:
