@@ -319,3 +319,34 @@ def test_a_4000_pixel_scanline_is_split_thousands_of_times_without_recursion(met
     np.testing.assert_array_equal(result.features[:, 1] - result.features[:, 2], 6)
     inside = result.disparity[:, 10:-10]
     assert np.count_nonzero(inside != 6) <= 0.001 * inside.size
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_candidate_tree_gives_the_strongest_leftmost_candidate_of_any_interval(seed):
+    # the segment tree of divide_row against a plain scan, through sets and queries
+    rng = np.random.default_rng(900 + seed)
+    width = int(rng.integers(1, 40))
+    values = np.where(rng.random(width) < 0.3, -np.inf, rng.integers(0, 6, width).astype(float))
+    size = 1
+    while size < width:
+        size *= 2
+    tree_v = np.full(2 * size, -np.inf)
+    tree_i = np.full(2 * size, -1, dtype=np.int64)
+    for p in range(width):
+        _kernels._tree_set(tree_v, tree_i, size, p, values[p])
+        tree_i[size + p] = p
+    for node in range(size - 1, 0, -1):
+        _kernels._tree_pull(tree_v, tree_i, node)
+    for _ in range(60):
+        if rng.random() < 0.4:
+            p = int(rng.integers(0, width))
+            values[p] = -np.inf if rng.random() < 0.5 else float(rng.integers(0, 6))
+            _kernels._tree_set(tree_v, tree_i, size, p, values[p])
+        lo = int(rng.integers(0, width))
+        hi = int(rng.integers(lo - 1, width))
+        window = values[lo : hi + 1]
+        if window.size == 0 or not np.isfinite(window).any():
+            expected = -1
+        else:
+            expected = lo + int(np.argmax(window))  # argmax: the first of equal maxima
+        assert _kernels._tree_best(tree_v, tree_i, size, lo, hi) == expected

@@ -681,6 +681,59 @@ def fill_interval(
     return t
 
 
+@nb.njit(cache=True, inline="always")
+def _tree_pull(tree_v, tree_i, node):
+    """Segment tree node := the better of its children (larger value; ties: smaller index)."""
+    left = 2 * node
+    right = left + 1
+    if tree_v[right] > tree_v[left] or (
+        tree_v[right] == tree_v[left] and 0 <= tree_i[right] < tree_i[left]
+    ):
+        tree_v[node] = tree_v[right]
+        tree_i[node] = tree_i[right]
+    else:
+        tree_v[node] = tree_v[left]
+        tree_i[node] = tree_i[left]
+
+
+@nb.njit(cache=True)
+def _tree_set(tree_v, tree_i, size, pos, value):
+    """Set leaf ``pos`` of the segment tree to ``value`` and update its ancestors."""
+    node = size + pos
+    tree_v[node] = value
+    node //= 2
+    while node >= 1:
+        _tree_pull(tree_v, tree_i, node)
+        node //= 2
+
+
+@nb.njit(cache=True)
+def _tree_best(tree_v, tree_i, size, lo, hi):
+    """Index of the largest value in leaves ``lo..hi`` (ties: smallest index); -1 if none."""
+    best_v = -np.inf
+    best_i = -1
+    if lo > hi:
+        return -1
+    left = lo + size
+    right = hi + size + 1
+    while left < right:
+        if left & 1:
+            v = tree_v[left]
+            if v > best_v or (v == best_v and 0 <= tree_i[left] < best_i):
+                best_v = v
+                best_i = tree_i[left]
+            left += 1
+        if right & 1:
+            right -= 1
+            v = tree_v[right]
+            if v > best_v or (v == best_v and 0 <= tree_i[right] < best_i):
+                best_v = v
+                best_i = tree_i[right]
+        left //= 2
+        right //= 2
+    return best_i if best_v > -np.inf else -1
+
+
 @nb.njit(cache=True)
 def divide_row(
     cost,
@@ -748,22 +801,21 @@ def divide_row(
     """
     width, ndisp = cost.shape
     scale2 = float(signal_steps * signal_steps)
-    # candidates: a whole window inside the image, variance at least the floor, strongest
-    # first (ties: leftmost first)
-    ncand = 0
+    # candidates: a whole window inside the image, variance at least the floor; a
+    # segment tree over x gives the strongest one still in play inside any interval
+    # (ties: leftmost first), so an interval never scans the candidates outside it
+    size = 1
+    while size < width:
+        size *= 2
+    tree_v = np.full(2 * size, -np.inf)
+    tree_i = np.full(2 * size, -1, dtype=np.int64)
     for p in range(radius, width - radius):
         if var_l[p] >= var_floor:
-            ncand += 1
-    pixels = np.empty(ncand, dtype=np.int64)
-    strength = np.empty(ncand, dtype=np.float64)
-    ncand = 0
-    for p in range(radius, width - radius):
-        if var_l[p] >= var_floor:
-            pixels[ncand] = p
-            strength[ncand] = -var_l[p]
-            ncand += 1
-    order = pixels[np.argsort(strength, kind="mergesort")]
-    retired = np.zeros(width, dtype=np.bool_)
+            tree_v[size + p] = var_l[p]
+            tree_i[size + p] = p
+    for node in range(size - 1, 0, -1):
+        _tree_pull(tree_v, tree_i, node)
+    held = np.empty(width, dtype=np.int64)  # left out of this interval only
     # the left-right check of a pair p <-> j depends on the interval only through the
     # nearest competing left pixels below and above p (computed once per pair, kept)
     lr_j = np.full(width, -1, dtype=np.int64)
@@ -784,34 +836,29 @@ def divide_row(
         found = False
         if c - a > 1 and e - b > 1:
             tries = 0
-            kept = 0  # the scan compacts ``order``, dropping the candidates retired for good
-            i = 0
-            while i < ncand:
-                p = order[i]
-                i += 1
-                if retired[p]:
-                    continue
-                order[kept] = p
-                kept += 1
-                if p <= a or p >= c:
-                    continue
-                if max_candidates > 0 and tries >= max_candidates:
+            nheld = 0
+            while not (max_candidates > 0 and tries >= max_candidates):
+                p = _tree_best(tree_v, tree_i, size, a + 1, c - 1)
+                if p < 0:
                     break
                 tries += 1
+                # a candidate that fails is either retired for the row (its value in the
+                # tree becomes -inf for good) or held out of this interval only
+                _tree_set(tree_v, tree_i, size, p, -np.inf)
                 # right pixels strictly inside (B, D), their whole window inside the image
                 k_lo = max(0, p - min(e - 1, width - 1 - radius) - dmin)
                 k_hi = min(ndisp - 1, p - max(b + 1, radius) - dmin)
                 if uniqueness > 0:
                     # only the whole-band match can be unique; the ranges of the sub-problems
-                    # nest, so a candidate that fails here fails in all of them
+                    # nest, so a candidate that fails here fails in all of them: retired
                     best_k = block_match(cost, p, wta_k, wta_ratio)
                     if not k_lo <= best_k <= k_hi or wta_ratio[p] < uniqueness:
-                        retired[p] = True
-                        kept -= 1
                         continue
                 else:
                     best_k = _argmin_row(cost, p, k_lo, k_hi)
                     if best_k < 0:
+                        held[nheld] = p
+                        nheld += 1
                         continue
                 if edge_guard > 0:
                     guarded = True
@@ -821,9 +868,9 @@ def divide_row(
                         if k2 < 0 or abs(k2 - best_k) > 1 or wta_ratio[x2] < uniqueness:
                             guarded = False
                     if not guarded:
-                        if uniqueness > 0:
-                            retired[p] = True
-                            kept -= 1
+                        if uniqueness <= 0:
+                            held[nheld] = p
+                            nheld += 1
                         continue
                 best = cost[p, best_k]
                 j = p - dmin - best_k
@@ -843,15 +890,15 @@ def divide_row(
                             else:
                                 lr_above[p] = min(lr_above[p], x)
                     if lr_below[p] > a or lr_above[p] < c:
-                        continue  # a narrower interval may let it pass
+                        held[nheld] = p  # a narrower interval may let it pass
+                        nheld += 1
+                        continue
                 ssd = window_ssd(left_p, right_p, y, p, j, radius) / scale2
                 ser, vs = reliability(
                     var_l[p], pixel_variance(right_p, y, j, radius, signal_steps), ssd, vs_relative
                 )
                 if ser >= ser_min and vs <= vs_max:
-                    found = True
-                    retired[p] = True  # an anchor from now on
-                    kept -= 1
+                    found = True  # p is an anchor from now on (retired)
                     disp_row[p] = p - j
                     flag_row[p] = 0
                     partner_row[p] = j
@@ -867,14 +914,11 @@ def divide_row(
                     stack[top + 1, 3] = e
                     top += 2
                     break
-                if uniqueness > 0:
-                    retired[p] = True  # same pair, same SER and VS in every sub-problem
-                    kept -= 1
-            while i < ncand:
-                order[kept] = order[i]
-                kept += 1
-                i += 1
-            ncand = kept
+                if uniqueness <= 0:
+                    held[nheld] = p  # with uniqueness, same pair and SER/VS everywhere: retired
+                    nheld += 1
+            for h in range(nheld):
+                _tree_set(tree_v, tree_i, size, held[h], var_l[held[h]])
         if not found:
             total += fill_interval(
                 cost,
