@@ -24,8 +24,7 @@ lint: $(STAMP)
 	$(BIN)/ruff format --check src tests benchmarks scripts
 
 bench: $(STAMP)
-	$(BIN)/python -m pip install --quiet -e ".[opencv]"
-	$(BIN)/python benchmarks/bench_methods.py
+	$(BIN)/python benchmarks/bench_speed.py --markdown docs/SPEED.md
 
 clean:
 	rm -rf $(VENV) demo-output .pytest_cache

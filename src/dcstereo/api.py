@@ -101,6 +101,24 @@ def _outputs(shape):
     return disparity, flags, total, nchunks
 
 
+def _features(partner, flags, ser=None, vs=None):
+    """Return the feature pairs ``(row, x_left, x_right, SER, VS)`` where ``partner >= 0``.
+
+    Sorted by row and column; SER and VS are NaN when not given. The pairs are marked
+    ``FLAG_FEATURE`` in ``flags``.
+    """
+    rows, cols = np.nonzero(partner >= 0)
+    features = np.full((rows.size, 5), np.nan, dtype=np.float64)
+    features[:, 0] = rows
+    features[:, 1] = cols
+    features[:, 2] = partner[rows, cols]
+    if ser is not None:
+        features[:, 3] = ser[rows, cols]
+        features[:, 4] = vs[rows, cols]
+    flags[rows, cols] |= FLAG_FEATURE
+    return features
+
+
 def _match_block(left, right, params: MatchParams) -> DisparityResult:
     radius = params.window // 2
     left_p, right_p = _padded_signals(left, right, radius)
@@ -180,14 +198,7 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
         ser,
         vs,
     )
-    rows, cols = np.nonzero(partner >= 0)
-    features = np.empty((rows.size, 5), dtype=np.float64)
-    features[:, 0] = rows
-    features[:, 1] = cols
-    features[:, 2] = partner[rows, cols]
-    features[:, 3] = ser[rows, cols]
-    features[:, 4] = vs[rows, cols]
-    flags[rows, cols] |= FLAG_FEATURE
+    features = _features(partner, flags, ser, vs)
     path_cost = total / (2.0 * scale)
     if params.method == "dc-linear":
         path_cost = np.full_like(path_cost, np.nan)
@@ -227,12 +238,7 @@ def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
         total,
         partner,
     )
-    rows, cols = np.nonzero(partner >= 0)
-    features = np.full((rows.size, 5), np.nan, dtype=np.float64)
-    features[:, 0] = rows
-    features[:, 1] = cols
-    features[:, 2] = partner[rows, cols]
-    flags[rows, cols] |= FLAG_FEATURE
+    features = _features(partner, flags)
     return DisparityResult(disparity, flags, params, total / (2.0 * scale), features)
 
 
