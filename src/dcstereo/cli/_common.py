@@ -10,6 +10,9 @@ from ..params import DEFAULT_OCCLUSION_COST, METHODS
 #: Methods whose result carries feature pairs.
 FEATURE_METHODS = ("dc", "dc-linear", "dsi3-gcp")
 
+#: The keyword arguments of :func:`dcstereo.match` that :func:`matching_options` collects.
+MATCH_OPTIONS = ("method", "window", "occlusion_cost", "cost", "fill")
+
 
 class CommandError(click.ClickException):
     """A one-line user-facing error (exit code 1)."""
@@ -46,6 +49,36 @@ def check_output_paths(*paths):
             raise CommandError(f"cannot write '{path}': it is a directory")
 
 
+def output_folder(output) -> Path:
+    """Return OUTPUT as a folder path; fail when it exists and is not a folder."""
+    folder = Path(output)
+    if folder.exists() and not folder.is_dir():
+        raise CommandError(f"cannot write into '{folder}': it is not a directory")
+    return folder
+
+
+def apply_threads(threads, scheduler=None):
+    """Cap numba's threads here, or, with a Dask scheduler, check the per-worker count."""
+    if scheduler is None:
+        set_threads(threads)
+    elif threads is not None and threads < 1:
+        raise CommandError(f"--threads must be at least 1, got {threads}")
+
+
+def disparity_range_options(func):
+    """``--max-disparity`` (required) and ``--min-disparity`` (0): the inclusive search range."""
+    func = click.option(
+        "--min-disparity",
+        type=int,
+        default=0,
+        show_default=True,
+        help="Smallest disparity searched.",
+    )(func)
+    return click.option(
+        "--max-disparity", required=True, type=int, help="Largest disparity searched."
+    )(func)
+
+
 def set_threads(threads):
     """Cap numba's thread count (None keeps numba's default)."""
     if threads is None:
@@ -60,7 +93,18 @@ def set_threads(threads):
 
 
 def matching_options(func):
-    """Options of :func:`dcstereo.match` shared by run and demo."""
+    """Options of :func:`dcstereo.match` shared by the matching commands, and ``--threads``.
+
+    The command receives the options named in :data:`MATCH_OPTIONS` as one dict,
+    ``match_options`` (keyword arguments of ``match``), and ``threads`` on its own; a new
+    matching option is added here once, for every command.
+    """
+
+    @functools.wraps(func)
+    def collect(*args, **kwargs):
+        kwargs["match_options"] = {name: kwargs.pop(name) for name in MATCH_OPTIONS}
+        return func(*args, **kwargs)
+
     options = [
         click.option(
             "--method",
@@ -105,5 +149,5 @@ def matching_options(func):
         ),
     ]
     for option in reversed(options):
-        func = option(func)
-    return func
+        collect = option(collect)
+    return collect

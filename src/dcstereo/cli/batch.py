@@ -2,11 +2,17 @@
 
 import contextlib
 import re
-from pathlib import Path
 
 import click
 
-from ._common import CommandError, matching_options, one_line_errors, set_threads
+from ._common import (
+    CommandError,
+    apply_threads,
+    disparity_range_options,
+    matching_options,
+    one_line_errors,
+    output_folder,
+)
 
 _LOCAL = re.compile(r"local:(\d+)$")
 
@@ -100,10 +106,7 @@ def progress_bar(unit: str, quiet: bool):
     type=click.Path(file_okay=False),
     help="Folder for <name>.pfm per pair, failures.csv and batch.json (created if missing).",
 )
-@click.option("--max-disparity", required=True, type=int, help="Largest disparity searched.")
-@click.option(
-    "--min-disparity", type=int, default=0, show_default=True, help="Smallest disparity searched."
-)
+@disparity_range_options
 @matching_options
 @scheduler_option
 @click.option(
@@ -126,11 +129,7 @@ def batch(
     output,
     max_disparity,
     min_disparity,
-    method,
-    window,
-    occlusion_cost,
-    cost,
-    fill,
+    match_options,
     threads,
     scheduler,
     resume,
@@ -146,23 +145,10 @@ def batch(
     """
     from ..batch import FAILURES_FILE, find_pairs, run_batch
 
-    folder = Path(output)
-    if folder.exists() and not folder.is_dir():
-        raise CommandError(f"cannot write into '{folder}': it is not a directory")
+    folder = output_folder(output)
     pairs = find_pairs(source)
-    if scheduler is None:
-        set_threads(threads)
-    elif threads is not None and threads < 1:
-        raise CommandError(f"--threads must be at least 1, got {threads}")
+    apply_threads(threads, scheduler)
     folder.mkdir(parents=True, exist_ok=True)
-    options = {
-        "min_disparity": min_disparity,
-        "method": method,
-        "window": window,
-        "occlusion_cost": occlusion_cost,
-        "cost": cost,
-        "fill": fill,
-    }
     with progress_bar("pairs", quiet) as bar, dask_client(scheduler) as client:
         task = None if bar is None else bar.add_task("batch", total=len(pairs))
         report = run_batch(
@@ -174,7 +160,8 @@ def batch(
             retries=retries,
             threads=threads if scheduler is not None else None,
             on_outcome=None if bar is None else (lambda _: bar.advance(task)),
-            **options,
+            min_disparity=min_disparity,
+            **match_options,
         )
     for outcome in report.failed:
         click.echo(f"failed: {outcome.pair.name}: {outcome.message}", err=True)

@@ -2,15 +2,14 @@
 
 import click
 
-from ._common import check_output_paths, one_line_errors, set_threads
+from ._common import check_output_paths, disparity_range_options, one_line_errors, set_threads
 
 
 @click.command()
 @click.argument("left", type=click.Path(dir_okay=False))
 @click.argument("right", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="PNG.")
-@click.option("--max-disparity", required=True, type=int, help="Largest disparity searched.")
-@click.option("--min-disparity", type=int, default=0, show_default=True)
+@disparity_range_options
 @click.option(
     "--gt",
     type=click.Path(),

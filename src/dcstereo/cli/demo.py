@@ -1,11 +1,10 @@
 """``dcstereo demo``: the main job on the embedded Middlebury 2014 Motorcycle pair."""
 
 import time
-from pathlib import Path
 
 import click
 
-from ._common import CommandError, matching_options, one_line_errors, set_threads
+from ._common import matching_options, one_line_errors, output_folder, set_threads
 
 
 @click.command()
@@ -26,7 +25,7 @@ from ._common import CommandError, matching_options, one_line_errors, set_thread
 )
 @matching_options
 @one_line_errors
-def demo(output, max_disparity, method, window, occlusion_cost, cost, fill, threads):
+def demo(output, max_disparity, match_options, threads):
     """Run dcstereo on scikit-image's Middlebury 2014 Motorcycle pair and score it.
 
     Writes disparity.pfm, disparity.png (16-bit), occlusion.png, preview.png (the
@@ -40,18 +39,12 @@ def demo(output, max_disparity, method, window, occlusion_cost, cost, fill, thre
     from ..viz import draw_points, preview
 
     set_threads(threads)
-    folder = Path(output)
-    if folder.exists() and not folder.is_dir():
-        raise CommandError(f"cannot write into '{folder}': it is not a directory")
+    folder = output_folder(output)
     folder.mkdir(parents=True, exist_ok=True)
     scene = load_motorcycle()
-    options = {
-        "max_disparity": max_disparity,
-        "method": method,
-        "window": window,
-        "occlusion_cost": occlusion_cost,
-        "cost": cost,
-    }
+    # the sparse map is written and scored too: fill after matching, not in it
+    options = dict(match_options, max_disparity=max_disparity)
+    fill = options.pop("fill")
     match(scene.left, scene.right, **options)  # compile (cached on disk after the first run)
     start = time.perf_counter()
     result = match(scene.left, scene.right, **options)
@@ -78,7 +71,8 @@ def demo(output, max_disparity, method, window, occlusion_cost, cost, fill, thre
         f"disparities 0..{max_disparity}"
     )
     click.echo(
-        f"method {method}, window {window}, occlusion cost {occlusion_cost:g}: "
+        f"method {options['method']}, window {options['window']}, "
+        f"occlusion cost {options['occlusion_cost']:g}: "
         f"{seconds * 1000:.0f} ms ({evaluations / seconds / 1e6:.0f} M disparity evaluations/s)"
     )
     for name, estimate in (("sparse (occlusions left empty)", result), ("dense (filled)", dense)):

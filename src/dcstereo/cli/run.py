@@ -8,6 +8,7 @@ import click
 from ._common import (
     FEATURE_METHODS,
     check_output_paths,
+    disparity_range_options,
     matching_options,
     one_line_errors,
     set_threads,
@@ -25,14 +26,7 @@ from ._common import (
     help="Disparity output: .pfm (float32, inf = no estimate) or .png (16-bit, d * 256, "
     "0 = no estimate).",
 )
-@click.option("--max-disparity", required=True, type=int, help="Largest disparity searched.")
-@click.option(
-    "--min-disparity",
-    type=int,
-    default=0,
-    show_default=True,
-    help="Smallest disparity searched.",
-)
+@disparity_range_options
 @matching_options
 @click.option(
     "--occlusion-out",
@@ -79,11 +73,7 @@ def run(
     output,
     max_disparity,
     min_disparity,
-    method,
-    window,
-    occlusion_cost,
-    cost,
-    fill,
+    match_options,
     threads,
     occlusion_out,
     preview,
@@ -102,6 +92,7 @@ def run(
     from ..viz import draw_points
     from ..viz import preview as make_preview
 
+    method = match_options["method"]
     check_output_paths(output, occlusion_out, preview, features_out)
     if (features_out is not None or draw_features) and method not in FEATURE_METHODS:
         raise ValueError(
@@ -122,11 +113,7 @@ def run(
         right_image,
         max_disparity=max_disparity,
         min_disparity=min_disparity,
-        method=method,
-        window=window,
-        occlusion_cost=occlusion_cost,
-        cost=cost,
-        fill=fill,
+        **match_options,
     )
     seconds = time.perf_counter() - start
 

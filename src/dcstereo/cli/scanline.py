@@ -2,15 +2,14 @@
 
 import click
 
-from ._common import check_output_paths, one_line_errors
+from ._common import check_output_paths, disparity_range_options, one_line_errors
 
 
 @click.command()
 @click.argument("left", type=click.Path(dir_okay=False))
 @click.argument("right", type=click.Path(dir_okay=False))
 @click.option("--row", "-y", required=True, type=int, help="The scanline (0 = top).")
-@click.option("--max-disparity", required=True, type=int, help="Largest disparity searched.")
-@click.option("--min-disparity", type=int, default=0, show_default=True)
+@disparity_range_options
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="PNG.")
 @click.option(
     "--methods",

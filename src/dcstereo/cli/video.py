@@ -4,7 +4,14 @@ from pathlib import Path
 
 import click
 
-from ._common import CommandError, matching_options, one_line_errors, set_threads
+from ._common import (
+    CommandError,
+    apply_threads,
+    disparity_range_options,
+    matching_options,
+    one_line_errors,
+    output_folder,
+)
 from .batch import dask_client, progress_bar, scheduler_option
 
 
@@ -18,10 +25,7 @@ from .batch import dask_client, progress_bar, scheduler_option
     type=click.Path(file_okay=False),
     help="Folder for frameNNNNN.pfm|png and frameNNNNN-preview.png (created if missing).",
 )
-@click.option("--max-disparity", required=True, type=int, help="Largest disparity searched.")
-@click.option(
-    "--min-disparity", type=int, default=0, show_default=True, help="Smallest disparity searched."
-)
+@disparity_range_options
 @matching_options
 @click.option(
     "--format",
@@ -65,11 +69,7 @@ def video(
     output,
     max_disparity,
     min_disparity,
-    method,
-    window,
-    occlusion_cost,
-    cost,
-    fill,
+    match_options,
     threads,
     disparity_format,
     preview_style,
@@ -89,9 +89,7 @@ def video(
     from ..batch import FAILURES_FILE
     from ..video import match_sequence, open_sequence, output_paths, write_video
 
-    folder = Path(output)
-    if folder.exists() and not folder.is_dir():
-        raise CommandError(f"cannot write into '{folder}': it is not a directory")
+    folder = output_folder(output)
     if preview_video is not None:
         if Path(preview_video).suffix.lower() not in (".mp4", ".mkv", ".avi", ".mov"):
             raise CommandError(f"--preview-video '{preview_video}' must end in .mp4, .mkv, .avi")
@@ -101,19 +99,8 @@ def video(
     if fps is not None and not fps > 0:
         raise CommandError(f"--fps must be positive, got {fps}")
     sequence = open_sequence(left, right)
-    if scheduler is None:
-        set_threads(threads)
-    elif threads is not None and threads < 1:
-        raise CommandError(f"--threads must be at least 1, got {threads}")
+    apply_threads(threads, scheduler)
     folder.mkdir(parents=True, exist_ok=True)
-    options = {
-        "min_disparity": min_disparity,
-        "method": method,
-        "window": window,
-        "occlusion_cost": occlusion_cost,
-        "cost": cost,
-        "fill": fill,
-    }
     with progress_bar("frames", quiet) as bar, dask_client(scheduler) as client:
         task = None if bar is None else bar.add_task("video", total=len(sequence))
         report = match_sequence(
@@ -126,7 +113,8 @@ def video(
             preview_style=preview_style,
             threads=threads if scheduler is not None else None,
             on_frame=None if bar is None else (lambda name, status: bar.advance(task)),
-            **options,
+            min_disparity=min_disparity,
+            **match_options,
         )
     written = None
     if preview_video is not None:
