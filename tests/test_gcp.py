@@ -30,8 +30,8 @@ def random_costs(rng, width, dmin, ndisp, high):
     return cost
 
 
-@pytest.mark.parametrize("seed", range(40))
-def test_gcp_selection_matches_brute_force(seed):
+def random_selection_case(seed):
+    """A tiny random GCP selection problem: (cost, var_l, dmin, radius, uniqueness, floor)."""
     rng = np.random.default_rng(500 + seed)
     width = int(rng.integers(6, 13))
     ndisp = int(rng.integers(2, 6))
@@ -42,24 +42,21 @@ def test_gcp_selection_matches_brute_force(seed):
     var_l = rng.uniform(0, 10, size=width)
     uniqueness = float(rng.choice([0.0, 1.0, 1.5, 2.0]))
     var_floor = float(rng.choice([0.0, 3.0]))
-    kept, candidates = naive_gcp_bt.select_gcps(cost, var_l, dmin, radius, uniqueness, var_floor)
-    assert kernel_select(cost, var_l, dmin, radius, uniqueness, var_floor) == kept
+    return cost, var_l, dmin, radius, uniqueness, var_floor
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_gcp_selection_matches_brute_force(seed):
+    case = random_selection_case(seed)
+    kept, _ = naive_gcp_bt.select_gcps(*case)
+    assert kernel_select(*case) == kept
 
 
 def test_brute_force_cases_include_crossing_candidates():
     # the ordering step matters in the random cases above: some drop a candidate
     dropped = 0
     for seed in range(40):
-        rng = np.random.default_rng(500 + seed)
-        width = int(rng.integers(6, 13))
-        ndisp = int(rng.integers(2, 6))
-        dmin = int(rng.integers(-2, 2))
-        radius = int(rng.integers(0, 2))
-        cost = random_costs(rng, width, dmin, ndisp, int(rng.integers(3, 30)))
-        var_l = rng.uniform(0, 10, size=width)
-        uniqueness = float(rng.choice([0.0, 1.0, 1.5, 2.0]))
-        var_floor = float(rng.choice([0.0, 3.0]))
-        kept, found = naive_gcp_bt.select_gcps(cost, var_l, dmin, radius, uniqueness, var_floor)
+        kept, found = naive_gcp_bt.select_gcps(*random_selection_case(seed))
         dropped += len(found) > len(kept)
     assert dropped >= 3
 
