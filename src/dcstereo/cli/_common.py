@@ -79,6 +79,16 @@ def disparity_range_options(func):
     )(func)
 
 
+#: ``--preview-style``: how a disparity preview is drawn.
+preview_style_option = click.option(
+    "--preview-style",
+    type=click.Choice(["paper", "color"]),
+    default="paper",
+    show_default=True,
+    help="paper: histogram-equalized gray, occlusions brightest; color: turbo colour map.",
+)
+
+
 def set_threads(threads):
     """Cap numba's thread count (None keeps numba's default)."""
     if threads is None:

@@ -11,6 +11,7 @@ from ._common import (
     disparity_range_options,
     matching_options,
     one_line_errors,
+    preview_style_option,
     set_threads,
 )
 
@@ -40,13 +41,7 @@ from ._common import (
     default=None,
     help="Write a preview PNG of the disparity.",
 )
-@click.option(
-    "--preview-style",
-    type=click.Choice(["paper", "color"]),
-    default="paper",
-    show_default=True,
-    help="paper: histogram-equalized gray, occlusions brightest; color: turbo colour map.",
-)
+@preview_style_option
 @click.option(
     "--features-out",
     type=click.Path(dir_okay=False),

@@ -11,6 +11,7 @@ from ._common import (
     matching_options,
     one_line_errors,
     output_folder,
+    preview_style_option,
 )
 from .batch import dask_client, progress_bar, scheduler_option
 
@@ -35,13 +36,7 @@ from .batch import dask_client, progress_bar, scheduler_option
     show_default=True,
     help="Disparity files: PFM (float32, inf = none) or 16-bit PNG (d * 256, 0 = none).",
 )
-@click.option(
-    "--preview-style",
-    type=click.Choice(["paper", "color"]),
-    default="paper",
-    show_default=True,
-    help="paper: histogram-equalized gray, occlusions brightest; color: turbo colour map.",
-)
+@preview_style_option
 @click.option(
     "--preview-video",
     type=click.Path(dir_okay=False),
