@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import dcstereo
+import naive_divide
 import synthetic
 from dcstereo import FLAG_FEATURE, _kernels
 from dcstereo.cost import window_variance
@@ -86,7 +87,7 @@ def test_ser_and_vs_hand_computed_on_a_3x3_window():
     colsum = np.empty(5, dtype=np.int64)
     colsq = np.empty(5, dtype=np.int64)
     var_row = np.empty(3)
-    _kernels.window_variance_row(left_p, 0, 1, SIGNAL_STEPS, colsum, colsq, var_row)
+    _kernels.window_variance_row(left_p, 0, 1, SIGNAL_STEPS, colsum, colsq, var_row, False)
     var_l = var_row[1]
     var_r = _kernels.pixel_variance(right_p, 0, 1, 1, SIGNAL_STEPS)
     ssd = _kernels.window_ssd(left_p, right_p, 0, 1, 1, 1) / SIGNAL_STEPS**2
@@ -116,11 +117,46 @@ def test_window_variance_row_matches_the_numpy_variance(radius):
     colsum = np.empty(width + 2 * radius, dtype=np.int64)
     colsq = np.empty(width + 2 * radius, dtype=np.int64)
     out = np.empty(width)
+    colsum_run = np.empty_like(colsum)
+    colsq_run = np.empty_like(colsq)
+    out_run = np.empty(width)
     for y in range(height):
-        _kernels.window_variance_row(padded, y, radius, SIGNAL_STEPS, colsum, colsq, out)
+        _kernels.window_variance_row(padded, y, radius, SIGNAL_STEPS, colsum, colsq, out, False)
         np.testing.assert_allclose(out, expected[y], rtol=1e-9, atol=1e-9)
         for x in range(width):
             assert _kernels.pixel_variance(padded, y, x, radius, SIGNAL_STEPS) == out[x]
+        # the running sums, updated row by row, give the very same values
+        _kernels.window_variance_row(
+            padded, y, radius, SIGNAL_STEPS, colsum_run, colsq_run, out_run, y > 0
+        )
+        np.testing.assert_array_equal(out_run, out)
+
+
+@pytest.mark.parametrize("radius", [0, 1, 2])
+def test_window_ssd_matches_a_plain_sum_over_the_truncated_window(radius):
+    # every cell, interior (exact integer path) and near the edges (truncated, rescaled)
+    rng = np.random.default_rng(17 + radius)
+    height, width = 5, 9
+    left = rng.integers(0, 4081, size=(height, width)).astype(np.int32)
+    right = rng.integers(0, 4081, size=(height, width)).astype(np.int32)
+    left_p = np.pad(left, radius, mode="edge")
+    right_p = np.pad(right, radius, mode="edge")
+    win = 2 * radius + 1
+    for y in range(height):
+        for x in range(width):
+            for j in range(width):
+                cols = [
+                    c
+                    for c in range(-radius, radius + 1)
+                    if 0 <= x + c < width and 0 <= j + c < width
+                ]
+                diff = (
+                    left_p[y : y + win, [x + c + radius for c in cols]].astype(np.int64)
+                    - right_p[y : y + win, [j + c + radius for c in cols]]
+                )
+                expected = float(np.sum(diff * diff)) * win / len(cols)
+                got = _kernels.window_ssd(left_p, right_p, y, x, j, radius)
+                assert got == pytest.approx(expected, rel=1e-12)
 
 
 def test_uniqueness_ratio_hand_computed():
@@ -159,6 +195,110 @@ def test_features_carry_the_ser_and_vs_of_eq_2_and_3(seed):
         assert ser == pytest.approx(expected_ser, rel=1e-5)
         assert vs == pytest.approx(abs(var_l - var_r) / (var_l + var_r), rel=1e-5, abs=1e-7)
         assert ser >= result.params.ser_min and vs <= result.params.vs_max
+
+
+# --------------------------------------------------------------------------- the search, naive twin
+
+SEARCH_OPTIONS = [
+    {},
+    PAPER_TESTS_ONLY,
+    {"max_candidates": 2},
+    {"max_candidates": 1, "uniqueness": 0.0},
+    {"uniqueness": 0.0},
+    {"lr_check": False},
+    {"vs_relative": False, "vs_max": 400.0, "ser_min": 2.0},
+    {"edge_guard": 0, "uniqueness": 1.2, "feature_floor": 20.0},
+]
+
+
+def search_pairs_for_comparison():
+    rng = np.random.default_rng(77)
+    left, right, _ = synthetic.object_pair(rng, 6, 48, 2, 7, (15, 30))
+    yield left, right, 9, 0
+    left, right, _ = synthetic.slanted_pair(rng, 5, 40, 2, 0.15)
+    yield left, right, 8, -2
+    # noisy copies: many candidates fail some test, in many intervals
+    left = np.clip(left.astype(int) + rng.integers(-40, 41, left.shape), 0, 255).astype(np.uint8)
+    yield left, right, 8, 0
+    yield synthetic.texture(rng, 5, 36), synthetic.texture(rng, 5, 36), 6, 0
+    # a stretched strip: neighbouring left pixels show the same right pixel, so the
+    # left-right test has rivals to find
+    right = synthetic.texture(rng, 5, 40)
+    source = [max(x - 3, 0) for x in range(16)] + [13 + (x - 16) // 2 for x in range(16, 28)]
+    source += [x - 9 for x in range(28, 40)]
+    yield right[:, source], right, 10, 0
+    # a periodic texture (period 5): without the uniqueness test, pixels a period apart
+    # are exact rivals for the same right pixel, which the left-right test refuses
+    right = np.tile(synthetic.texture(rng, 5, 5), (1, 8))
+    left = np.empty_like(right)
+    left[:, 2:] = right[:, :-2]
+    left[:, :2] = synthetic.texture(rng, 5, 2)
+    yield left, right, 9, 0
+
+
+@pytest.mark.parametrize("options", SEARCH_OPTIONS, ids=lambda o: ",".join(o) or "defaults")
+def test_feature_search_agrees_with_the_naive_twin(options):
+    # the kernel's accepted pairs (its up-front tests with the uniqueness test and no limit
+    # on the tries, the per-interval tests otherwise) against plain recursion
+    total_pairs = 0
+    radius = 2
+    for left, right, max_disparity, min_disparity in search_pairs_for_comparison():
+        params = MatchParams(
+            max_disparity=max_disparity, min_disparity=min_disparity, window=5, **options
+        )
+        result = dcstereo.match(
+            left,
+            right,
+            max_disparity=max_disparity,
+            min_disparity=min_disparity,
+            window=5,
+            **options,
+        )
+        left_p = np.pad(matching_signal(left), radius, mode="edge")
+        right_p = np.pad(matching_signal(right), radius, mode="edge")
+        height, width = left.shape
+        ndisp = params.num_disparities
+        cost = np.empty((width, ndisp))
+        vcol = np.empty((width, ndisp), dtype=np.int32)
+        colsum = np.empty(width + 2 * radius, dtype=np.int64)
+        colsq = np.empty_like(colsum)
+        for y in range(height):
+            _kernels.row_costs(left_p, right_p, y, min_disparity, ndisp, radius, vcol, cost, False)
+            var_l = np.empty(width)
+            var_r = np.empty(width)
+            for signal, out in ((left_p, var_l), (right_p, var_r)):
+                _kernels.window_variance_row(
+                    signal, y, radius, SIGNAL_STEPS, colsum, colsq, out, False
+                )
+
+            def ssd_of(p, j, y=y, left_p=left_p, right_p=right_p):
+                return _kernels.window_ssd(left_p, right_p, y, p, j, radius) / SIGNAL_STEPS**2
+
+            expected = naive_divide.divide_pairs(
+                cost,
+                ssd_of,
+                var_l,
+                var_r,
+                dmin=min_disparity,
+                radius=radius,
+                ser_min=params.ser_min,
+                vs_max=params.vs_max,
+                vs_relative=params.vs_relative,
+                var_floor=params.feature_floor,
+                max_candidates=params.max_candidates,
+                lr_check=params.lr_check,
+                uniqueness=params.uniqueness,
+                edge_guard=params.effective_edge_guard,
+            )
+            got = result.features[result.features[:, 0] == y]
+            assert [int(x) for x in got[:, 1]] == sorted(expected), (options, y)
+            for _, x, j, ser, vs in got:
+                exp_j, exp_ser, exp_vs = expected[int(x)]
+                assert int(j) == exp_j
+                assert ser == pytest.approx(exp_ser, rel=1e-6)  # float32 in the result
+                assert vs == pytest.approx(exp_vs, rel=1e-6, abs=1e-7)
+            total_pairs += len(expected)
+    assert total_pairs > 10  # the cases do accept pairs
 
 
 # --------------------------------------------------------------------------- ordering, anchors

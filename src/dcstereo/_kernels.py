@@ -488,6 +488,14 @@ def window_ssd(left_p, right_p, y, x, j, radius):
     """Window sum of squared signal differences of cell (x, j), truncated like ``row_costs``."""
     width = left_p.shape[1] - 2 * radius
     win = 2 * radius + 1
+    if radius <= x < width - radius and radius <= j < width - radius:
+        # the whole window inside both images (every feature candidate): exact integers
+        si = 0
+        for t in range(win):
+            for c in range(win):
+                di = np.int64(left_p[y + t, x + c]) - np.int64(right_p[y + t, j + c])
+                si += di * di
+        return float(si)
     s = 0.0
     used = 0
     for c in range(-radius, radius + 1):
@@ -501,27 +509,39 @@ def window_ssd(left_p, right_p, y, x, j, radius):
 
 
 @nb.njit(cache=True)
-def window_variance_row(signal_p, y, radius, signal_steps, colsum, colsq, out):
+def window_variance_row(signal_p, y, radius, signal_steps, colsum, colsq, out, incremental):
     """Window variance (gray levels squared) of every pixel of row ``y``.
 
     ``signal_p`` is an integer signal padded by ``radius`` (edge replicated), like the
     inputs of ``row_costs``; the variance is that of the ``(2 radius + 1)^2`` padded window,
     as :func:`dcstereo.cost.window_variance` computes it, but from exact integer sums.
-    ``colsum`` and ``colsq`` are int64 scratch vectors as long as a padded row.
+    ``colsum`` and ``colsq`` are int64 scratch vectors as long as a padded row, holding the
+    vertical window sums of the signal and of its square; with ``incremental`` they must
+    hold those of row ``y - 1`` (the previous call) and are updated by the row that enters
+    the window and the one that leaves it, as ``row_costs`` does.
     """
     wp = signal_p.shape[1]
     width = wp - 2 * radius
     win = 2 * radius + 1
     n = win * win
-    for xp in range(wp):
-        s = 0
-        q = 0
-        for t in range(win):
-            v = np.int64(signal_p[y + t, xp])
-            s += v
-            q += v * v
-        colsum[xp] = s
-        colsq[xp] = q
+    if incremental:
+        top = y - 1
+        bottom = y + 2 * radius
+        for xp in range(wp):
+            vb = np.int64(signal_p[bottom, xp])
+            vt = np.int64(signal_p[top, xp])
+            colsum[xp] += vb - vt
+            colsq[xp] += vb * vb - vt * vt
+    else:
+        for xp in range(wp):
+            s = 0
+            q = 0
+            for t in range(win):
+                v = np.int64(signal_p[y + t, xp])
+                s += v
+                q += v * v
+            colsum[xp] = s
+            colsq[xp] = q
     s = 0
     q = 0
     for xp in range(win):
@@ -550,6 +570,20 @@ def pixel_variance(signal_p, y, x, radius, signal_steps):
     return float(n * q - s * s) / (float(n) * float(n) * float(signal_steps) * float(signal_steps))
 
 
+@nb.njit(cache=True, inline="always")
+def variance_similarity(var_left, var_right, vs_relative):
+    """Return VS (eq. 3) of a candidate pair from its two window variances.
+
+    ``|var_left - var_right|``, divided by ``var_left + var_right`` when ``vs_relative``
+    (0 when both variances are 0).
+    """
+    vs = abs(var_left - var_right)
+    if vs_relative:
+        total = var_left + var_right
+        vs = vs / total if total > 0 else 0.0
+    return vs
+
+
 @nb.njit(cache=True)
 def reliability(var_left, var_right, ssd, vs_relative):
     """SER (eq. 2) and VS (eq. 3) of a candidate pair, from its window statistics.
@@ -562,25 +596,28 @@ def reliability(var_left, var_right, ssd, vs_relative):
     """
     total = var_left + var_right
     ser = total / ssd if ssd > 0 else np.inf
-    vs = abs(var_left - var_right)
-    if vs_relative:
-        vs = vs / total if total > 0 else 0.0
-    return ser, vs
+    return ser, variance_similarity(var_left, var_right, vs_relative)
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _argmin_row(cost, x, k_lo, k_hi):
-    """Index of the least cost of ``cost[x, k_lo..k_hi]`` (-1 when all are inf)."""
+    """Index of the least cost of ``cost[x, k_lo..k_hi]`` (-1 when all are inf).
+
+    Ties go to the smallest index. The least value is found first, by a reduction without
+    branches, and then its first index: a running argmin would branch on every cell.
+    """
     best = np.inf
-    best_k = -1
     for k in range(k_lo, k_hi + 1):
-        if cost[x, k] < best:
-            best = cost[x, k]
-            best_k = k
-    return best_k
+        best = min(best, cost[x, k])
+    if not best < np.inf:
+        return -1
+    k = k_lo
+    while cost[x, k] != best:
+        k += 1
+    return k
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def uniqueness_ratio(cost, x, best_k):
     """Second-least window cost of left pixel ``x`` over the band, over the cost at ``best_k``.
 
@@ -592,9 +629,10 @@ def uniqueness_ratio(cost, x, best_k):
     ndisp = cost.shape[1]
     best = cost[x, best_k]
     second = np.inf
-    for k in range(ndisp):
-        if abs(k - best_k) > 1 and cost[x, k] < second:
-            second = cost[x, k]
+    for k in range(0, best_k - 1):  # k <= best_k - 2
+        second = min(second, cost[x, k])
+    for k in range(best_k + 2, ndisp):
+        second = min(second, cost[x, k])
     if best > 0:
         return second / best
     return np.inf if second > 0 else 1.0
@@ -603,7 +641,7 @@ def uniqueness_ratio(cost, x, best_k):
 NOT_MATCHED = -2  # ``wta_k`` entry not computed yet
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def block_match(cost, x, wta_k, wta_ratio):
     """Whole-band block match of left pixel ``x``, computed once and kept in ``wta_k``.
 
@@ -616,6 +654,34 @@ def block_match(cost, x, wta_k, wta_ratio):
         wta_k[x] = k
         wta_ratio[x] = uniqueness_ratio(cost, x, k) if k >= 0 else 0.0
     return wta_k[x]
+
+
+@nb.njit(cache=True, inline="always")
+def _edge_guarded(cost, p, best_k, edge_guard, wta_k, wta_ratio, uniqueness):
+    """Apply the discontinuity guard of ``divide_row`` to candidate ``p`` matched at ``best_k``.
+
+    True when the left pixels ``edge_guard`` columns to each side of ``p`` (clamped to the
+    row) block-match within one disparity of ``best_k``, with uniqueness ratios of at
+    least ``uniqueness``.
+    """
+    width = cost.shape[0]
+    for x2 in (p - edge_guard, p + edge_guard):
+        x2 = min(max(x2, 0), width - 1)
+        k2 = block_match(cost, x2, wta_k, wta_ratio)
+        if k2 < 0 or abs(k2 - best_k) > 1 or wta_ratio[x2] < uniqueness:
+            return False
+    return True
+
+
+@nb.njit(cache=True)
+def _pair_reliability(left_p, right_p, y, p, j, radius, var_l, var_r, signal_steps, vs_relative):
+    """Return SER and VS (``reliability``) of the pair ``p <-> j`` of row ``y``.
+
+    ``var_l`` and ``var_r`` are the window variances of the row in both views
+    (``window_variance_row``).
+    """
+    ssd = window_ssd(left_p, right_p, y, p, j, radius) / float(signal_steps * signal_steps)
+    return reliability(var_l[p], var_r[j], ssd, vs_relative)
 
 
 @nb.njit(cache=True)
@@ -742,6 +808,7 @@ def divide_row(
     y,
     radius,
     var_l,
+    var_r,
     wta_k,
     wta_ratio,
     dmin,
@@ -762,6 +829,10 @@ def divide_row(
     path_k,
     path_s,
     stack,
+    tree_v,
+    tree_i,
+    iwork,
+    fwork,
     disp_row,
     flag_row,
     partner_row,
@@ -772,7 +843,8 @@ def divide_row(
 
     A work list (``stack``, shape (>= width + 2, 4)) of problems ``(A, C, B, D)``: match
     left pixels strictly inside ``(A, C)`` with right pixels strictly inside ``(B, D)``.
-    The candidate of highest left window variance (``var_l``, of row ``y``) is
+    The candidate of highest left window variance (``var_l``, of row ``y``; ``var_r``
+    is that of the right view) is
     block-matched inside the band and the right interval (the ordering constraint);
     accepted when ``SER >= ser_min`` and ``VS <= vs_max`` (eq. 2 and 3, see
     ``reliability``), it splits the problem in two; otherwise the next strongest candidate
@@ -798,29 +870,75 @@ def divide_row(
     by ``fill_interval``. An accepted pair ``p <-> j`` writes ``disp_row[p] = p - j``,
     ``partner_row[p] = j``, ``ser_row[p]`` and ``vs_row[p]``. Returns the doubled total cost
     of the fill paths.
+
+    Scratch space, so that a row allocates nothing: ``tree_v`` (float64) and ``tree_i``
+    (int64) of length ``2 * size``, ``size`` the least power of two ``>= width``;
+    ``iwork`` (int64, shape (6, width)) and ``fwork`` (float64, shape (2, width)).
     """
     width, ndisp = cost.shape
-    scale2 = float(signal_steps * signal_steps)
-    # candidates: a whole window inside the image, variance at least the floor; a
-    # segment tree over x gives the strongest one still in play inside any interval
-    # (ties: leftmost first), so an interval never scans the candidates outside it
-    size = 1
-    while size < width:
-        size *= 2
-    tree_v = np.full(2 * size, -np.inf)
-    tree_i = np.full(2 * size, -1, dtype=np.int64)
+    # With the uniqueness test and no limit on the tries, a candidate's match, guard, SER
+    # and VS do not depend on the interval (the match is the whole-band one), and a failure
+    # of any of them retires it for the row: those tests run once per pixel, up front, and
+    # only the candidates that pass them enter the search. The intervals then only check
+    # the ordering range and the left-right test. The pairs accepted are the same: a
+    # candidate left out would have been tried and refused (never accepted), and without a
+    # limit the tries it used to take change nothing.
+    prefilter = uniqueness > 0 and max_candidates == 0
+    # the candidates, by column: a whole window inside the image, variance at least the
+    # floor (and, with the prefilter, passing the tests above); per candidate i: its
+    # column, its match and reliability (prefilter), its left-right state (see below)
+    cand_x = iwork[0]
+    held = iwork[1]  # left out of this interval only
+    cand_k = iwork[2]
+    lr_j = iwork[3]
+    lr_below = iwork[4]
+    lr_above = iwork[5]
+    cand_ser = fwork[0]
+    cand_vs = fwork[1]
+    n = 0
     for p in range(radius, width - radius):
-        if var_l[p] >= var_floor:
-            tree_v[size + p] = var_l[p]
-            tree_i[size + p] = p
+        if not var_l[p] >= var_floor:
+            continue
+        if prefilter:
+            best_k = block_match(cost, p, wta_k, wta_ratio)
+            if best_k < 0 or wta_ratio[p] < uniqueness:
+                continue
+            j = p - dmin - best_k
+            if j < radius or j > width - 1 - radius:
+                continue  # outside the range of every interval
+            # the cheap test first: VS needs no window sums
+            if not variance_similarity(var_l[p], var_r[j], vs_relative) <= vs_max:
+                continue
+            if edge_guard > 0 and not _edge_guarded(
+                cost, p, best_k, edge_guard, wta_k, wta_ratio, uniqueness
+            ):
+                continue
+            ser, vs = _pair_reliability(
+                left_p, right_p, y, p, j, radius, var_l, var_r, signal_steps, vs_relative
+            )
+            if not (ser >= ser_min and vs <= vs_max):
+                continue
+            cand_k[n] = best_k
+            cand_ser[n] = ser
+            cand_vs[n] = vs
+        cand_x[n] = p
+        lr_j[n] = -1
+        n += 1
+    # a segment tree over the candidates gives the strongest one still in play inside any
+    # interval (ties: leftmost first), so an interval never scans the candidates outside it
+    size = 1
+    while size < n:
+        size *= 2
+    for i in range(n):
+        tree_v[size + i] = var_l[cand_x[i]]
+        tree_i[size + i] = i
+    for i in range(n, size):
+        tree_v[size + i] = -np.inf
+        tree_i[size + i] = -1
     for node in range(size - 1, 0, -1):
         _tree_pull(tree_v, tree_i, node)
-    held = np.empty(width, dtype=np.int64)  # left out of this interval only
     # the left-right check of a pair p <-> j depends on the interval only through the
     # nearest competing left pixels below and above p (computed once per pair, kept)
-    lr_j = np.full(width, -1, dtype=np.int64)
-    lr_below = np.empty(width, dtype=np.int64)
-    lr_above = np.empty(width, dtype=np.int64)
     total = 0.0
     top = 1
     stack[0, 0] = -1
@@ -834,21 +952,29 @@ def divide_row(
         b = stack[top, 2]
         e = stack[top, 3]
         found = False
-        if c - a > 1 and e - b > 1:
+        if c - a > 1 and e - b > 1 and n > 0:
+            # the candidates strictly inside (A, C)
+            i_lo = np.searchsorted(cand_x[:n], a, side="right")
+            i_hi = np.searchsorted(cand_x[:n], c, side="left") - 1
             tries = 0
             nheld = 0
             while not (max_candidates > 0 and tries >= max_candidates):
-                p = _tree_best(tree_v, tree_i, size, a + 1, c - 1)
-                if p < 0:
+                i = _tree_best(tree_v, tree_i, size, i_lo, i_hi)
+                if i < 0:
                     break
+                p = cand_x[i]
                 tries += 1
                 # a candidate that fails is either retired for the row (its value in the
                 # tree becomes -inf for good) or held out of this interval only
-                _tree_set(tree_v, tree_i, size, p, -np.inf)
+                _tree_set(tree_v, tree_i, size, i, -np.inf)
                 # right pixels strictly inside (B, D), their whole window inside the image
                 k_lo = max(0, p - min(e - 1, width - 1 - radius) - dmin)
                 k_hi = min(ndisp - 1, p - max(b + 1, radius) - dmin)
-                if uniqueness > 0:
+                if prefilter:
+                    best_k = cand_k[i]
+                    if not k_lo <= best_k <= k_hi:
+                        continue  # the sub-problems' ranges nest: retired
+                elif uniqueness > 0:
                     # only the whole-band match can be unique; the ranges of the sub-problems
                     # nest, so a candidate that fails here fails in all of them: retired
                     best_k = block_match(cost, p, wta_k, wta_ratio)
@@ -857,19 +983,13 @@ def divide_row(
                 else:
                     best_k = _argmin_row(cost, p, k_lo, k_hi)
                     if best_k < 0:
-                        held[nheld] = p
+                        held[nheld] = i
                         nheld += 1
                         continue
-                if edge_guard > 0:
-                    guarded = True
-                    for x2 in (p - edge_guard, p + edge_guard):
-                        x2 = min(max(x2, 0), width - 1)
-                        k2 = block_match(cost, x2, wta_k, wta_ratio)
-                        if k2 < 0 or abs(k2 - best_k) > 1 or wta_ratio[x2] < uniqueness:
-                            guarded = False
-                    if not guarded:
+                if edge_guard > 0 and not prefilter:
+                    if not _edge_guarded(cost, p, best_k, edge_guard, wta_k, wta_ratio, uniqueness):
                         if uniqueness <= 0:
-                            held[nheld] = p
+                            held[nheld] = i
                             nheld += 1
                         continue
                 best = cost[p, best_k]
@@ -877,26 +997,29 @@ def divide_row(
                 if lr_check:
                     # the right pixel, matched back inside (A, C), must choose p again: no
                     # other left pixel of the interval may cost as little as p with it
-                    if lr_j[p] != j:
-                        lr_j[p] = j
-                        lr_below[p] = -1
-                        lr_above[p] = width
+                    if lr_j[i] != j:
+                        lr_j[i] = j
+                        lr_below[i] = -1
+                        lr_above[i] = width
                         for k in range(ndisp):
                             x = j + dmin + k
                             if x < 0 or x >= width or x == p or not cost[x, k] <= best:
                                 continue
                             if x < p:
-                                lr_below[p] = max(lr_below[p], x)
+                                lr_below[i] = max(lr_below[i], x)
                             else:
-                                lr_above[p] = min(lr_above[p], x)
-                    if lr_below[p] > a or lr_above[p] < c:
-                        held[nheld] = p  # a narrower interval may let it pass
+                                lr_above[i] = min(lr_above[i], x)
+                    if lr_below[i] > a or lr_above[i] < c:
+                        held[nheld] = i  # a narrower interval may let it pass
                         nheld += 1
                         continue
-                ssd = window_ssd(left_p, right_p, y, p, j, radius) / scale2
-                ser, vs = reliability(
-                    var_l[p], pixel_variance(right_p, y, j, radius, signal_steps), ssd, vs_relative
-                )
+                if prefilter:
+                    ser = cand_ser[i]
+                    vs = cand_vs[i]
+                else:
+                    ser, vs = _pair_reliability(
+                        left_p, right_p, y, p, j, radius, var_l, var_r, signal_steps, vs_relative
+                    )
                 if ser >= ser_min and vs <= vs_max:
                     found = True  # p is an anchor from now on (retired)
                     disp_row[p] = p - j
@@ -915,10 +1038,10 @@ def divide_row(
                     top += 2
                     break
                 if uniqueness <= 0:
-                    held[nheld] = p  # with uniqueness, same pair and SER/VS everywhere: retired
+                    held[nheld] = i  # with uniqueness, same pair and SER/VS everywhere: retired
                     nheld += 1
             for h in range(nheld):
-                _tree_set(tree_v, tree_i, size, held[h], var_l[held[h]])
+                _tree_set(tree_v, tree_i, size, held[h], var_l[cand_x[held[h]]])
         if not found:
             total += fill_interval(
                 cost,
@@ -984,7 +1107,10 @@ def match_dc_rows(
         vcol = np.empty((width, ndisp), dtype=np.int32)
         colsum = np.empty(wp, dtype=np.int64)
         colsq = np.empty(wp, dtype=np.int64)
+        colsum_r = np.empty(wp, dtype=np.int64)
+        colsq_r = np.empty(wp, dtype=np.int64)
         var_l = np.empty(width, dtype=np.float64)
+        var_r = np.empty(width, dtype=np.float64)
         wta_k = np.empty(width, dtype=np.int64)
         wta_ratio = np.empty(width, dtype=np.float64)
         table = np.empty((width + 2, ndisp + 2), dtype=np.float64)
@@ -992,9 +1118,17 @@ def match_dc_rows(
         path_k = np.empty(2 * width + 2, dtype=np.int64)
         path_s = np.empty(2 * width + 2, dtype=np.uint8)
         stack = np.empty((width + 2, 4), dtype=np.int64)
+        size = 1
+        while size < width:
+            size *= 2
+        tree_v = np.empty(2 * size, dtype=np.float64)
+        tree_i = np.empty(2 * size, dtype=np.int64)
+        iwork = np.empty((6, width), dtype=np.int64)
+        fwork = np.empty((2, width), dtype=np.float64)
         for y in range(y0, y1):
             _row_costs_any(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, y > y0, bt)
-            window_variance_row(left_p, y, radius, signal_steps, colsum, colsq, var_l)
+            window_variance_row(left_p, y, radius, signal_steps, colsum, colsq, var_l, y > y0)
+            window_variance_row(right_p, y, radius, signal_steps, colsum_r, colsq_r, var_r, y > y0)
             wta_k[:] = NOT_MATCHED
             for x in range(width):
                 disp[y, x] = np.nan
@@ -1009,6 +1143,7 @@ def match_dc_rows(
                 y,
                 radius,
                 var_l,
+                var_r,
                 wta_k,
                 wta_ratio,
                 dmin,
@@ -1029,6 +1164,10 @@ def match_dc_rows(
                 path_k,
                 path_s,
                 stack,
+                tree_v,
+                tree_i,
+                iwork,
+                fwork,
                 disp[y],
                 flags[y],
                 partner[y],
@@ -1330,7 +1469,7 @@ def match_gcp_rows(
         gcp_j = np.empty(width, dtype=np.int64)
         for y in range(y0, y1):
             _row_costs_any(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, y > y0, bt)
-            window_variance_row(left_p, y, radius, signal_steps, colsum, colsq, var_l)
+            window_variance_row(left_p, y, radius, signal_steps, colsum, colsq, var_l, y > y0)
             for x in range(width):
                 disp[y, x] = np.nan
                 flags[y, x] = FLAG_BORDER
