@@ -168,7 +168,7 @@ def _slow_cell(cost, table, x, r, k, ndisp, occ2, slant2, slant_ok, allow_a):
     return best
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _step_into(cost, table, x, r, k, ndisp, occ2, slant2, slant_ok, allow_ab):
     """Find the step the forward pass took into cell ``(x, k)``.
 
@@ -841,7 +841,7 @@ def divide_row(
 ):
     """Section 2 on one scanline: pin reliable feature pairs, fill between them.
 
-    A work list (``stack``, shape (>= width + 2, 4)) of problems ``(A, C, B, D)``: match
+    A work list (``stack``, shape (>= width + 2, 6)) of problems ``(A, C, B, D)``: match
     left pixels strictly inside ``(A, C)`` with right pixels strictly inside ``(B, D)``.
     The candidate of highest left window variance (``var_l``, of row ``y``; ``var_r``
     is that of the right view) is
@@ -945,17 +945,18 @@ def divide_row(
     stack[0, 1] = width
     stack[0, 2] = -1
     stack[0, 3] = width
+    stack[0, 4] = 0  # the candidates strictly inside (A, C): indices 4..5
+    stack[0, 5] = n - 1
     while top > 0:
         top -= 1
         a = stack[top, 0]
         c = stack[top, 1]
         b = stack[top, 2]
         e = stack[top, 3]
+        i_lo = stack[top, 4]
+        i_hi = stack[top, 5]
         found = False
-        if c - a > 1 and e - b > 1 and n > 0:
-            # the candidates strictly inside (A, C)
-            i_lo = np.searchsorted(cand_x[:n], a, side="right")
-            i_hi = np.searchsorted(cand_x[:n], c, side="left") - 1
+        if c - a > 1 and e - b > 1 and i_lo <= i_hi:
             tries = 0
             nheld = 0
             while not (max_candidates > 0 and tries >= max_candidates):
@@ -1031,10 +1032,14 @@ def divide_row(
                     stack[top, 1] = p
                     stack[top, 2] = b
                     stack[top, 3] = j
+                    stack[top, 4] = i_lo
+                    stack[top, 5] = i - 1
                     stack[top + 1, 0] = p
                     stack[top + 1, 1] = c
                     stack[top + 1, 2] = j
                     stack[top + 1, 3] = e
+                    stack[top + 1, 4] = i + 1
+                    stack[top + 1, 5] = i_hi
                     top += 2
                     break
                 if uniqueness <= 0:
@@ -1117,7 +1122,7 @@ def match_dc_rows(
         path_x = np.empty(2 * width + 2, dtype=np.int64)
         path_k = np.empty(2 * width + 2, dtype=np.int64)
         path_s = np.empty(2 * width + 2, dtype=np.uint8)
-        stack = np.empty((width + 2, 4), dtype=np.int64)
+        stack = np.empty((width + 2, 6), dtype=np.int64)
         size = 1
         while size < width:
             size *= 2
