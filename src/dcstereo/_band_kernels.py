@@ -1,0 +1,740 @@
+"""Band kernels: the dsi3 / dsi5 scanline DPs of ``BAND_ROWS`` scanlines in lockstep.
+
+The per-row kernels of ``_kernels.py`` loop over the disparity axis ``k`` (16..256
+cells); the compiler's vector loops step 32 or more cells at a time, so most of a row
+runs in their scalar remainder, and the b-step chain down a column is one sequential
+chain per row. Here ``BAND_ROWS`` rows run together with the row as the innermost,
+contiguous axis: the costs and the DP table of a band are ``[x, (k + 1) * BAND_ROWS + r]``
+(cell ``k`` of row ``r`` of the band; one padding cell on each side of the band, inf),
+and every per-cell operation, the b-chain included (it is independent across rows), is
+one vector operation over the rows. Backtracking stays per row.
+
+The results are *bitwise* those of ``_kernels.match_dsi_rows`` (SAD cost): every cell is
+computed by the same float64 expression, in the same order of operations, as in
+``_kernels.scanline_dp``; the backtrack tests the steps in the same order of preference
+(c, d, e, a, b). The padding cells replace ``scanline_dp``'s bounds-checked slow cells: a
+step that would read outside the band reads inf, and ``min`` with inf changes nothing.
+
+Anchors: a row may be pinned at pairs ``x <-> j`` (``partner``), and then its result is
+that of running ``scanline_dp`` segment by segment, free start -> first anchor -> ... ->
+last anchor -> free end, as ``_kernels.gcp_row`` does, in one pass over the row: at an
+anchor column the match-step value of the anchor cell is kept as that segment's total,
+the column is cleared and the anchor cell set to 0 (the anchored start of the next
+segment; the b-chain then fills the cells below it), the e step from the column before
+the anchor to the column after it reads inf, and the virtual start cells (``j = -1``)
+are off after the first anchor. Cells outside the next segment's rectangle then hold
+either inf (``j`` below the anchor's) or values that no cell of the segment reads (``j``
+beyond the segment's end: steps never decrease ``j``, and the next anchor column clears
+them).
+
+Kernels that call each other live in this one file (numba's cache does not notice edits
+made in other files); nothing here is imported from ``_kernels.py``.
+"""
+
+import numba as nb
+import numpy as np
+
+#: Rows of a band: eight float64 values fill one AVX-512 vector. A module constant, not an
+#: argument, on purpose: the compiler must see the trip count of the innermost loops to
+#: turn each of them into whole vector operations without a remainder loop.
+BAND_ROWS = 8
+
+# Step codes and reason flags: the values of ``_kernels.py`` and ``result.py``.
+STEP_NONE = 0
+STEP_C = 1
+STEP_A = 2
+STEP_B = 3
+STEP_D = 4
+STEP_E = 5
+FLAG_OCCLUDED = 1
+FLAG_BORDER = 2
+
+
+# --------------------------------------------------------------------------- costs
+#
+# Every hot loop below is one flat loop over unsigned indices: numba wraps a negative
+# signed index around (a select per access, which turns vector loads into gathers), and
+# it leaves LLVM's SLP vectorizer off, so a fixed inner loop over the ``R`` rows would be
+# unrolled into scalar code. A flat loop over ``(k, r)`` is vectorized like any other.
+
+
+@nb.njit(cache=True)
+def band_signals(left_p, right_p, y0, radius, left_t, right_t):
+    """Rearrange the window rows of band ``y0`` for ``band_costs``.
+
+    For window row ``t`` (``0..2 radius``) and band row ``r``, the padded row
+    ``y0 + t + r`` (the last padded row for rows past the image: the rows of a last,
+    partial band are computed and thrown away): ``left_t[(t * wp + xp) * R + r]`` is its
+    padded pixel ``xp`` and ``right_t[(t * wp + wp - 1 - xp) * R + r]`` the right one,
+    stored right to left, so that the disparities of a left pixel run forward in memory.
+    """
+    height_p, width_p = left_p.shape
+    nr = BAND_ROWS
+    for t in range(2 * radius + 1):
+        for r in range(nr):
+            y = min(y0 + t + r, height_p - 1)
+            for xp in range(width_p):
+                left_t[(t * width_p + xp) * nr + r] = left_p[y, xp]
+                right_t[(t * width_p + width_p - 1 - xp) * nr + r] = right_p[y, xp]
+
+
+@nb.njit(cache=True, inline="always")
+def _vertical_sums(left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, ring, ring_off):
+    """Vertical window SADs of left column ``c`` into ``ring[ring_off + k * R + r]``.
+
+    Disparity ``dmin + k``, band row ``r``; 0 where the right pixel is outside the image.
+
+    ``spread`` (int64, ``ndisp * R``) is scratch: the left pixel's ``R`` values repeated
+    along the disparities, so that the inner loop reads both views contiguously.
+    """
+    nr = BAND_ROWS
+    for i in range(np.uint64(ndisp * nr)):
+        ring[ring_off + i] = 0
+    k_lo = max(0, c - dmin - (width - 1))
+    k_hi = min(ndisp - 1, c - dmin)
+    if k_lo > k_hi:
+        return
+    n = np.uint64((k_hi - k_lo + 1) * nr)
+    o_ring = ring_off + np.uint64(k_lo * nr)
+    for t in range(2 * radius + 1):
+        o_left = (t * width_p + c + radius) * nr
+        for r in range(nr):
+            spread[r] = left_t[o_left + r]
+        m = np.uint64(nr)
+        while m < n:
+            count = min(m, n - m)
+            for i in range(count):
+                spread[m + i] = spread[i]
+            m += count
+        o_right = np.uint64((t * width_p + width_p - 1 - (c - dmin - k_lo + radius)) * nr)
+        for i in range(n):
+            ring[o_ring + i] += abs(spread[i] - right_t[o_right + i])
+
+
+@nb.njit(cache=True)
+def band_costs(left_t, right_t, width, dmin, ndisp, radius, spread, ring, hsum, out):
+    """Windowed SAD of eq. 4 of a band into ``out[x * nk + (k + 1) * R + r]``.
+
+    ``nk = (ndisp + 2) * R``; the values are those of ``row_costs``.
+    ``left_t``/``right_t`` come from ``band_signals``. The window sums are exact integers
+    (int64 here, float64 in ``row_costs``: the same numbers), so the order of summation is
+    free: the vertical sums of each column are computed afresh from the ``2 radius + 1``
+    rows of each band row, the horizontal sums run along ``x`` (``ring``, int64,
+    ``(2 radius + 1) * ndisp * R``, holds the vertical sums of the columns in the window;
+    ``hsum``, int64, ``ndisp * R``, their sum). Then, as in ``row_costs``: inf where the
+    right pixel is outside the image, the truncated windows near the ends of each
+    disparity's range rescaled to the full window (``* W / columns used``, the same
+    float64 operations), and inf in the padding cells ``k = -1`` and ``k = ndisp``.
+    """
+    nr = BAND_ROWS
+    win = 2 * radius + 1
+    width_p = width + 2 * radius
+    nkc = ndisp * nr
+    nk = (ndisp + 2) * nr
+    unkc = np.uint64(nkc)
+    inf = np.inf
+    for i in range(unkc):
+        hsum[i] = 0
+    for c in range(min(radius, width - 1) + 1):
+        o_ring = np.uint64((c % win) * nkc)
+        _vertical_sums(
+            left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, ring, o_ring
+        )
+        for i in range(unkc):
+            hsum[i] += ring[o_ring + i]
+    for i in range(unkc):
+        out[np.uint64(nr) + i] = hsum[i]
+    for x in range(1, width):
+        add = x + radius
+        sub = x - radius - 1
+        o_ring = np.uint64((add % win) * nkc)  # also the slot of column ``sub``: ``win`` apart
+        if sub >= 0:
+            for i in range(unkc):
+                hsum[i] -= ring[o_ring + i]
+        if add < width:
+            _vertical_sums(
+                left_t, right_t, add, width, width_p, dmin, ndisp, radius, spread, ring, o_ring
+            )
+            for i in range(unkc):
+                hsum[i] += ring[o_ring + i]
+        o_out = np.uint64(x * nk + nr)
+        for i in range(unkc):
+            out[o_out + i] = hsum[i]
+    for x in range(width):
+        for r in range(nr):
+            out[x * nk + r] = inf
+            out[x * nk + nk - nr + r] = inf
+    for k in range(ndisp):
+        d = dmin + k
+        base = (k + 1) * nr
+        x0 = max(0, d)
+        x1 = min(width, width + d)  # exclusive; 0 <= x - d < width
+        for x in range(0, min(x0, width)):
+            for r in range(nr):
+                out[x * nk + base + r] = inf
+        for x in range(max(x1, 0), width):
+            for r in range(nr):
+                out[x * nk + base + r] = inf
+        lo_end = min(x0 + radius, x1)
+        hi_start = max(x1 - radius, lo_end)
+        for x in range(x0, lo_end):
+            used = min(x + radius, x1 - 1) - max(x - radius, x0) + 1
+            if used != win:
+                for r in range(nr):
+                    i = x * nk + base + r
+                    out[i] = out[i] * win / used
+        for x in range(hi_start, x1):
+            used = min(x + radius, x1 - 1) - max(x - radius, x0) + 1
+            if used != win:
+                for r in range(nr):
+                    i = x * nk + base + r
+                    out[i] = out[i] * win / used
+
+
+# --------------------------------------------------------------------------- DP
+#
+# The table and the costs are flat: cell ``k`` of band row ``r`` in column ``x`` is
+# ``table[(x + 2) * nk + (k + 1) * R + r]`` and ``cost[x * nk + (k + 1) * R + r]``; the
+# column functions get the offsets of their columns (unsigned, see above) and loop over
+# ``p = (k + 1) * R + r``, so that a step to ``k + 1`` is ``p + R``.
+
+
+@nb.njit(cache=True, inline="always")
+def _cells5(tab, o_row, o_prev, prev2, o_prev2, cost, o_here, o_left, k_lo, k_hi, occ2, slant2):
+    """Five-step cells ``k_lo..k_hi`` of one column, steps from earlier columns only.
+
+    c, d, e, a: ``_earlier_steps5``, the same expressions in the same order.
+    """
+    nr = np.uint64(BAND_ROWS)
+    for p in range(np.uint64((k_lo + 1) * BAND_ROWS), np.uint64((k_hi + 2) * BAND_ROWS)):
+        h2 = 2.0 * cost[o_here + p]
+        c = tab[o_prev + p] + h2
+        d = tab[o_prev + p + nr] + h2 + cost[o_here + p + nr] + cost[o_left + p] + slant2
+        e = prev2[o_prev2 + p - nr] + h2 + cost[o_left + p - nr] + cost[o_left + p] + slant2
+        a = tab[o_prev + p - nr] + occ2
+        tab[o_row + p] = min(min(c, d), min(e, a))
+
+
+@nb.njit(cache=True, inline="always")
+def _cells5_chain(
+    tab, o_row, o_prev, prev2, o_prev2, cost, o_here, o_left, k_lo, k_hi, occ2, slant2
+):
+    """``_cells5`` and the b steps down the column in one descending loop.
+
+    Each cell is then ``min`` of its value and the cell above plus ``occ2`` (the value of
+    ``scanline_dp``'s branch).
+    """
+    nr = np.uint64(BAND_ROWS)
+    top = np.uint64((k_hi + 2) * BAND_ROWS - 1)
+    for i in range(np.uint64((k_hi - k_lo + 1) * BAND_ROWS)):
+        p = top - i
+        h2 = 2.0 * cost[o_here + p]
+        c = tab[o_prev + p] + h2
+        d = tab[o_prev + p + nr] + h2 + cost[o_here + p + nr] + cost[o_left + p] + slant2
+        e = prev2[o_prev2 + p - nr] + h2 + cost[o_left + p - nr] + cost[o_left + p] + slant2
+        a = tab[o_prev + p - nr] + occ2
+        cell = min(min(c, d), min(e, a))
+        tab[o_row + p] = min(cell, tab[o_row + p + nr] + occ2)
+
+
+@nb.njit(cache=True, inline="always")
+def _cells3(tab, o_row, o_prev, cost, o_here, k_lo, k_hi, occ2):
+    """Three-step cells of one column, steps c and a only (``_earlier_steps3``)."""
+    nr = np.uint64(BAND_ROWS)
+    for p in range(np.uint64((k_lo + 1) * BAND_ROWS), np.uint64((k_hi + 2) * BAND_ROWS)):
+        tab[o_row + p] = min(tab[o_prev + p] + 2.0 * cost[o_here + p], tab[o_prev + p - nr] + occ2)
+
+
+@nb.njit(cache=True, inline="always")
+def _cells3_chain(tab, o_row, o_prev, cost, o_here, k_lo, k_hi, occ2):
+    """``_cells3`` and the b steps in one descending loop (see ``_cells5_chain``)."""
+    nr = np.uint64(BAND_ROWS)
+    top = np.uint64((k_hi + 2) * BAND_ROWS - 1)
+    for i in range(np.uint64((k_hi - k_lo + 1) * BAND_ROWS)):
+        p = top - i
+        cell = min(tab[o_prev + p] + 2.0 * cost[o_here + p], tab[o_prev + p - nr] + occ2)
+        tab[o_row + p] = min(cell, tab[o_row + p + nr] + occ2)
+
+
+@nb.njit(cache=True, inline="always")
+def _b_chain(tab, o_row, k_lo, k_hi, occ2):
+    """Take the b steps down one column (k descending: (x, d+1) -> (x, d))."""
+    nr = np.uint64(BAND_ROWS)
+    top = np.uint64((k_hi + 2) * BAND_ROWS - 1)
+    for i in range(np.uint64((k_hi - k_lo + 1) * BAND_ROWS)):
+        p = top - i
+        tab[o_row + p] = min(tab[o_row + p], tab[o_row + p + nr] + occ2)
+
+
+@nb.njit(cache=True)
+def band_forward(
+    cost,
+    width,
+    dmin,
+    ndisp,
+    occ2,
+    five,
+    slant2,
+    anchored,
+    pins,
+    pinned,
+    anchor_total,
+    prev2_work,
+    table,
+):
+    """Forward pass of the whole-scanline DP (eq. 5) of the ``BAND_ROWS`` rows of a band.
+
+    ``cost`` comes from ``band_costs``; ``table`` (float64, at least
+    ``(width + 2) * nk``) gets node ``(x, dmin + k)`` of band row ``r`` at
+    ``(x + 2) * nk + (k + 1) * R + r``; columns -2 and -1 (the virtual start) come first,
+    as in ``scanline_dp`` with ``x_lo = j_lo = 0``, ``x_hi = j_hi = width - 1``.
+
+    With ``anchored``, ``pins[x * R + r]`` (int64) is the right pixel band row ``r`` is
+    pinned to at ``x`` (-1: none; increasing in ``x`` along a row, every pair inside the
+    disparity range), ``pinned[x]`` whether any row of the band is pinned at ``x``; the
+    match-step value of each anchor cell (the total of the segment it ends) goes to
+    ``anchor_total[x * R + r]``. ``prev2_work`` (``nk``) is scratch.
+    """
+    nr = BAND_ROWS
+    nk = (ndisp + 2) * nr
+    unk = np.uint64(nk)
+    inf = np.inf
+    free = np.ones(nr, dtype=np.bool_)  # the virtual start: before a row's first anchor
+    for i in range(np.uint64(2 * nk)):
+        table[i] = inf
+    for k in range(min(ndisp, -dmin + 1)):  # j = -1 - dmin - k >= -1
+        for r in range(nr):
+            table[nk + (k + 1) * nr + r] = 0.0
+    for x in range(width):
+        o_row = np.uint64((x + 2) * nk)
+        o_prev = o_row - unk
+        prev2 = table
+        o_prev2 = o_prev - unk
+        o_here = np.uint64(x * nk)
+        k_lo = max(0, x - (width - 1) - dmin)
+        k_hi = min(ndisp - 1, x - dmin)
+        pin_here = anchored and pinned[x]
+        if anchored and x >= 1 and pinned[x - 1]:
+            # rows pinned at x - 1: no e step from x - 2 over the anchor
+            for i in range(unk):
+                prev2_work[i] = table[o_prev2 + i]
+            for r in range(nr):
+                if pins[(x - 1) * nr + r] >= 0:
+                    for k in range(ndisp + 2):
+                        prev2_work[k * nr + r] = inf
+            prev2 = prev2_work
+            o_prev2 = np.uint64(0)
+        if pin_here:
+            for r in range(nr):
+                if pins[x * nr + r] >= 0:
+                    free[r] = False
+        if k_lo > k_hi:
+            for i in range(unk):
+                table[o_row + i] = inf
+        else:
+            for i in range(np.uint64((k_lo + 1) * nr)):
+                table[o_row + i] = inf
+            for i in range(np.uint64((k_hi + 2) * nr), unk):
+                table[o_row + i] = inf
+        k_virtual = x - dmin + 1  # j = -1
+        if 0 <= k_virtual < ndisp:
+            for r in range(nr):
+                table[o_row + (k_virtual + 1) * nr + r] = 0.0 if free[r] else inf
+        if k_lo > k_hi:
+            continue
+        slant_ok = five and x >= 1
+        o_left = o_here - unk if x >= 1 else o_here
+        if not pin_here:
+            if slant_ok:
+                _cells5_chain(
+                    table,
+                    o_row,
+                    o_prev,
+                    prev2,
+                    o_prev2,
+                    cost,
+                    o_here,
+                    o_left,
+                    k_lo,
+                    k_hi,
+                    occ2,
+                    slant2,
+                )
+            else:
+                _cells3_chain(table, o_row, o_prev, cost, o_here, k_lo, k_hi, occ2)
+            continue
+        if slant_ok:
+            _cells5(
+                table,
+                o_row,
+                o_prev,
+                prev2,
+                o_prev2,
+                cost,
+                o_here,
+                o_left,
+                k_lo,
+                k_hi,
+                occ2,
+                slant2,
+            )
+        else:
+            _cells3(table, o_row, o_prev, cost, o_here, k_lo, k_hi, occ2)
+        for r in range(nr):
+            j = pins[x * nr + r]
+            if j < 0:
+                continue
+            # the anchor ends a segment: its value by a match step (no a, no b) ...
+            p = int((x - j - dmin + 1) * nr + r)  # an int: np.uint64 + np.int64 is float
+            h2 = 2.0 * cost[o_here + p]
+            best = table[o_prev + p] + h2
+            if slant_ok:
+                best = min(
+                    best,
+                    table[o_prev + p + nr] + h2 + cost[o_here + p + nr] + cost[o_left + p] + slant2,
+                )
+                best = min(
+                    best,
+                    prev2[o_prev2 + p - nr]
+                    + h2
+                    + cost[o_left + p - nr]
+                    + cost[o_left + p]
+                    + slant2,
+                )
+            anchor_total[x * nr + r] = best
+            # ... and starts the next one: the column holds only the anchor (0) and,
+            # after the b-chain, the cells below it
+            for k in range(k_lo, k_hi + 1):
+                table[o_row + (k + 1) * nr + r] = inf
+            table[o_row + p] = 0.0
+        _b_chain(table, o_row, k_lo, k_hi, occ2)
+
+
+@nb.njit(cache=True, inline="always")
+def _band_step(cost, table, nk, x, k, r, best, occ2, slant2, slant_ok, e_ok, from_left, allow_ab):
+    """Find the step the forward pass took into cell ``(x, k)`` of band row ``r``.
+
+    As ``_step_into``, the same expressions in the same order of preference.
+    ``from_left`` False: only the b step (the first column of a segment after an anchor);
+    ``e_ok`` False: no e step (the column after an anchor). Inf padding cells stand in for
+    the bounds checks.
+    """
+    nr = BAND_ROWS
+    p = (k + 1) * nr + r
+    o_row = (x + 2) * nk + p  # this cell; the column before is ``nk`` lower
+    o_cost = x * nk + p
+    if from_left:
+        h2 = 2.0 * cost[o_cost]
+        if table[o_row - nk] + h2 == best:
+            return STEP_C
+        if slant_ok:
+            left = cost[o_cost - nk]
+            if table[o_row - nk + nr] + h2 + cost[o_cost + nr] + left + slant2 == best:
+                return STEP_D
+            if e_ok:
+                if table[o_row - 2 * nk - nr] + h2 + cost[o_cost - nk - nr] + left + slant2 == best:
+                    return STEP_E
+    if allow_ab:
+        if from_left and table[o_row - nk - nr] + occ2 == best:
+            return STEP_A
+        if table[o_row + nr] + occ2 == best:
+            return STEP_B
+    return STEP_NONE
+
+
+@nb.njit(cache=True)
+def _trace_segment(
+    cost,
+    table,
+    nk,
+    r,
+    dmin,
+    occ2,
+    five,
+    slant2,
+    x_lo,
+    j_lo,
+    anchor_start,
+    end_x,
+    end_k,
+    end_best,
+    anchor_end,
+    disp_row,
+    flag_row,
+):
+    """Backtrack one segment of band row ``r`` from its end node and write its pixels.
+
+    The segment starts at the anchor ``(x_lo, j_lo)`` (``anchor_start``) or at the free
+    start (then ``x_lo = j_lo = 0``); ``end_best`` is the end node's value (the anchor's
+    match-step value for an anchored end). The writes are those of ``apply_path``, in its
+    order.
+    """
+    nr = BAND_ROWS
+    x = end_x
+    k = end_k
+    best = end_best
+    at_end = anchor_end
+    k_start = x_lo - j_lo - dmin
+    while True:
+        if anchor_start and x == x_lo and k == k_start:
+            break
+        s = _band_step(
+            cost,
+            table,
+            nk,
+            x,
+            k,
+            r,
+            best,
+            occ2,
+            slant2,
+            five and x >= 1,
+            not (anchor_start and x == x_lo + 1),
+            not (anchor_start and x == x_lo),
+            not at_end,
+        )
+        d = dmin + k
+        if s == STEP_C or s == STEP_D:
+            disp_row[x] = d
+            flag_row[x] = 0
+        elif s == STEP_E:
+            disp_row[x] = d
+            flag_row[x] = 0
+            disp_row[x - 1] = d - 0.5
+            flag_row[x - 1] = 0
+        elif s == STEP_A:
+            disp_row[x] = np.nan
+            flag_row[x] = FLAG_OCCLUDED
+        if s == STEP_C:
+            x -= 1
+        elif s == STEP_A:
+            x -= 1
+            k -= 1
+        elif s == STEP_B:
+            k += 1
+        elif s == STEP_D:
+            x -= 1
+            k += 1
+        else:  # STEP_E (and, as in scanline_dp, STEP_NONE)
+            x -= 2
+            k -= 1
+        at_end = False
+        if not anchor_start and (x == -1 or x - dmin - k == -1):
+            break
+        best = table[(x + 2) * nk + (k + 1) * nr + r]
+
+
+@nb.njit(cache=True)
+def band_backtrack_row(
+    cost,
+    table,
+    width,
+    dmin,
+    ndisp,
+    r,
+    occ2,
+    five,
+    slant2,
+    anchored,
+    pins,
+    anchor_total,
+    disp_row,
+    flag_row,
+):
+    """Paths of band row ``r`` after ``band_forward``: write disparities, flags; return the total.
+
+    Segment by segment, as ``gcp_row``: each segment that ends at an anchor (from the
+    free start or the anchor before) is traced from it when its value is finite, then the
+    anchor pixel is written (``x - j``, flag 0); the last segment ends free (skipped when
+    the last anchor is the row's last pixel). The total is the sum of the segment totals
+    in order (inf when a segment has no path). ``disp_row``/``flag_row`` must hold
+    NaN/border.
+    """
+    nr = BAND_ROWS
+    nk = (ndisp + 2) * nr
+    inf = np.inf
+    total = 0.0
+    x_lo = 0
+    j_lo = 0
+    anchor_start = False
+    if anchored:
+        for x in range(width):
+            j = pins[x * nr + r]
+            if j < 0:
+                continue
+            value = anchor_total[x * nr + r]
+            if value < inf:
+                _trace_segment(
+                    cost,
+                    table,
+                    nk,
+                    r,
+                    dmin,
+                    occ2,
+                    five,
+                    slant2,
+                    x_lo,
+                    j_lo,
+                    anchor_start,
+                    x,
+                    x - j - dmin,
+                    value,
+                    True,
+                    disp_row,
+                    flag_row,
+                )
+            total += value
+            disp_row[x] = x - j
+            flag_row[x] = 0
+            x_lo = x
+            j_lo = j
+            anchor_start = True
+    if anchor_start and x_lo == width - 1:
+        return total
+    # the free end: nodes with x == width - 1, then nodes with j == width - 1
+    end_x = -1
+    end_k = -1
+    value = inf
+    for k in range(ndisp):
+        j = width - 1 - dmin - k
+        if j_lo <= j <= width - 1:
+            v = table[(width + 1) * nk + (k + 1) * nr + r]
+            if v < value:
+                value = v
+                end_x = width - 1
+                end_k = k
+    for k in range(ndisp):
+        x = width - 1 + dmin + k
+        if x_lo <= x < width - 1:
+            v = table[(x + 2) * nk + (k + 1) * nr + r]
+            if v < value:
+                value = v
+                end_x = x
+                end_k = k
+    if value < inf:
+        _trace_segment(
+            cost,
+            table,
+            nk,
+            r,
+            dmin,
+            occ2,
+            five,
+            slant2,
+            x_lo,
+            j_lo,
+            anchor_start,
+            end_x,
+            end_k,
+            value,
+            False,
+            disp_row,
+            flag_row,
+        )
+    total += value
+    return total
+
+
+# --------------------------------------------------------------------------- drivers
+
+
+@nb.njit(cache=True)
+def _chunk_bounds(count, nchunks, c):
+    step = (count + nchunks - 1) // nchunks
+    return c * step, min(count, (c + 1) * step)
+
+
+@nb.njit(parallel=True, cache=True)
+def match_band_rows(
+    left_p,
+    right_p,
+    dmin,
+    ndisp,
+    radius,
+    occ2,
+    five,
+    slant2,
+    anchored,
+    partner,
+    nchunks,
+    disp,
+    flags,
+    total,
+):
+    """Run the whole-scanline DP of every row (SAD cost), ``BAND_ROWS`` rows at a time.
+
+    The results of ``_kernels.match_dsi_rows`` with ``bt=False``, bit for bit. Bands are
+    the only parallel loop: ``nchunks`` runs of consecutive bands. With ``anchored``,
+    ``partner[y, x] = j`` pins left pixel ``(y, x)`` to right pixel ``(y, j)`` (-1: no pin;
+    along a row increasing in both ``x`` and ``j``, each pair inside the disparity range),
+    and each row gets the result of ``_kernels.gcp_row``'s segment-by-segment DP through
+    its pins, with the five- or three-step model (``five``); otherwise ``partner`` is not
+    read.
+    """
+    height, width = disp.shape
+    nr = BAND_ROWS
+    nbands = (height + nr - 1) // nr
+    width_p = left_p.shape[1]
+    win = 2 * radius + 1
+    nk = (ndisp + 2) * nr
+    for ch in nb.prange(nchunks):
+        b0, b1 = _chunk_bounds(nbands, nchunks, ch)
+        left_t = np.empty(win * width_p * nr, dtype=np.int64)
+        right_t = np.empty(win * width_p * nr, dtype=np.int64)
+        spread = np.empty(ndisp * nr, dtype=np.int64)
+        ring = np.empty(win * ndisp * nr, dtype=np.int64)
+        hsum = np.empty(ndisp * nr, dtype=np.int64)
+        cost = np.empty(width * nk, dtype=np.float64)
+        table = np.empty((width + 2) * nk, dtype=np.float64)
+        prev2_work = np.empty(nk, dtype=np.float64)
+        pins = np.full(width * nr, -1, dtype=np.int64)
+        pinned = np.zeros(width, dtype=np.bool_)
+        anchor_total = np.empty(width * nr, dtype=np.float64)
+        for b in range(b0, b1):
+            y0 = b * nr
+            band_signals(left_p, right_p, y0, radius, left_t, right_t)
+            band_costs(left_t, right_t, width, dmin, ndisp, radius, spread, ring, hsum, cost)
+            if anchored:
+                for x in range(width):
+                    pinned[x] = False
+                    for r in range(nr):
+                        j = partner[y0 + r, x] if y0 + r < height else -1
+                        pins[x * nr + r] = j
+                        if j >= 0:
+                            pinned[x] = True
+            band_forward(
+                cost,
+                width,
+                dmin,
+                ndisp,
+                occ2,
+                five,
+                slant2,
+                anchored,
+                pins,
+                pinned,
+                anchor_total,
+                prev2_work,
+                table,
+            )
+            for r in range(min(nr, height - y0)):
+                y = y0 + r
+                for x in range(width):
+                    disp[y, x] = np.nan
+                    flags[y, x] = FLAG_BORDER
+                total[y] = band_backtrack_row(
+                    cost,
+                    table,
+                    width,
+                    dmin,
+                    ndisp,
+                    r,
+                    occ2,
+                    five,
+                    slant2,
+                    anchored,
+                    pins,
+                    anchor_total,
+                    disp[y],
+                    flags[y],
+                )

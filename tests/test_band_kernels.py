@@ -1,0 +1,304 @@
+"""The band kernels (``BAND_ROWS`` scanlines in lockstep) against the per-row kernels.
+
+Equality is bitwise: disparity, flags and per-row total, with and without anchors.
+"""
+
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from dcstereo import _band_kernels, _kernels
+from dcstereo.datasets import load_middlebury
+from dcstereo.signal import matching_signal
+
+
+def padded(signal, radius):
+    return np.pad(signal, ((radius, radius), (radius, radius)), mode="edge")
+
+
+def outputs(height, width):
+    return (
+        np.empty((height, width), dtype=np.float32),
+        np.empty((height, width), dtype=np.uint8),
+        np.empty(height, dtype=np.float64),
+    )
+
+
+def per_row(left, right, dmin, ndisp, radius, occ2, five, slant2):
+    """``match_dsi_rows`` (SAD): the reference."""
+    disp, flags, total = outputs(*left.shape)
+    _kernels.match_dsi_rows(
+        padded(left, radius), padded(right, radius), dmin, ndisp, radius, False, occ2, five,
+        slant2, 3, disp, flags, total,
+    )  # fmt: skip
+    return disp, flags, total
+
+
+def banded(left, right, dmin, ndisp, radius, occ2, five, slant2, partner=None, nchunks=2):
+    disp, flags, total = outputs(*left.shape)
+    anchored = partner is not None
+    if partner is None:
+        partner = np.empty((0, 0), dtype=np.int64)
+    _band_kernels.match_band_rows(
+        padded(left, radius), padded(right, radius), dmin, ndisp, radius, occ2, five, slant2,
+        anchored, partner, nchunks, disp, flags, total,
+    )  # fmt: skip
+    return disp, flags, total
+
+
+def segmented(left, right, dmin, ndisp, radius, occ2, five, slant2, partner):
+    """Per row, ``scanline_dp`` segment by segment through the pins, exactly as ``gcp_row``
+    runs it (free start -> first pin -> ... -> last pin -> free end), five or three steps."""
+    height, width = left.shape
+    disp, flags, total = outputs(height, width)
+    left_p, right_p = padded(left, radius), padded(right, radius)
+    cost = np.empty((width, ndisp))
+    vcol = np.empty((width, ndisp), dtype=np.int32)
+    table = np.empty((width + 2, ndisp + 2))
+    path_x = np.empty(2 * width + 2, dtype=np.int64)
+    path_k = np.empty(2 * width + 2, dtype=np.int64)
+    path_s = np.empty(2 * width + 2, dtype=np.uint8)
+    for y in range(height):
+        _kernels.row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, False)
+        disp[y] = np.nan
+        flags[y] = _kernels.FLAG_BORDER
+        row_total = 0.0
+        a = b = -1
+        pins = [(x, int(partner[y, x])) for x in range(width) if partner[y, x] >= 0]
+        for c, e in [*pins, (width, width)]:
+            if c < width or a < width - 1:
+                start, end = a >= 0, c < width
+                n, t = _kernels.scanline_dp(
+                    cost, dmin, occ2, five, slant2,
+                    a if start else 0, c if end else width - 1,
+                    b if start else 0, e if end else width - 1,
+                    start, end, table, path_x, path_k, path_s,
+                )  # fmt: skip
+                _kernels.apply_path(path_x, path_k, path_s, n, dmin, disp[y], flags[y])
+                row_total += t
+            if c < width:
+                disp[y, c] = c - e
+                flags[y, c] = 0
+            a, b = c, e
+        total[y] = row_total
+    return disp, flags, total
+
+
+def assert_same(expected, got):
+    for name, e, g in zip(("disparity", "flags", "total"), expected, got, strict=True):
+        assert e.dtype == g.dtype
+        np.testing.assert_array_equal(g, e, err_msg=name)
+        # bitwise, NaN where NaN
+        assert e.tobytes() == g.tobytes(), name
+
+
+def random_case(rng):
+    """A random problem: sizes from 1 pixel, windows wider than the image, bands wider
+    than the image, negative disparities, heights that are not a multiple of the band."""
+    height = int(rng.integers(1, 21))
+    width = int(rng.integers(1, 33))
+    ndisp = int(rng.integers(1, 14))
+    dmin = int(rng.integers(-10, 10))
+    radius = int(rng.integers(0, 4))
+    left = rng.integers(0, 4081, (height, width)).astype(np.int32)
+    if rng.random() < 0.5:
+        right = rng.integers(0, 4081, (height, width)).astype(np.int32)
+    else:  # a shifted copy plus noise: paths with long runs, occlusions, slants
+        right = np.roll(left, int(rng.integers(-3, 4)), axis=1)
+        right = right + rng.integers(0, 60, (height, width)).astype(np.int32)
+    occ2 = float(rng.integers(0, 4000))
+    slant2 = float(rng.integers(0, 3000))
+    return left, right, dmin, ndisp, radius, occ2, slant2
+
+
+def random_pins(rng, height, width, dmin, ndisp, density):
+    """Pins ``x -> j`` per row: increasing in x and in j, inside the image and the band."""
+    partner = np.full((height, width), -1, dtype=np.int64)
+    for y in range(height):
+        last_j = -1
+        for x in range(width):
+            if rng.random() >= density:
+                continue
+            ks = [k for k in range(ndisp) if last_j < x - dmin - k < width]
+            if not ks:
+                continue
+            # the band's edges (k = 0, k = ndisp - 1) often
+            pick = rng.random()
+            k = ks[0] if pick < 0.2 else ks[-1] if pick < 0.4 else int(rng.choice(ks))
+            partner[y, x] = x - dmin - k
+            last_j = x - dmin - k
+    return partner
+
+
+@pytest.mark.parametrize("five", [False, True], ids=["dsi3", "dsi5"])
+@pytest.mark.parametrize("seed", range(40))
+def test_band_equals_per_row_on_random_inputs(five, seed):
+    rng = np.random.default_rng(7000 + seed)
+    left, right, dmin, ndisp, radius, occ2, slant2 = random_case(rng)
+    expected = per_row(left, right, dmin, ndisp, radius, occ2, five, slant2)
+    for nchunks in (1, 3):
+        got = banded(left, right, dmin, ndisp, radius, occ2, five, slant2, nchunks=nchunks)
+        assert_same(expected, got)
+
+
+@pytest.mark.parametrize("five", [False, True], ids=["dsi3", "dsi5"])
+@pytest.mark.parametrize("seed", range(40))
+def test_band_with_pins_equals_the_segmented_dp(five, seed):
+    rng = np.random.default_rng(8000 + seed)
+    left, right, dmin, ndisp, radius, occ2, slant2 = random_case(rng)
+    height, width = left.shape
+    density = float(rng.choice([0.05, 0.2, 0.6, 1.0]))
+    partner = random_pins(rng, height, width, dmin, ndisp, density)
+    expected = segmented(left, right, dmin, ndisp, radius, occ2, five, slant2, partner)
+    got = banded(left, right, dmin, ndisp, radius, occ2, five, slant2, partner)
+    assert_same(expected, got)
+
+
+@pytest.mark.parametrize("five", [False, True], ids=["dsi3", "dsi5"])
+def test_pins_at_the_row_ends_adjacent_and_at_the_band_edges(five):
+    rng = np.random.default_rng(5)
+    height, width, dmin, ndisp, radius = 9, 14, -1, 5, 1
+    left = rng.integers(0, 4081, (height, width)).astype(np.int32)
+    right = rng.integers(0, 4081, (height, width)).astype(np.int32)
+    partner = np.full((height, width), -1, dtype=np.int64)
+    partner[0, 0] = 1  # x = 0, k = 0 (d = -1)
+    partner[1, 13] = 10  # the last pixel, k = ndisp - 1
+    partner[2, [3, 4, 5]] = [4, 5, 6]  # adjacent, each at k = 0
+    partner[3, [3, 4]] = [0, 4]  # adjacent: k = 4, then k = 0
+    partner[4, [0, 13]] = [0, 13]  # both ends
+    partner[5, [6, 7]] = [3, 4]  # adjacent at k = ndisp - 1
+    partner[6] = np.arange(width) + 1  # every pixel, k = 0 (the last one leaves the image)
+    partner[6, width - 1] = -1
+    partner[7, [2, 9]] = [3, 6]  # a gap the right pixels are skipped over
+    # row 8: none
+    assert all(0 <= x - j - dmin < ndisp for y, x in zip(*np.nonzero(partner >= 0), strict=True)
+               for j in [partner[y, x]])  # fmt: skip
+    for occ2, slant2 in ((0.0, 0.0), (500.0, 300.0), (4000.0, 2500.0)):
+        expected = segmented(left, right, dmin, ndisp, radius, occ2, five, slant2, partner)
+        got = banded(left, right, dmin, ndisp, radius, occ2, five, slant2, partner)
+        assert_same(expected, got)
+
+
+def test_pins_of_the_ground_control_points_give_gcp_row(tmp_path):
+    # the reference above is gcp_row's loop: check it against the kernel itself
+    rng = np.random.default_rng(3)
+    height, width, ndisp, radius = 11, 60, 9, 2
+    base = rng.integers(0, 4081, (height, width + 8)).astype(np.int32)
+    left, right = base[:, 4 : 4 + width], base[:, 1 : 1 + width]  # disparity 3
+    right = right + rng.integers(0, 30, right.shape).astype(np.int32)
+    disp, flags, total = outputs(height, width)
+    partner = np.empty((height, width), dtype=np.int64)
+    left_p, right_p = padded(left, radius), padded(right, radius)
+    _kernels.match_gcp_rows(
+        left_p, right_p, 0, ndisp, radius, False, 3000.0, 1.2, 0.0, 16, 2, disp, flags, total,
+        partner,
+    )  # fmt: skip
+    assert (partner >= 0).sum() > height  # there are control points to go through
+    expected = (disp, flags, total)
+    assert_same(expected, segmented(left, right, 0, ndisp, radius, 3000.0, False, 0.0, partner))
+    assert_same(expected, banded(left, right, 0, ndisp, radius, 3000.0, False, 0.0, partner))
+
+
+@st.composite
+def problems(draw):
+    height = draw(st.integers(1, 19))
+    width = draw(st.integers(1, 24))
+    ndisp = draw(st.integers(1, 10))
+    dmin = draw(st.integers(-12, 12))
+    radius = draw(st.integers(0, 3))
+    five = draw(st.booleans())
+    pinned = draw(st.booleans())
+    seed = draw(st.integers(0, 2**32 - 1))
+    return height, width, ndisp, dmin, radius, five, pinned, seed
+
+
+@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(problems())
+def test_any_size_band_equals_per_row(problem):
+    height, width, ndisp, dmin, radius, five, pinned, seed = problem
+    rng = np.random.default_rng(seed)
+    left = rng.integers(0, 4081, (height, width)).astype(np.int32)
+    right = rng.integers(0, 4081, (height, width)).astype(np.int32)
+    occ2, slant2 = 2000.0, 800.0
+    if pinned:
+        partner = random_pins(rng, height, width, dmin, ndisp, 0.3)
+        expected = segmented(left, right, dmin, ndisp, radius, occ2, five, slant2, partner)
+    else:
+        partner = None
+        expected = per_row(left, right, dmin, ndisp, radius, occ2, five, slant2)
+    assert_same(expected, banded(left, right, dmin, ndisp, radius, occ2, five, slant2, partner))
+
+
+def test_band_costs_equal_row_costs():
+    rng = np.random.default_rng(11)
+    for dmin, ndisp, radius, width in ((-3, 7, 2, 13), (4, 6, 1, 9), (0, 12, 3, 5), (-9, 4, 0, 6)):
+        height = 11
+        left = rng.integers(0, 4081, (height, width)).astype(np.int32)
+        right = rng.integers(0, 4081, (height, width)).astype(np.int32)
+        left_p, right_p = padded(left, radius), padded(right, radius)
+        nr = _band_kernels.BAND_ROWS
+        win = 2 * radius + 1
+        nk = (ndisp + 2) * nr
+        left_t = np.empty(win * (width + 2 * radius) * nr, dtype=np.int64)
+        right_t = np.empty_like(left_t)
+        spread = np.empty(ndisp * nr, dtype=np.int64)
+        ring = np.empty(win * ndisp * nr, dtype=np.int64)
+        hsum = np.empty(ndisp * nr, dtype=np.int64)
+        out = np.empty(width * nk)
+        expected = np.empty((width, ndisp))
+        vcol = np.empty((width, ndisp), dtype=np.int32)
+        for y0 in range(0, height, nr):
+            _band_kernels.band_signals(left_p, right_p, y0, radius, left_t, right_t)
+            _band_kernels.band_costs(left_t, right_t, width, dmin, ndisp, radius, spread, ring,
+                                     hsum, out)  # fmt: skip
+            band = out.reshape(width, ndisp + 2, nr)
+            assert np.isinf(band[:, 0]).all() and np.isinf(band[:, -1]).all()
+            for r in range(min(nr, height - y0)):
+                _kernels.row_costs(left_p, right_p, y0 + r, dmin, ndisp, radius, vcol, expected,
+                                   False)  # fmt: skip
+                assert band[:, 1:-1, r].tobytes() == expected.tobytes()
+
+
+def test_band_kernels_run_as_plain_python():
+    # NUMBA_DISABLE_JIT=1: the kernels are plain Python (coverage sees them)
+    code = textwrap.dedent(
+        """
+        import numpy as np
+        import test_band_kernels as t
+        rng = np.random.default_rng(1)
+        left, right = (rng.integers(0, 4081, (10, 9)).astype(np.int32) for _ in range(2))
+        partner = t.random_pins(rng, 10, 9, -1, 4, 0.3)
+        for five in (False, True):
+            t.assert_same(t.per_row(left, right, -1, 4, 1, 900.0, five, 300.0),
+                          t.banded(left, right, -1, 4, 1, 900.0, five, 300.0))
+            t.assert_same(t.segmented(left, right, -1, 4, 1, 900.0, five, 300.0, partner),
+                          t.banded(left, right, -1, 4, 1, 900.0, five, 300.0, partner))
+        print("ok")
+        """
+    )
+    env = dict(os.environ, NUMBA_DISABLE_JIT="1")
+    tests_dir = os.path.dirname(os.path.abspath(__file__))
+    env["PYTHONPATH"] = tests_dir + os.pathsep + env.get("PYTHONPATH", "")
+    done = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "ok"
+
+
+@pytest.mark.dataset
+@pytest.mark.slow
+@pytest.mark.parametrize("scene", ["tsukuba", "venus", "teddy", "cones"])
+def test_band_equals_per_row_on_middlebury(middlebury_root, scene):
+    data = load_middlebury(scene, root=middlebury_root.parent)
+    left, right = matching_signal(data.left), matching_signal(data.right)
+    ndisp = data.max_disparity + 1
+    for five in (False, True):
+        expected = per_row(left, right, 0, ndisp, 2, 8000.0, five, 4000.0)
+        assert_same(expected, banded(left, right, 0, ndisp, 2, 8000.0, five, 4000.0))
