@@ -5,7 +5,7 @@ from collections.abc import Callable
 import numba
 import numpy as np
 
-from . import _kernels
+from . import _band_kernels, _kernels
 from .params import MatchParams
 from .redert import match_redert as _match_redert
 from .result import FLAG_FEATURE, DisparityResult
@@ -139,26 +139,53 @@ def _match_block(left, right, params: MatchParams) -> DisparityResult:
 
 
 def _match_dsi(left, right, params: MatchParams) -> DisparityResult:
+    """``dsi3`` / ``dsi5``: the whole-scanline DP of every row.
+
+    The SAD cost runs ``_band_kernels.BAND_ROWS`` rows in lockstep (vectorized across
+    rows; the same results, bit for bit, as the per-row kernel); the Birchfield-Tomasi
+    cost runs row by row (``_kernels.match_dsi_rows``).
+    """
     radius = params.window // 2
     left_p, right_p = _padded_signals(left, right, radius)
     disparity, flags, total, nchunks = _outputs(left.shape)
     scale = cost_scale(params.window)
     occ2 = float(np.rint(2.0 * params.occlusion_cost * scale))
-    _kernels.match_dsi_rows(
-        left_p,
-        right_p,
-        params.min_disparity,
-        params.num_disparities,
-        radius,
-        params.cost == "bt",
-        occ2,
-        params.method == "dsi5",
-        float(np.rint(2.0 * params.effective_slant_cost * scale)),
-        nchunks,
-        disparity,
-        flags,
-        total,
-    )
+    slant2 = float(np.rint(2.0 * params.effective_slant_cost * scale))
+    five = params.method == "dsi5"
+    if params.cost == "bt":
+        _kernels.match_dsi_rows(
+            left_p,
+            right_p,
+            params.min_disparity,
+            params.num_disparities,
+            radius,
+            True,
+            occ2,
+            five,
+            slant2,
+            nchunks,
+            disparity,
+            flags,
+            total,
+        )
+    else:
+        bands = -(-left.shape[0] // _band_kernels.BAND_ROWS)
+        _band_kernels.match_band_rows(
+            left_p,
+            right_p,
+            params.min_disparity,
+            params.num_disparities,
+            radius,
+            occ2,
+            five,
+            slant2,
+            False,
+            np.empty((0, 0), dtype=np.int64),
+            max(1, min(bands, 4 * numba.get_num_threads())),
+            disparity,
+            flags,
+            total,
+        )
     return DisparityResult(disparity, flags, params, total / (2.0 * scale))
 
 
