@@ -800,6 +800,36 @@ def _tree_best(tree_v, tree_i, size, lo, hi):
     return best_i if best_v > -np.inf else -1
 
 
+@nb.njit(cache=True, inline="always")
+def _better(values, a, b):
+    """Return the better of candidates ``a`` and ``b`` (larger value; ties: smaller index)."""
+    if values[b] > values[a] or (values[b] == values[a] and b < a):
+        return b
+    return a
+
+
+@nb.njit(cache=True)
+def _sparse_build(values, n, sparse):
+    """Sparse table of range maxima: ``sparse[l, i]`` the best of ``i .. i + 2**l - 1``."""
+    for i in range(n):
+        sparse[0, i] = i
+    level = 1
+    while (1 << level) <= n:
+        half = 1 << (level - 1)
+        for i in range(n - (1 << level) + 1):
+            sparse[level, i] = _better(values, sparse[level - 1, i], sparse[level - 1, i + half])
+        level += 1
+
+
+@nb.njit(cache=True, inline="always")
+def _sparse_best(values, sparse, lo, hi):
+    """Return the best candidate of ``lo..hi`` (``lo <= hi``) from two table entries."""
+    level = 0
+    while (2 << level) <= hi - lo + 1:
+        level += 1
+    return _better(values, sparse[level, lo], sparse[level, hi - (1 << level) + 1])
+
+
 @nb.njit(cache=True)
 def divide_row(
     cost,
@@ -873,7 +903,8 @@ def divide_row(
 
     Scratch space, so that a row allocates nothing: ``tree_v`` (float64) and ``tree_i``
     (int64) of length ``2 * size``, ``size`` the least power of two ``>= width``;
-    ``iwork`` (int64, shape (6, width)) and ``fwork`` (float64, shape (2, width)).
+    ``iwork`` (int64, shape (6 + levels, width), ``2**(levels - 1) >= width``) and
+    ``fwork`` (float64, shape (4, width)).
     """
     width, ndisp = cost.shape
     # With the uniqueness test and no limit on the tries, a candidate's match, guard, SER
@@ -895,6 +926,9 @@ def divide_row(
     lr_above = iwork[5]
     cand_ser = fwork[0]
     cand_vs = fwork[1]
+    cand_var = fwork[2]  # the candidates' variances
+    cand_live = fwork[3]  # the same, -inf once tried in this problem or retired
+    sparse = iwork[6:]
     n = 0
     for p in range(radius, width - radius):
         if not var_l[p] >= var_floor:
@@ -924,19 +958,29 @@ def divide_row(
         cand_x[n] = p
         lr_j[n] = -1
         n += 1
-    # a segment tree over the candidates gives the strongest one still in play inside any
-    # interval (ties: leftmost first), so an interval never scans the candidates outside it
-    size = 1
-    while size < n:
-        size *= 2
+    # the strongest candidate still in play inside an interval (ties: leftmost first),
+    # without scanning the interval. With the prefilter nearly every candidate tried is
+    # accepted (splits the interval, and is outside both halves): a static sparse table of
+    # range maxima answers in O(1), and only when its answer is out of play (retired, or
+    # tried in this problem) is the interval scanned. Otherwise a segment tree, updated
+    # as candidates go out of play and come back.
     for i in range(n):
-        tree_v[size + i] = var_l[cand_x[i]]
-        tree_i[size + i] = i
-    for i in range(n, size):
-        tree_v[size + i] = -np.inf
-        tree_i[size + i] = -1
-    for node in range(size - 1, 0, -1):
-        _tree_pull(tree_v, tree_i, node)
+        cand_var[i] = var_l[cand_x[i]]
+        cand_live[i] = cand_var[i]
+    size = 1
+    if prefilter:
+        _sparse_build(cand_var, n, sparse)
+    else:
+        while size < n:
+            size *= 2
+        for i in range(n):
+            tree_v[size + i] = cand_var[i]
+            tree_i[size + i] = i
+        for i in range(n, size):
+            tree_v[size + i] = -np.inf
+            tree_i[size + i] = -1
+        for node in range(size - 1, 0, -1):
+            _tree_pull(tree_v, tree_i, node)
     # the left-right check of a pair p <-> j depends on the interval only through the
     # nearest competing left pixels below and above p (computed once per pair, kept)
     total = 0.0
@@ -960,14 +1004,27 @@ def divide_row(
             tries = 0
             nheld = 0
             while not (max_candidates > 0 and tries >= max_candidates):
-                i = _tree_best(tree_v, tree_i, size, i_lo, i_hi)
+                if prefilter:
+                    i = _sparse_best(cand_var, sparse, i_lo, i_hi)
+                    if not cand_live[i] > -np.inf:
+                        i = -1
+                        strongest = -np.inf
+                        for q in range(i_lo, i_hi + 1):
+                            if cand_live[q] > strongest:
+                                strongest = cand_live[q]
+                                i = q
+                else:
+                    i = _tree_best(tree_v, tree_i, size, i_lo, i_hi)
                 if i < 0:
                     break
                 p = cand_x[i]
                 tries += 1
-                # a candidate that fails is either retired for the row (its value in the
-                # tree becomes -inf for good) or held out of this interval only
-                _tree_set(tree_v, tree_i, size, i, -np.inf)
+                # a candidate that fails is either retired for the row (out of play for
+                # good) or held out of this interval only
+                if prefilter:
+                    cand_live[i] = -np.inf
+                else:
+                    _tree_set(tree_v, tree_i, size, i, -np.inf)
                 # right pixels strictly inside (B, D), their whole window inside the image
                 k_lo = max(0, p - min(e - 1, width - 1 - radius) - dmin)
                 k_hi = min(ndisp - 1, p - max(b + 1, radius) - dmin)
@@ -1046,7 +1103,11 @@ def divide_row(
                     held[nheld] = i  # with uniqueness, same pair and SER/VS everywhere: retired
                     nheld += 1
             for h in range(nheld):
-                _tree_set(tree_v, tree_i, size, held[h], var_l[cand_x[held[h]]])
+                i = held[h]
+                if prefilter:
+                    cand_live[i] = cand_var[i]
+                else:
+                    _tree_set(tree_v, tree_i, size, i, cand_var[i])
         if not found:
             total += fill_interval(
                 cost,
@@ -1128,8 +1189,11 @@ def match_dc_rows(
             size *= 2
         tree_v = np.empty(2 * size, dtype=np.float64)
         tree_i = np.empty(2 * size, dtype=np.int64)
-        iwork = np.empty((6, width), dtype=np.int64)
-        fwork = np.empty((2, width), dtype=np.float64)
+        levels = 1
+        while (1 << (levels - 1)) < width:
+            levels += 1
+        iwork = np.empty((6 + levels, width), dtype=np.int64)
+        fwork = np.empty((4, width), dtype=np.float64)
         for y in range(y0, y1):
             _row_costs_any(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, y > y0, bt)
             window_variance_row(left_p, y, radius, signal_steps, colsum, colsq, var_l, y > y0)
