@@ -247,7 +247,7 @@ def test_band_costs_equal_row_costs():
         nk = (ndisp + 2) * nr
         left_t = np.empty(win * (width + 2 * radius) * nr, dtype=np.int64)
         right_t = np.empty_like(left_t)
-        spread = np.empty(ndisp * nr, dtype=np.int64)
+        spread = np.empty(2 * ndisp * nr, dtype=np.int64)
         ring = np.empty(win * ndisp * nr, dtype=np.int64)
         hsum = np.empty(ndisp * nr, dtype=np.int64)
         out = np.empty(width * nk)

@@ -79,36 +79,69 @@ def band_signals(left_p, right_p, y0, radius, left_t, right_t):
 
 
 @nb.njit(cache=True, inline="always")
+def _spread(left_t, o_left, spread, o_spread, n):
+    """``spread[o_spread + i]``, ``i < n``: the ``R`` values at ``left_t[o_left]``, repeated."""
+    nr = BAND_ROWS
+    for r in range(nr):
+        spread[o_spread + r] = left_t[o_left + r]
+    m = np.uint64(nr)
+    while m < n:  # doubling copies: flat loops, vectorized
+        count = min(m, n - m)
+        for i in range(count):
+            spread[o_spread + m + i] = spread[o_spread + i]
+        m += count
+
+
+@nb.njit(cache=True, inline="always")
 def _vertical_sums(left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, ring, ring_off):
     """Vertical window SADs of left column ``c`` into ``ring[ring_off + k * R + r]``.
 
     Disparity ``dmin + k``, band row ``r``; 0 where the right pixel is outside the image.
 
-    ``spread`` (int64, ``ndisp * R``) is scratch: the left pixel's ``R`` values repeated
-    along the disparities, so that the inner loop reads both views contiguously.
+    ``spread`` (int64, ``2 * ndisp * R``) is scratch: the left pixel's ``R`` values of a
+    window row repeated along the disparities, so that the inner loops read both views
+    contiguously. Window rows are taken two at a time (one pass over ``ring`` per two).
     """
     nr = BAND_ROWS
-    for i in range(np.uint64(ndisp * nr)):
-        ring[ring_off + i] = 0
+    win = 2 * radius + 1
     k_lo = max(0, c - dmin - (width - 1))
     k_hi = min(ndisp - 1, c - dmin)
     if k_lo > k_hi:
+        for i in range(np.uint64(ndisp * nr)):
+            ring[ring_off + i] = 0
         return
+    for i in range(np.uint64(k_lo * nr)):
+        ring[ring_off + i] = 0
+    for i in range(np.uint64((k_hi + 1) * nr), np.uint64(ndisp * nr)):
+        ring[ring_off + i] = 0
     n = np.uint64((k_hi - k_lo + 1) * nr)
     o_ring = ring_off + np.uint64(k_lo * nr)
-    for t in range(2 * radius + 1):
-        o_left = (t * width_p + c + radius) * nr
-        for r in range(nr):
-            spread[r] = left_t[o_left + r]
-        m = np.uint64(nr)
-        while m < n:
-            count = min(m, n - m)
-            for i in range(count):
-                spread[m + i] = spread[i]
-            m += count
-        o_right = np.uint64((t * width_p + width_p - 1 - (c - dmin - k_lo + radius)) * nr)
+    o_left = (width_p + c + radius) * nr  # window row 1; row t is (t - 1) * width_p * nr on
+    o_right = np.uint64((width_p + width_p - 1 - (c - dmin - k_lo + radius)) * nr)
+    step = np.uint64(width_p * nr)
+    _spread(left_t, o_left - width_p * nr, spread, np.uint64(0), n)
+    if win == 1:
         for i in range(n):
-            ring[o_ring + i] += abs(spread[i] - right_t[o_right + i])
+            ring[o_ring + i] = abs(spread[i] - right_t[o_right - step + i])
+        return
+    _spread(left_t, o_left, spread, n, n)
+    for i in range(n):
+        ring[o_ring + i] = abs(spread[i] - right_t[o_right - step + i]) + abs(
+            spread[n + i] - right_t[o_right + i]
+        )
+    for t in range(2, win, 2):
+        o_l = o_left + (t - 1) * width_p * nr
+        o_r = o_right + np.uint64(t - 1) * step
+        _spread(left_t, o_l, spread, np.uint64(0), n)
+        if t + 1 == win:
+            for i in range(n):
+                ring[o_ring + i] += abs(spread[i] - right_t[o_r + i])
+        else:
+            _spread(left_t, o_l + width_p * nr, spread, n, n)
+            for i in range(n):
+                ring[o_ring + i] += abs(spread[i] - right_t[o_r + i]) + abs(
+                    spread[n + i] - right_t[o_r + step + i]
+                )
 
 
 @nb.njit(cache=True)
@@ -681,7 +714,7 @@ def match_band_rows(
         b0, b1 = _chunk_bounds(nbands, nchunks, ch)
         left_t = np.empty(win * width_p * nr, dtype=np.int64)
         right_t = np.empty(win * width_p * nr, dtype=np.int64)
-        spread = np.empty(ndisp * nr, dtype=np.int64)
+        spread = np.empty(2 * ndisp * nr, dtype=np.int64)
         ring = np.empty(win * ndisp * nr, dtype=np.int64)
         hsum = np.empty(ndisp * nr, dtype=np.int64)
         cost = np.empty(width * nk, dtype=np.float64)
