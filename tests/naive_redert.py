@@ -15,45 +15,49 @@ import numpy as np
 LEFT, RIGHT, START = ("l",), ("r",), ("s",)
 
 
-def pixel_cost(left, right, y, x, e, q, radius):
-    """Sheared window SAD of left pixel ``x`` at disparity ``e / 4`` and slope ``q / 4``.
+def pixel_cost(left, right, y, x, e, q, radius, steps=4):
+    """Sheared window SAD of left pixel ``x`` at disparity ``e / steps``, slope ``q / steps``.
 
-    In units of a quarter signal step: ``sum |4 L - 4 R(position)|`` with the right image
-    linearly interpolated at ``position = x + s - (e + q s) / 4``. Rows outside the image
-    repeat the edge row (in both views); columns where either position leaves its image
-    are skipped and the sum rescaled to the full window; inf when the centre is outside.
+    In units of ``1 / steps`` signal step: ``sum |steps L - steps R(position)|`` with the
+    right image linearly interpolated at ``position = x + s - (e + q s) / steps``. Rows
+    outside the image repeat the edge row (in both views); columns where either position
+    leaves its image are skipped and the sum rescaled to the full window; inf when the
+    centre is outside. ``steps`` 4 is quarter-pixel sampling.
     """
     height, width = left.shape
     win = 2 * radius + 1
-    if not 0 <= 4 * x - e <= 4 * (width - 1):
+    if not 0 <= steps * x - e <= steps * (width - 1):
         return math.inf
     total = 0
     used = 0
     for s in range(-radius, radius + 1):
         xl = x + s
-        pos4 = 4 * xl - (e + q * s)  # right position in quarters of a pixel
-        if not (0 <= xl < width and 0 <= pos4 <= 4 * (width - 1)):
+        pos = steps * xl - (e + q * s)  # right position in 1/steps of a pixel
+        if not (0 <= xl < width and 0 <= pos <= steps * (width - 1)):
             continue
         used += 1
-        base, frac = divmod(pos4, 4)
+        base, frac = divmod(pos, steps)
         for t in range(-radius, radius + 1):
             yy = min(max(y + t, 0), height - 1)
-            sample = (4 - frac) * int(right[yy, base])
+            sample = (steps - frac) * int(right[yy, base])
             if frac:
                 sample += frac * int(right[yy, base + 1])
-            total += abs(4 * int(left[yy, xl]) - sample)
+            total += abs(steps * int(left[yy, xl]) - sample)
     return float(total) if used == win else total * win / used
 
 
-def segment(q):
-    """``(length, delta)`` of a segment of slope ``q / 4``: the pixels it spans and the
+def segment(q, steps=4):
+    """``(length, delta)`` of a segment of slope ``q / steps``: the pixels it spans and the
     disparity change between its end nodes (slope 0: one pixel; slope +-1/L: L pixels)."""
     if q == 0:
         return 1, 0
-    return {1: 4, 2: 2, 4: 1}[abs(q)], (1 if q > 0 else -1)
+    slope = abs(q) / steps
+    length = round(1 / slope)
+    assert length * slope == 1, f"slope {q}/{steps} is not 1/L"
+    return length, (1 if q > 0 else -1)
 
 
-def row_costs(left, right, y, dmin, ndisp, oq, radius):
+def row_costs(left, right, y, dmin, ndisp, oq, radius, steps=4):
     """``node[x, k, o]`` and ``seg[x, k, o]`` of row ``y`` as documented in the kernels."""
     width = left.shape[1]
     node = np.full((width, ndisp, len(oq)), np.inf)
@@ -64,14 +68,14 @@ def row_costs(left, right, y, dmin, ndisp, oq, radius):
             if not 0 <= x - d < width:
                 continue
             for o, q in enumerate(oq):
-                node[x, k, o] = pixel_cost(left, right, y, x, 4 * d, q, radius)
-                length, delta = segment(q)
+                node[x, k, o] = pixel_cost(left, right, y, x, steps * d, q, radius, steps)
+                length, delta = segment(q, steps)
                 x0, d0 = x - length, d - delta
                 if not (0 <= x0 and 0 <= x0 - d0 < width and dmin <= d0 < dmin + ndisp):
                     continue
                 # pixels x0 + 1 .. x on the line from (x0, d0) to (x, d)
                 seg[x, k, o] = sum(
-                    pixel_cost(left, right, y, p, 4 * d0 + q * (p - x0), q, radius)
+                    pixel_cost(left, right, y, p, steps * d0 + q * (p - x0), q, radius, steps)
                     for p in range(x0 + 1, x + 1)
                 )
     return node, seg
@@ -84,10 +88,10 @@ def _cell(array, dmin, i, j, o):
     return array[i, k, o]
 
 
-def moves(node_ij, state, node, seg, dmin, oq, occ, orient, slant):
+def moves(node_ij, state, node, seg, dmin, oq, occ, orient, slant, steps=4):
     """Every move out of ``node_ij`` in ``state``: yields ``(next_node, next_state, cost)``.
 
-    * a matched state ``o2`` is entered either by a segment of slope ``oq[o2] / 4`` from a
+    * a matched state ``o2`` is entered either by a segment of slope ``oq[o2] / steps`` from a
       matched state ``o1``: ``(i, j) -> (i + L, j + L - delta)``, cost
       ``seg + orient * (o1 != o2) + slant * (delta != 0)``; or diagonally,
       ``(i, j) -> (i + 1, j + 1)``, from an occlusion state or the start, cost ``node``;
@@ -105,7 +109,7 @@ def moves(node_ij, state, node, seg, dmin, oq, occ, orient, slant):
 
     for o2, q in enumerate(oq):
         if state[0] == "m":
-            length, delta = segment(q)
+            length, delta = segment(q, steps)
             ni, nj = i + length, j + length - delta
             if inside(ni, nj) and _cell(seg, dmin, ni, nj, o2) < math.inf:
                 extra = (orient if state[1] != o2 else 0.0) + (slant if delta else 0.0)
@@ -118,7 +122,7 @@ def moves(node_ij, state, node, seg, dmin, oq, occ, orient, slant):
         yield (i, j + 1), RIGHT, occ
 
 
-def enumerate_paths(node, seg, dmin, oq, occ, orient, slant):
+def enumerate_paths(node, seg, dmin, oq, occ, orient, slant, steps=4):
     """Every admissible path of one whole scanline, with its cost.
 
     Yields ``(total, path)``, ``path`` a list of ``((i, j), state)`` from the virtual start
@@ -132,7 +136,7 @@ def enumerate_paths(node, seg, dmin, oq, occ, orient, slant):
         (i, j), state = path[-1]
         if len(path) > 1 and (i == width - 1 or j == width - 1):
             yield total, list(path)
-        for nxt, nstate, c in moves((i, j), state, node, seg, dmin, oq, occ, orient, slant):
+        for nxt, nstate, c in moves((i, j), state, node, seg, dmin, oq, occ, orient, slant, steps):
             path.append((nxt, nstate))
             yield from walk(path, total + c)
             path.pop()
@@ -143,14 +147,13 @@ def enumerate_paths(node, seg, dmin, oq, occ, orient, slant):
                 yield from walk([((i, j), START)], 0.0)
 
 
-def best_path_cost(node, seg, dmin, oq, occ, orient, slant):
+def best_path_cost(node, seg, dmin, oq, occ, orient, slant, steps=4):
     """The optimal cost over all admissible paths (inf when there is none)."""
-    return min(
-        (t for t, _ in enumerate_paths(node, seg, dmin, oq, occ, orient, slant)), default=math.inf
-    )
+    paths = enumerate_paths(node, seg, dmin, oq, occ, orient, slant, steps)
+    return min((t for t, _ in paths), default=math.inf)
 
 
-def path_cost(path, node, seg, dmin, oq, occ, orient, slant):
+def path_cost(path, node, seg, dmin, oq, occ, orient, slant, steps=4):
     """Cost of a given path under the oracle's rules, or raise AssertionError."""
     width = node.shape[0]
     (i, j), state = path[0]
@@ -159,7 +162,7 @@ def path_cost(path, node, seg, dmin, oq, occ, orient, slant):
     for (prev, prev_state), (cur, cur_state) in zip(path[:-1], path[1:], strict=True):
         options = {
             (n, s): c
-            for n, s, c in moves(prev, prev_state, node, seg, dmin, oq, occ, orient, slant)
+            for n, s, c in moves(prev, prev_state, node, seg, dmin, oq, occ, orient, slant, steps)
         }
         assert (cur, cur_state) in options, f"inadmissible step {prev} {prev_state} -> {cur}"
         total += options[(cur, cur_state)]

@@ -12,10 +12,10 @@ import naive_redert
 import synthetic
 from dcstereo import MatchParams, _redert_kernels
 from dcstereo.metrics import bad_pixel_rate
-from dcstereo.redert import match_redert, orientation_quarters
+from dcstereo.redert import match_redert, orientation_steps
 
 
-def run_dp(node, seg, dmin, oq, occ, orient, slant):
+def run_dp(node, seg, dmin, oq, occ, orient, slant, steps=4):
     """Call ``scanline_dp``; return (total, path) in the oracle's format."""
     width, ndisp, norient = node.shape
     table = np.empty((width, ndisp, norient + 2))
@@ -24,7 +24,7 @@ def run_dp(node, seg, dmin, oq, occ, orient, slant):
     path_k = np.empty(2 * width + 2, dtype=np.int64)
     path_st = np.empty(2 * width + 2, dtype=np.int64)
     n, total = _redert_kernels.scanline_dp(
-        node, seg, dmin, oq, occ, orient, slant, table, back, path_x, path_k, path_st
+        node, seg, steps, dmin, oq, occ, orient, slant, table, back, path_x, path_k, path_st
     )
     if n == 0:
         return math.inf, []
@@ -43,7 +43,7 @@ def run_dp(node, seg, dmin, oq, occ, orient, slant):
     return total, [(start, naive_redert.START)] + path
 
 
-def random_costs(rng, width, dmin, ndisp, oq):
+def random_costs(rng, width, dmin, ndisp, oq, steps=4):
     """Random integer node costs and segment costs (inf where the kernels put inf)."""
     norient = len(oq)
     node = rng.integers(0, 20, size=(width, ndisp, norient)).astype(np.float64)
@@ -55,32 +55,44 @@ def random_costs(rng, width, dmin, ndisp, oq):
                 node[x, k] = np.inf
                 continue
             for o, q in enumerate(oq):
-                length, delta = naive_redert.segment(q)
+                length, delta = naive_redert.segment(q, steps)
                 if x - length >= 0 and 0 <= x - length - (d - delta) and 0 <= k - delta < ndisp:
                     seg[x, k, o] = node[x, k, o] + rng.integers(0, 10 * (length - 1) + 1)
     return node, seg
 
 
-ORIENTATION_SETS = [(0,), (0, 2), (-2, 0, 2), (-1, 0, 1, 4), (-4, 1)]
+#: (steps, slopes in units of 1/steps): quarter-pixel sets and eighth-pixel sets (L = 8)
+ORIENTATION_SETS = [
+    (4, (0,)),
+    (4, (0, 2)),
+    (4, (-2, 0, 2)),
+    (4, (-1, 0, 1, 4)),
+    (4, (-4, 1)),
+    (8, (-1, 0, 1)),
+    (8, (-4, -2, 0, 4)),
+    (16, (-8, 0, 4)),
+]
 
 
-@pytest.mark.parametrize("seed", range(16))
+@pytest.mark.parametrize("seed", range(24))
 def test_scanline_dp_matches_oracle(seed):
     rng = np.random.default_rng(4100 + seed)
-    width = int(rng.integers(2, 7))
-    ndisp = int(rng.integers(1, min(width, 3) + 1))
+    steps, slopes = ORIENTATION_SETS[seed % len(ORIENTATION_SETS)]
+    longest = max(naive_redert.segment(q, steps)[0] for q in slopes)
+    width = int(rng.integers(2, 7)) if longest <= 4 else int(rng.integers(longest, longest + 2))
+    ndisp = int(rng.integers(1, min(width, 3 if longest <= 4 else 2) + 1))
     dmin = int(rng.integers(-1, 2))
     if dmin + ndisp - 1 >= width:
         dmin = width - ndisp
-    oq = np.array(ORIENTATION_SETS[seed % len(ORIENTATION_SETS)], dtype=np.int64)
-    node, seg = random_costs(rng, width, dmin, ndisp, oq)
+    oq = np.array(slopes, dtype=np.int64)
+    node, seg = random_costs(rng, width, dmin, ndisp, oq, steps)
     occ, orient, slant = (float(v) for v in rng.integers(0, 15, size=3))
     occ += 1.0
-    expected = naive_redert.best_path_cost(node, seg, dmin, oq, occ, orient, slant)
-    total, path = run_dp(node, seg, dmin, oq, occ, orient, slant)
+    expected = naive_redert.best_path_cost(node, seg, dmin, oq, occ, orient, slant, steps)
+    total, path = run_dp(node, seg, dmin, oq, occ, orient, slant, steps)
     assert total == expected
     if expected < math.inf:
-        cost = naive_redert.path_cost(path, node, seg, dmin, oq, occ, orient, slant)
+        cost = naive_redert.path_cost(path, node, seg, dmin, oq, occ, orient, slant, steps)
         assert cost == pytest.approx(total)
 
 
@@ -95,23 +107,36 @@ def test_oracle_counts_a_hand_checked_tiny_case():
     assert run_dp(node, seg, 0, oq, 9.0, 1.0, 0.0)[0] == 8.0
 
 
-@pytest.mark.parametrize("radius", [0, 1, 2])
-def test_sheared_costs_match_naive_windows(radius):
+@pytest.mark.parametrize(
+    ("radius", "steps", "slopes"),
+    [
+        (0, 4, (-4, -2, -1, 0, 1, 2, 4)),
+        (1, 4, (-4, -2, -1, 0, 1, 2, 4)),
+        (2, 4, (-4, -2, -1, 0, 1, 2, 4)),
+        (1, 8, (-8, -4, -1, 0, 1, 2, 8)),
+        (2, 8, (-4, -2, -1, 0, 1, 2, 4)),
+        (2, 16, (-2, -1, 0, 1, 4)),
+    ],
+)
+def test_sheared_costs_match_naive_windows(radius, steps, slopes):
+    # wide enough for whole 8- and 16-pixel segments away from the edges (the kernel's
+    # weighted-column sum) and near them (the pixel-by-pixel sum of truncated windows)
     rng = np.random.default_rng(77)
-    height, width, dmin, ndisp = 5, 12, -1, 4
-    oq = np.array([-4, -2, -1, 0, 1, 2, 4], dtype=np.int64)
+    height, width, dmin, ndisp = 4, 12 if steps == 4 else 26, -1, 4
+    oq = np.array(slopes, dtype=np.int64)
+    omax = int(np.abs(oq).max())
     left = rng.integers(0, 4096, size=(height, width)).astype(np.int32)
     right = rng.integers(0, 4096, size=(height, width)).astype(np.int32)
     pad = ((radius, radius), (radius, radius))
     left_p, right_p = np.pad(left, pad, mode="edge"), np.pad(right, pad, mode="edge")
-    e_lo = 4 * dmin - radius * 4
-    columns = np.empty((width, 4 * (ndisp - 1) + 8 * radius + 1), dtype=np.int64)
+    e_lo = steps * dmin - radius * omax
+    columns = np.empty((width, steps * (ndisp - 1) + 2 * radius * omax + 1), dtype=np.int64)
     node = np.empty((width, ndisp, oq.size))
     seg = np.empty_like(node)
     for y in range(height):
-        _redert_kernels.quarter_columns(left_p, right_p, y, radius, e_lo, columns)
-        _redert_kernels.sheared_costs(columns, e_lo, dmin, oq, radius, node, seg)
-        want_node, want_seg = naive_redert.row_costs(left, right, y, dmin, ndisp, oq, radius)
+        _redert_kernels.sample_columns(left_p, right_p, y, radius, steps, e_lo, columns)
+        _redert_kernels.sheared_costs(columns, e_lo, steps, dmin, oq, radius, node, seg)
+        want_node, want_seg = naive_redert.row_costs(left, right, y, dmin, ndisp, oq, radius, steps)
         np.testing.assert_allclose(node, want_node, rtol=1e-12)
         np.testing.assert_allclose(seg, want_seg, rtol=1e-12)
 
@@ -218,14 +243,22 @@ def test_flags_and_result_shape():
     assert np.isfinite(filled.disparity).all()
 
 
-def test_orientation_quarters():
-    np.testing.assert_array_equal(orientation_quarters((-1, -0.5, 0.25, 0)), [-4, -2, 1, 0])
+def test_orientation_steps():
+    steps, oq = orientation_steps((-1, -0.5, 0.25, 0))
+    assert steps == 4
+    np.testing.assert_array_equal(oq, [-4, -2, 1, 0])
+    steps, oq = orientation_steps((-0.5, -0.25, -0.125, 0, 0.125, 0.25, 0.5))
+    assert steps == 8
+    np.testing.assert_array_equal(oq, [-4, -2, -1, 0, 1, 2, 4])
+    assert orientation_steps((0,))[0] == 1
+    assert orientation_steps((0.0625,))[0] == 16
 
 
 @pytest.mark.parametrize(
     ("options", "message"),
     [
         ({"orientations": (0.3,)}, "orientations must be slopes"),
+        ({"orientations": (0.03125,)}, "orientations must be slopes"),
         ({"orientations": (0.75,)}, "orientations must be slopes"),
         ({"orientations": (2,)}, "orientations must be slopes"),
         ({"orientations": ()}, "at least one slope"),

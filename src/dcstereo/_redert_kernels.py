@@ -6,12 +6,15 @@ does not notice edits made in other files. See :mod:`dcstereo.redert` for the mo
 Conventions (shared with ``_kernels.py``):
 
 * A left pixel ``x`` matches the right pixel ``j = x - d``; ``d = dmin + k``.
-* Orientations are disparity slopes in *quarters* of a pixel per pixel: ``oq[o]`` is
-  the integer ``4 * slope`` of orientation index ``o``, with ``-4 <= oq[o] <= 4``.
-* The matching signal is an integer; right-image samples at quarter-pixel positions
-  are linear interpolations ``(4 - f) * R[q] + f * R[q + 1]`` (``f`` quarters), compared
-  with ``4 * L``, so every window cost is an exact integer in units of a quarter
-  signal step (four times the cost of ``_kernels.row_costs`` at slope 0).
+* ``steps`` is the sampling resolution: right-image positions and disparities inside a
+  segment are multiples of ``1 / steps`` pixel (a power of two, 1 to 16).
+* Orientations are disparity slopes in units of ``1 / steps`` pixel per pixel: ``oq[o]``
+  is the integer ``steps * slope`` of orientation index ``o``; ``oq[o]`` is 0 or divides
+  ``steps`` (slopes ``0, +-1/L``).
+* The matching signal is an integer; right-image samples at ``1 / steps`` positions
+  are linear interpolations ``(steps - f) * R[q] + f * R[q + 1]`` (``f`` steps), compared
+  with ``steps * L``, so every window cost is an exact integer in units of ``1 / steps``
+  signal step (``steps`` times the cost of ``_kernels.row_costs`` at slope 0).
 * ``node[x, k, o]`` is the cost of matching left pixel ``x`` alone at disparity
   ``dmin + k`` with orientation ``o``; ``seg[x, k, o]`` the cost of the segment of
   orientation ``o`` ending at that node (see :func:`sheared_costs`); ``inf`` where the
@@ -35,47 +38,48 @@ CODE_NONE = 0
 
 
 @nb.njit(cache=True)
-def quarter_columns(left_p, right_p, y, radius, e_lo, out):
+def sample_columns(left_p, right_p, y, radius, steps, e_lo, out):
     """Vertical window sums of the interpolated absolute difference, for row ``y``.
 
-    ``out[c, m]`` with quarter disparity ``e = e_lo + m``: the left column ``c`` against the
-    right position ``q = c - e / 4``, summed over the ``2 * radius + 1`` window rows,
-    ``sum_t |4 L[y + t, c] - ((4 - f) R[y + t, q0] + f R[y + t, q0 + 1])|`` with
-    ``4 q = 4 q0 + f``; ``-1`` where ``q`` is outside ``[0, width - 1]``.
+    ``out[c, m]`` with disparity ``e / steps``, ``e = e_lo + m``: the left column ``c``
+    against the right position ``q = c - e / steps``, summed over the ``2 * radius + 1``
+    window rows, ``sum_t |steps L[y + t, c] - ((steps - f) R[y + t, q0] + f R[y + t, q0 + 1])|``
+    with ``steps q = steps q0 + f``; ``-1`` where ``q`` is outside ``[0, width - 1]``.
     ``left_p``/``right_p`` are the signals padded by ``radius`` (edge replicated).
     """
     width = left_p.shape[1] - 2 * radius
     win = 2 * radius + 1
     ne = out.shape[1]
-    top = 4 * (width - 1)
+    top = steps * (width - 1)
     for c in range(width):
         for m in range(ne):
-            qq = 4 * c - (e_lo + m)  # right position in quarters
+            qq = steps * c - (e_lo + m)  # right position in 1/steps pixel
             if qq < 0 or qq > top:
                 out[c, m] = -1
                 continue
-            q0 = qq // 4
-            f = qq - 4 * q0
+            q0 = qq // steps
+            f = qq - steps * q0
             s = 0
             if f == 0:
                 for t in range(win):
-                    s += abs(4 * left_p[y + t, c + radius] - 4 * right_p[y + t, q0 + radius])
+                    s += abs(steps * (left_p[y + t, c + radius] - right_p[y + t, q0 + radius]))
             else:
                 for t in range(win):
-                    r = (4 - f) * right_p[y + t, q0 + radius] + f * right_p[y + t, q0 + 1 + radius]
-                    s += abs(4 * left_p[y + t, c + radius] - r)
+                    r = (steps - f) * right_p[y + t, q0 + radius]
+                    r += f * right_p[y + t, q0 + 1 + radius]
+                    s += abs(steps * left_p[y + t, c + radius] - r)
             out[c, m] = s
 
 
 @nb.njit(cache=True)
 def pixel_cost(columns, e_lo, x, e, q, radius):
-    """Sheared window cost of left pixel ``x`` at quarter disparity ``e``, slope ``q / 4``.
+    """Sheared window cost of left pixel ``x`` at disparity ``e / steps``, slope ``q / steps``.
 
     The left window column ``x + s`` (``s = -radius..radius``) is compared with the right
-    position ``x + s - (e + q s) / 4``. Like ``_kernels.row_costs``, the window is
-    truncated to the columns whose left and right positions both lie inside the images
-    and the sum rescaled to the full window (``* W / columns used``); ``inf`` when the
-    centre position is outside.
+    position ``x + s - (e + q s) / steps`` (``columns`` from :func:`sample_columns`).
+    Like ``_kernels.row_costs``, the window is truncated to the columns whose left and
+    right positions both lie inside the images and the sum rescaled to the full window
+    (``* W / columns used``); ``inf`` when the centre position is outside.
     """
     width = columns.shape[0]
     win = 2 * radius + 1
@@ -98,8 +102,8 @@ def pixel_cost(columns, e_lo, x, e, q, radius):
 
 
 @nb.njit(cache=True)
-def segment_shape(q):
-    """Return ``(length, delta)`` of a segment of slope ``q / 4`` (``q`` in 0, +-1, +-2, +-4).
+def segment_shape(q, steps):
+    """Return ``(length, delta)`` of a segment of slope ``q / steps`` (``q`` 0 or a divisor).
 
     A segment joins integer nodes ``(x - length, d - delta)`` and ``(x, d)``: slope 0 is
     one pixel at constant disparity, slope ``+-1/L`` spans ``L`` pixels and one disparity.
@@ -107,12 +111,39 @@ def segment_shape(q):
     if q == 0:
         return 1, 0
     a = abs(q)
-    return 4 // a, 1 if q > 0 else -1
+    return steps // a, 1 if q > 0 else -1
 
 
 @nb.njit(cache=True)
-def sheared_costs(columns, e_lo, dmin, oq, radius, node, seg):
-    """Node and segment costs of one row from :func:`quarter_columns`.
+def segment_sum(columns, e_lo, x0, e0, q, length, radius):
+    """Sum of the pixel costs of segment pixels ``x0 + 1 .. x0 + length``, or -1.
+
+    Pixel ``p`` of the segment sits at disparity ``(e0 + q (p - x0)) / steps`` with its
+    window sheared by the same slope, so window column ``c`` of every pixel samples the
+    same right position ``c - (e0 + q (c - x0)) / steps``: the segment cost is a weighted
+    sum of one column value per ``c`` (weight: the number of the segment's windows that
+    contain ``c``), ``length + 2 radius`` values instead of ``length (2 radius + 1)``.
+    Returns -1 when a window would be truncated (a column outside either image); the
+    caller then sums :func:`pixel_cost` pixel by pixel.
+    """
+    width = columns.shape[0]
+    x = x0 + length
+    lo = x0 + 1 - radius
+    hi = x + radius
+    if lo < 0 or hi >= width:
+        return -1
+    total = 0
+    for c in range(lo, hi + 1):
+        v = columns[c, e0 + q * (c - x0) - e_lo]
+        if v < 0:
+            return -1
+        total += v * (min(x, c + radius) - max(x0 + 1, c - radius) + 1)
+    return total
+
+
+@nb.njit(cache=True)
+def sheared_costs(columns, e_lo, steps, dmin, oq, radius, node, seg):
+    """Node and segment costs of one row from :func:`sample_columns`.
 
     ``node[x, k, o]``: pixel ``x`` alone at integer disparity ``d = dmin + k`` with the
     window sheared by orientation ``o`` (how a surface starts after an occlusion).
@@ -132,17 +163,25 @@ def sheared_costs(columns, e_lo, dmin, oq, radius, node, seg):
                     node[x, k, o] = np.inf
                     seg[x, k, o] = np.inf
                     continue
-                here = pixel_cost(columns, e_lo, x, 4 * d, q, radius)
+                here = pixel_cost(columns, e_lo, x, steps * d, q, radius)
                 node[x, k, o] = here
-                length, delta = segment_shape(q)
+                length, delta = segment_shape(q, steps)
                 x0 = x - length
                 k0 = k - delta
                 if x0 < 0 or k0 < 0 or k0 >= ndisp or x0 - (d - delta) < 0:
                     seg[x, k, o] = np.inf
                     continue
+                if length == 1:
+                    seg[x, k, o] = here
+                    continue
+                e0 = steps * (d - delta)
+                fast = segment_sum(columns, e_lo, x0, e0, q, length, radius)
+                if fast >= 0:
+                    seg[x, k, o] = float(fast)
+                    continue
                 total = here
                 for p in range(x0 + 1, x):
-                    total += pixel_cost(columns, e_lo, p, 4 * (d - delta) + q * (p - x0), q, radius)
+                    total += pixel_cost(columns, e_lo, p, e0 + q * (p - x0), q, radius)
                 seg[x, k, o] = total
 
 
@@ -150,7 +189,9 @@ def sheared_costs(columns, e_lo, dmin, oq, radius, node, seg):
 
 
 @nb.njit(cache=True)
-def scanline_dp(node, seg, dmin, oq, occ, orient, slant, table, back, path_x, path_k, path_st):
+def scanline_dp(
+    node, seg, steps, dmin, oq, occ, orient, slant, table, back, path_x, path_k, path_st
+):
     """Cheapest path of one whole scanline through the (x, d, orientation) states.
 
     Moves into band node ``(x, k)`` (``j = x - dmin - k``; DSI cell ``(x, j)``):
@@ -210,7 +251,7 @@ def scanline_dp(node, seg, dmin, oq, occ, orient, slant, table, back, path_x, pa
                     code = diag_code
                 here = seg[x, k, o2]
                 if here < inf:
-                    length, delta = segment_shape(oq[o2])
+                    length, delta = segment_shape(oq[o2], steps)
                     if delta != 0:
                         here += slant
                     px = x - length
@@ -299,7 +340,7 @@ def scanline_dp(node, seg, dmin, oq, occ, orient, slant, table, back, path_x, pa
             elif code == norient + 2:
                 x, st = x - 1, s_right
             else:
-                length, delta = segment_shape(oq[st])
+                length, delta = segment_shape(oq[st], steps)
                 x, k, st = x - length, k - delta, code - 1
         elif st == s_left:
             x, k, st = x - 1, k - 1, code - 1
@@ -309,11 +350,11 @@ def scanline_dp(node, seg, dmin, oq, occ, orient, slant, table, back, path_x, pa
 
 
 @nb.njit(cache=True)
-def apply_path(path_x, path_k, path_st, n, dmin, oq, disp_row, flag_row, orient_row):
+def apply_path(path_x, path_k, path_st, n, steps, dmin, oq, disp_row, flag_row, orient_row):
     """Write disparities, occlusions and orientations (slopes) of a backtracked path.
 
     A node entered by a segment writes the segment's pixels (interpolated disparities,
-    multiples of 1/4); a node entered diagonally writes its own pixel. The path is stored
+    multiples of ``1 / steps``); a node entered diagonally writes its own pixel. The path is stored
     end to start, so entry ``i + 1`` is the node before entry ``i``.
     """
     norient = oq.shape[0]
@@ -325,11 +366,11 @@ def apply_path(path_x, path_k, path_st, n, dmin, oq, disp_row, flag_row, orient_
             q = oq[st]
             length = 1
             if i + 1 < n and path_st[i + 1] < norient:  # entered by a segment
-                length = segment_shape(q)[0]
+                length = segment_shape(q, steps)[0]
             for p in range(x - length + 1, x + 1):
-                disp_row[p] = d + q * (p - x) / 4.0
+                disp_row[p] = d + q * (p - x) / steps
                 flag_row[p] = 0
-                orient_row[p] = q / 4.0
+                orient_row[p] = q / steps
         elif st == norient:
             disp_row[x] = np.nan
             flag_row[x] = FLAG_OCCLUDED
@@ -351,6 +392,7 @@ def match_redert_rows(
     dmin,
     ndisp,
     radius,
+    steps,
     oq,
     occ,
     orient,
@@ -363,7 +405,7 @@ def match_redert_rows(
 ):
     """Run the orientation DP on every row; rows (in chunks) are the only parallel loop.
 
-    Per thread: the quarter-column sums (W x quarter disparities), the cost volume and
+    Per thread: the column sums (W x sampled disparities), the cost volume and
     the DP tables (W x D x orientations); never H x W x D.
     """
     height, width = disp.shape
@@ -371,8 +413,8 @@ def match_redert_rows(
     omax = 0
     for o in range(norient):
         omax = max(omax, abs(oq[o]))
-    e_lo = 4 * dmin - radius * omax
-    ne = 4 * (ndisp - 1) + 2 * radius * omax + 1
+    e_lo = steps * dmin - radius * omax
+    ne = steps * (ndisp - 1) + 2 * radius * omax + 1
     for c in nb.prange(nchunks):
         y0, y1 = _chunk_bounds(height, nchunks, c)
         columns = np.empty((width, ne), dtype=np.int64)
@@ -384,14 +426,14 @@ def match_redert_rows(
         path_k = np.empty(2 * width + 2, dtype=np.int64)
         path_st = np.empty(2 * width + 2, dtype=np.int64)
         for y in range(y0, y1):
-            quarter_columns(left_p, right_p, y, radius, e_lo, columns)
-            sheared_costs(columns, e_lo, dmin, oq, radius, node, seg)
+            sample_columns(left_p, right_p, y, radius, steps, e_lo, columns)
+            sheared_costs(columns, e_lo, steps, dmin, oq, radius, node, seg)
             for x in range(width):
                 disp[y, x] = np.nan
                 flags[y, x] = FLAG_BORDER
                 slopes[y, x] = np.nan
             n, t = scanline_dp(
-                node, seg, dmin, oq, occ, orient, slant, table, back, path_x, path_k, path_st
+                node, seg, steps, dmin, oq, occ, orient, slant, table, back, path_x, path_k, path_st
             )
-            apply_path(path_x, path_k, path_st, n, dmin, oq, disp[y], flags[y], slopes[y])
+            apply_path(path_x, path_k, path_st, n, steps, dmin, oq, disp[y], flags[y], slopes[y])
             total[y] = t

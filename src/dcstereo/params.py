@@ -31,10 +31,10 @@ DEFAULT_GCP_VARIANCE_FLOOR = 100.0
 COSTS = ("sad", "bt")
 
 #: ``redert``: the surface orientations (disparity slopes, px/px) of the DP states.
-DEFAULT_ORIENTATIONS = (-0.5, -0.25, 0.0, 0.25, 0.5)
+DEFAULT_ORIENTATIONS = (-0.5, -0.25, -0.125, 0.0, 0.125, 0.25, 0.5)
 #: ``redert``: cost of a change of orientation between neighbouring matched pixels, in
 #: the units of ``occlusion_cost``.
-DEFAULT_ORIENTATION_COST = 5.0
+DEFAULT_ORIENTATION_COST = 2.0
 
 
 @dataclass(frozen=True)
@@ -129,8 +129,8 @@ class MatchParams:
         (the ordering constraint). The three-step DP is forced through them.
     orientations : tuple of float
         ``redert`` only: the surface orientations of the DP states, as disparity slopes
-        (pixels of disparity per pixel), each one of ``0, +-1/4, +-1/2, +-1``, no
-        repeats; default :data:`DEFAULT_ORIENTATIONS`. The matching window is sheared by
+        (pixels of disparity per pixel), each one of ``0, +-1/16, +-1/8, +-1/4, +-1/2,
+        +-1``, no repeats; default :data:`DEFAULT_ORIENTATIONS`. The matching window is sheared by
         the slope, and a surface of slope ``+-1/L`` runs between integer-disparity
         nodes ``L`` pixels apart (see :mod:`dcstereo.redert`).
     orientation_cost : float
@@ -231,11 +231,11 @@ class MatchParams:
             if (
                 isinstance(value, bool)
                 or not isinstance(value, (int, float))
-                or abs(value) not in (0, 0.25, 0.5, 1)
+                or abs(value) not in (0, 0.0625, 0.125, 0.25, 0.5, 1)
             ):
                 raise ValueError(
-                    "orientations must be slopes from 0, +-0.25, +-0.5, +-1 "
-                    f"(px of disparity per px), got {value!r}"
+                    "orientations must be slopes from 0, +-0.0625, +-0.125, +-0.25, +-0.5, "
+                    f"+-1 (px of disparity per px), got {value!r}"
                 )
         if len(set(values)) != len(values):
             raise ValueError(f"orientations must not repeat a slope, got {values!r}")

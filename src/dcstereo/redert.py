@@ -59,18 +59,19 @@ from .result import DisparityResult
 from .signal import SIGNAL_STEPS, check_image, matching_signal
 
 
-def redert_cost_scale(window: int) -> float:
+def redert_cost_scale(window: int, steps: int) -> float:
     """Return the kernel's cost units per gray level of mean absolute difference.
 
-    The kernel compares ``4 * left`` with quarter-pixel interpolations of the right image
-    (exact integers), so its units are four times those of ``dsi3``.
+    The kernel compares ``steps * left`` with interpolations of the right image at
+    multiples of ``1 / steps`` pixel (exact integers), so its units are ``steps`` times
+    those of ``dsi3``.
     """
-    return float(4 * SIGNAL_STEPS * window * window)
+    return float(steps * SIGNAL_STEPS * window * window)
 
 
 #: ``redert``'s default ``slant_cost``: per unit of disparity change along a slanted
 #: surface, in the units of ``occlusion_cost``.
-DEFAULT_REDERT_SLANT_COST = 8.0
+DEFAULT_REDERT_SLANT_COST = 9.0
 
 
 def redert_slant_cost(params: MatchParams) -> float:
@@ -78,9 +79,18 @@ def redert_slant_cost(params: MatchParams) -> float:
     return DEFAULT_REDERT_SLANT_COST if params.slant_cost is None else float(params.slant_cost)
 
 
-def orientation_quarters(orientations) -> np.ndarray:
-    """Return the orientations (slopes) as int64 multiples of 1/4, as the kernel wants."""
-    return np.array([int(round(4 * float(o))) for o in orientations], dtype=np.int64)
+def orientation_steps(orientations) -> tuple[int, np.ndarray]:
+    """Return ``(steps, oq)``: the sampling resolution and the slopes in units of 1/steps.
+
+    ``steps`` is the smallest power of two (1 to 16) that makes every slope (0 or
+    ``+-1/L``) a whole multiple of ``1 / steps``; ``oq`` holds the slopes times ``steps``
+    as int64, as the kernel wants. A set of ``0, +-1/4, +-1/2`` gives ``steps = 4``.
+    """
+    slopes = [float(o) for o in orientations]
+    steps = 1
+    while any(steps * o != round(steps * o) for o in slopes):
+        steps *= 2
+    return steps, np.array([int(round(steps * o)) for o in slopes], dtype=np.int64)
 
 
 def match_redert(
@@ -139,14 +149,16 @@ def match_redert(
     slopes = np.empty((height, width), dtype=np.float32)
     total = np.empty(height, dtype=np.float64)
     nchunks = max(1, min(height, 4 * numba.get_num_threads()))
-    scale = redert_cost_scale(params.window)
+    steps, oq = orientation_steps(params.orientations)
+    scale = redert_cost_scale(params.window, steps)
     _redert_kernels.match_redert_rows(
         left_p,
         right_p,
         params.min_disparity,
         params.num_disparities,
         radius,
-        orientation_quarters(params.orientations),
+        steps,
+        oq,
         float(np.rint(params.occlusion_cost * scale)),
         float(np.rint(params.orientation_cost * scale)),
         float(np.rint(redert_slant_cost(params) * scale)),
