@@ -11,7 +11,7 @@ import dcstereo
 import naive_redert
 import synthetic
 from dcstereo import MatchParams, _redert_kernels
-from dcstereo.metrics import bad_pixel_rate
+from dcstereo.metrics import bad_pixel_rate, mean_abs_error
 from dcstereo.redert import match_redert, orientation_steps
 
 
@@ -163,7 +163,7 @@ def slanted_scores(method, slope, d0):
 def test_redert_follows_a_slanted_plane_that_dsi3_breaks(slope, d0):
     # Measured (20 x 100 pair, seed 5, default costs), bad-1 % / MAE px:
     # slope 0.5: dsi3 68.6 / 8.0, redert 0.0 / 0.005; slope 0.25: dsi3 23.4 / 1.12,
-    # redert 0.1 / 0.02; slope -0.25: dsi3 19.7 / 0.82, redert 0.0 / 0.02.
+    # redert 0.0 / 0.02; slope -0.25: dsi3 19.7 / 0.82, redert 0.0 / 0.02.
     bad3, mae3 = slanted_scores("dsi3", slope, d0)
     bad_r, mae_r = slanted_scores("redert", slope, d0)
     assert bad_r <= 1.0
@@ -322,12 +322,22 @@ def test_venus_redert_against_dsi3(middlebury_root):
     from dcstereo.datasets import load_middlebury
 
     data = load_middlebury("venus", root=middlebury_root.parent)
-    bad = {}
+    bad, bad_half, mae = {}, {}, {}
+    nonocc = data.masks["nonocc"]
     for method in ("dsi3", "redert"):
         result = dcstereo.match(
             data.left, data.right, max_disparity=data.max_disparity, method=method, fill=True
         )
-        bad[method] = bad_pixel_rate(result.disparity, data.disparity, mask=data.masks["nonocc"])
-    # Measured: dsi3 3.85 %, redert 4.21 % (venus's horizontal disparity slopes are below
-    # 0.08 px/px on 99 % of its pixels, too shallow for the 1/4 and 1/2 orientations).
-    assert bad["redert"] <= bad["dsi3"] + 1.0
+        bad[method] = bad_pixel_rate(result.disparity, data.disparity, mask=nonocc)
+        bad_half[method] = bad_pixel_rate(
+            result.disparity, data.disparity, threshold=0.5, mask=nonocc
+        )
+        mae[method] = mean_abs_error(result.disparity, data.disparity, mask=nonocc)
+    # Measured (default costs, slopes down to 1/8 with eighth-pixel nodes between integer
+    # nodes): bad-1.0 dsi3 3.85 %, redert 4.01 % (4.21 % with the former quarter-pixel
+    # slopes); bad-0.5 10.88 % / 10.66 %; MAE 0.412 / 0.398 px. The fractional disparities
+    # of the 1/8 slopes win at 0.5 px; bad-1.0 is dominated by streaks in textureless
+    # stretches, shared with dsi3 and set by the occlusion cost (see dcstereo.redert).
+    assert bad["redert"] <= bad["dsi3"] + 0.5
+    assert bad_half["redert"] < bad_half["dsi3"]
+    assert mae["redert"] < mae["dsi3"]

@@ -14,11 +14,13 @@ From the figure labels
 
 Our choices (the reconstruction)
     * An orientation is a disparity slope ``o`` (pixels of disparity per pixel) from a
-      small set (``MatchParams.orientations``, each one of ``0, +-1/4, +-1/2, +-1``;
-      default ``-1/2, -1/4, 0, 1/4, 1/2``). The DP state of a node is ``(x, d, o)``.
+      small set (``MatchParams.orientations``, each one of ``0, +-1/16, +-1/8, +-1/4,
+      +-1/2, +-1``; default ``-1/2, -1/4, -1/8, 0, 1/8, 1/4, 1/2``). The DP state of a
+      node is ``(x, d, o)``.
     * Nodes carry integer disparities. A surface of slope ``o = +-1/L`` runs from node
       ``(x - L, d -+ 1)`` to node ``(x, d)`` in one *segment*; the ``L - 1`` pixels in
-      between lie on the line (disparities in quarter pixels), and the half-pixel node
+      between lie on the line (disparities in multiples of ``1 / steps`` pixel, ``steps``
+      the largest ``L`` of the set: eighths by default), and the half-pixel node
       of the labels is this segment with its orientation. Slope 0 is a one-pixel segment
       at constant disparity. So a plane of slope 1/2 is followed node to node, two pixels
       at a time (``d, d + 1/2, d + 1, ...``), with exact matches and no occlusion; with
@@ -27,16 +29,19 @@ Our choices (the reconstruction)
     * Mapping the window: the left window of side ``W = 2 r + 1`` centred at ``x`` with
       disparity ``d`` and slope ``o`` compares left column ``x + s`` with the right position
       ``x + s - (d + o s)``, ``s = -r..r`` (stretched or compressed by the slant), sampled by
-      linear interpolation; the cost is the sum of absolute differences over the ``W x W``
-      window, in the units of the other methods (mean absolute difference per pixel,
-      0..255 gray levels). At ``o = 0`` it is eq. 4; a segment costs the sum over its
-      pixels.
+      linear interpolation at ``1 / steps`` pixel (exact integers); the cost is the sum
+      of absolute differences over the ``W x W`` window, in the units of the other
+      methods (mean absolute difference per pixel, 0..255 gray levels). At ``o = 0`` it
+      is eq. 4; a segment costs the sum over its pixels.
     * A change of orientation between consecutive segments costs
       ``MatchParams.orientation_cost``; each disparity step of a slanted segment costs
       ``MatchParams.slant_cost`` (None: :data:`DEFAULT_REDERT_SLANT_COST`). Neither is in
       the labels. Without the slant cost, two orientation changes buy a ramp of any
       length, and in flat areas the path drifts down ramps to wrong disparities (venus
       bad-1.0 nonocc 5.3 % instead of 4.2 %). Both are in the units of the occlusion cost.
+      The defaults (slant 9, orientation 2, the slopes above) were chosen on the four
+      development scenes together (``docs/redert_tuning.md``); the slant cost stays below
+      the occlusion cost, or steep planes (slope 1/2) are cut into occlusions.
     * Occlusions are explicit states: a left pixel without a partner, or a right pixel
       without a partner, costs ``MatchParams.occlusion_cost`` each, as in ``dsi3``; after
       an occlusion the next match starts a new surface (a diagonal step into any
@@ -46,6 +51,20 @@ Our choices (the reconstruction)
       consumed nothing, and the path ends when either image's last column is reached;
       pixels left over are ``FLAG_BORDER``.
     * The orientation of each matched pixel is returned on request.
+
+Why the slopes +-1/8 (and eighth-pixel sampling): venus, the development scene with
+slanted planes, has horizontal slopes below 1/4 almost everywhere (76 % of its pixels
+under 1/48, the rest mostly around 1/32 to 1/8), so with ``0, +-1/4, +-1/2`` it was
+matched as by ``dsi3``, with ramps at discontinuities added. Slopes of 1/8 give its
+planes fractional disparities (venus bad-0.5 nonocc 10.7 % against 11.5 % before and
+10.9 % for ``dsi3``, MAE 0.398 px against 0.415 and 0.412). Slopes of 1/16 help venus's
+bad-0.5 and MAE a little more but cost bad-1.0 on the other scenes. What neither changes:
+``redert`` is still *not* better than ``dsi3`` in bad-1.0 on venus (4.0 % against 3.85 %).
+Most of venus's bad pixels are long streaks shared by both methods, where a textureless
+stretch lies between two surfaces or along a horizontal edge, and the path keeps a wrong
+disparity rather than pay two jumps. The occlusion cost decides those (``dsi3`` at
+``occlusion_cost=5`` has 2.4 % on venus but loses 2 to 3 points on teddy and cones), and
+a surface orientation cannot help where the scanline has no texture.
 
 Memory is O(W x D x orientations) per thread; rows are independent and run in parallel.
 """
