@@ -301,6 +301,24 @@ def test_feature_search_agrees_with_the_naive_twin(options):
     assert total_pairs > 10  # the cases do accept pairs
 
 
+def test_up_front_tests_give_the_pairs_of_the_per_interval_search(middlebury_root):
+    # with the uniqueness test and no limit on the tries, the search runs its interval-free
+    # tests up front and picks candidates from a static table of range maxima (scanning the
+    # interval when the table's choice is out of play); a limit too large to bite takes
+    # the per-interval path with its segment tree: the pairs must be the same. Real scenes
+    # have the left-right refusals and out-of-range matches that make the scans run.
+    for scene in ("tsukuba", "cones"):
+        data = load_middlebury(scene, root=middlebury_root.parent)
+        left, right = data.left[100:140], data.right[100:140]
+        up_front = dcstereo.match(left, right, max_disparity=data.max_disparity)
+        per_interval = dcstereo.match(
+            left, right, max_disparity=data.max_disparity, max_candidates=10**6
+        )
+        assert len(up_front.features) > 500
+        np.testing.assert_array_equal(up_front.features, per_interval.features)
+        np.testing.assert_array_equal(up_front.disparity, per_interval.disparity)
+
+
 # --------------------------------------------------------------------------- ordering, anchors
 
 
