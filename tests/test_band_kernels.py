@@ -265,6 +265,74 @@ def test_band_costs_equal_row_costs():
                 assert band[:, 1:-1, r].tobytes() == expected.tobytes()
 
 
+@pytest.mark.parametrize("height", range(1, 18))
+def test_lanes_of_any_height_and_more_chunks_than_bands(height):
+    # each lane runs down its own rows (idle lanes when the height is not a multiple of the
+    # band): every height 1..17, chunks of one band, and more chunks than bands
+    rng = np.random.default_rng(900 + height)
+    width, ndisp, dmin = 11, 6, -2
+    left = rng.integers(0, 4081, (height, width)).astype(np.int32)
+    right = rng.integers(0, 4081, (height, width)).astype(np.int32)
+    for radius in (0, 1, 2):
+        for five in (False, True):
+            expected = per_row(left, right, dmin, ndisp, radius, 1500.0, five, 700.0)
+            for nchunks in (1, 2, 3, 5, 40):
+                got = banded(left, right, dmin, ndisp, radius, 1500.0, five, 700.0,
+                             nchunks=nchunks)  # fmt: skip
+                assert_same(expected, got)
+        partner = random_pins(rng, height, width, dmin, ndisp, 0.3)
+        expected = segmented(left, right, dmin, ndisp, radius, 1500.0, True, 700.0, partner)
+        for nchunks in (1, 3, 40):
+            got = banded(left, right, dmin, ndisp, radius, 1500.0, True, 700.0, partner, nchunks)
+            assert_same(expected, got)
+
+
+def test_incremental_lane_costs_equal_row_costs():
+    # band_lane_costs moved down row by row (lane r on rows r * run + t) gives row_costs
+    rng = np.random.default_rng(12)
+    nr = _band_kernels.BAND_ROWS
+    for dmin, ndisp, radius, width, height in (
+        (-3, 7, 2, 13, 19), (4, 6, 1, 9, 8), (0, 12, 3, 5, 3), (-9, 4, 0, 6, 17), (2, 5, 1, 1, 9),
+    ):  # fmt: skip
+        left = rng.integers(0, 4081, (height, width)).astype(np.int32)
+        right = rng.integers(0, 4081, (height, width)).astype(np.int32)
+        left_p, right_p = padded(left, radius), padded(right, radius)
+        win = 2 * radius + 1
+        nk = (ndisp + 2) * nr
+        left_t = np.empty(max(win, 2) * (width + 2 * radius) * nr, dtype=np.int64)
+        right_t = np.empty_like(left_t)
+        rows = np.empty(max(win, 2) * nr, dtype=np.int64)
+        spread = np.empty(2 * ndisp * nr, dtype=np.int64)
+        vs = np.empty(width * ndisp * nr, dtype=np.int64)
+        hsum = np.empty(ndisp * nr, dtype=np.int64)
+        out = np.empty(width * nk)
+        expected = np.empty((width, ndisp))
+        vcol = np.empty((width, ndisp), dtype=np.int32)
+        run = -(-height // nr)
+        for t in range(run):
+            if t == 0:
+                for tt in range(win):
+                    rows[tt * nr : (tt + 1) * nr] = np.minimum(
+                        np.arange(nr) * run + tt, left_p.shape[0] - 1
+                    )
+            else:
+                y = np.arange(nr) * run + t
+                rows[:nr] = np.where(y < height, y - 1, 0)
+                rows[nr : 2 * nr] = np.where(y < height, y + 2 * radius, 0)
+            _band_kernels.band_lane_signals(left_p, right_p, rows, win if t == 0 else 2, left_t,
+                                            right_t)  # fmt: skip
+            _band_kernels.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread,
+                                          vs, t > 0, hsum, out)  # fmt: skip
+            band = out.reshape(width, ndisp + 2, nr)
+            assert np.isinf(band[:, 0]).all() and np.isinf(band[:, -1]).all()
+            for r in range(nr):
+                if r * run + t >= height:
+                    continue
+                _kernels.row_costs(left_p, right_p, r * run + t, dmin, ndisp, radius, vcol,
+                                   expected, False)  # fmt: skip
+                assert band[:, 1:-1, r].tobytes() == expected.tobytes()
+
+
 def test_band_kernels_run_as_plain_python():
     # NUMBA_DISABLE_JIT=1: the kernels are plain Python (coverage sees them)
     code = textwrap.dedent(

@@ -27,6 +27,11 @@ either inf (``j`` below the anchor's) or values that no cell of the segment read
 beyond the segment's end: steps never decrease ``j``, and the next anchor column clears
 them).
 
+The rows of a band are not consecutive: in each parallel chunk, band row ``r`` runs down
+its own run of consecutive rows (``match_band_rows``), so that the integer vertical window
+sums of each lane are moved down one row per band (add the entering row, subtract the
+leaving one) instead of being summed afresh from the ``2 radius + 1`` window rows.
+
 Kernels that call each other live in this one file (numba's cache does not notice edits
 made in other files); nothing here is imported from ``_kernels.py``.
 """
@@ -73,6 +78,23 @@ def band_signals(left_p, right_p, y0, radius, left_t, right_t):
     for t in range(2 * radius + 1):
         for r in range(nr):
             y = min(y0 + t + r, height_p - 1)
+            for xp in range(width_p):
+                left_t[(t * width_p + xp) * nr + r] = left_p[y, xp]
+                right_t[(t * width_p + width_p - 1 - xp) * nr + r] = right_p[y, xp]
+
+
+@nb.njit(cache=True)
+def band_lane_signals(left_p, right_p, rows, nt, left_t, right_t):
+    """``band_signals`` with the padded rows given per lane: ``rows[t * R + r]``, ``t < nt``.
+
+    Window row ``t`` of band row (lane) ``r`` is padded row ``rows[t * R + r]``; the layout
+    of ``left_t``/``right_t`` is that of ``band_signals``.
+    """
+    width_p = left_p.shape[1]
+    nr = BAND_ROWS
+    for t in range(nt):
+        for r in range(nr):
+            y = rows[t * nr + r]
             for xp in range(width_p):
                 left_t[(t * width_p + xp) * nr + r] = left_p[y, xp]
                 right_t[(t * width_p + width_p - 1 - xp) * nr + r] = right_p[y, xp]
@@ -144,6 +166,34 @@ def _vertical_sums(left_t, right_t, c, width, width_p, dmin, ndisp, radius, spre
                 )
 
 
+@nb.njit(cache=True, inline="always")
+def _vertical_update(left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, vs, vs_off):
+    """Move the vertical window SADs of column ``c`` at ``vs[vs_off + k * R + r]`` down a row.
+
+    ``left_t``/``right_t`` hold two rows per lane (``band_lane_signals``): row 0 the
+    padded row leaving each lane's window, row 1 the one entering it; the sums gain the
+    entering row's absolute differences and lose the leaving row's (two per cell instead
+    of ``2 radius + 1``; exact integers). Cells whose right pixel is outside the image are
+    not touched (they hold 0 from the full computation).
+    """
+    nr = BAND_ROWS
+    k_lo = max(0, c - dmin - (width - 1))
+    k_hi = min(ndisp - 1, c - dmin)
+    if k_lo > k_hi:
+        return
+    n = np.uint64((k_hi - k_lo + 1) * nr)
+    o_vs = vs_off + np.uint64(k_lo * nr)
+    o_leave = (c + radius) * nr
+    o_r_leave = np.uint64((width_p - 1 - (c - dmin - k_lo + radius)) * nr)
+    o_r_enter = o_r_leave + np.uint64(width_p * nr)
+    _spread(left_t, o_leave + width_p * nr, spread, np.uint64(0), n)
+    _spread(left_t, o_leave, spread, n, n)
+    for i in range(n):
+        vs[o_vs + i] += abs(spread[i] - right_t[o_r_enter + i]) - abs(
+            spread[n + i] - right_t[o_r_leave + i]
+        )
+
+
 @nb.njit(cache=True)
 def band_costs(left_t, right_t, width, dmin, ndisp, radius, spread, ring, hsum, out):
     """Windowed SAD of eq. 4 of a band into ``out[x * nk + (k + 1) * R + r]``.
@@ -159,6 +209,33 @@ def band_costs(left_t, right_t, width, dmin, ndisp, radius, spread, ring, hsum, 
     disparity's range rescaled to the full window (``* W / columns used``, the same
     float64 operations), and inf in the padding cells ``k = -1`` and ``k = ndisp``.
     """
+    _costs(
+        left_t, right_t, width, dmin, ndisp, radius, spread, ring, 2 * radius + 1, False, hsum, out
+    )
+
+
+@nb.njit(cache=True)
+def band_lane_costs(
+    left_t, right_t, width, dmin, ndisp, radius, spread, vs, incremental, hsum, out
+):
+    """Compute ``band_costs``'s values, keeping the vertical sums of every column.
+
+    ``vs`` (int64, ``width * ndisp * R``) holds column ``c``'s sums at ``c * ndisp * R``.
+
+    ``incremental`` False: ``left_t``/``right_t`` hold the ``2 radius + 1`` window rows of
+    each lane (``band_lane_signals``) and the sums are computed afresh; True: ``vs`` holds
+    the sums of the rows just above each lane's row, and ``left_t``/``right_t`` the
+    leaving and entering rows (see ``_vertical_update``). The values are those of
+    ``band_costs`` (exact integers, then the same float64 operations).
+    """
+    _costs(left_t, right_t, width, dmin, ndisp, radius, spread, vs, width, incremental, hsum, out)
+
+
+@nb.njit(cache=True)
+def _costs(
+    left_t, right_t, width, dmin, ndisp, radius, spread, ring, nslots, incremental, hsum, out
+):
+    """Compute ``band_costs``, column ``c``'s vertical sums in slot ``c % nslots`` of ``ring``."""
     nr = BAND_ROWS
     win = 2 * radius + 1
     width_p = width + 2 * radius
@@ -169,10 +246,15 @@ def band_costs(left_t, right_t, width, dmin, ndisp, radius, spread, ring, hsum, 
     for i in range(unkc):
         hsum[i] = 0
     for c in range(min(radius, width - 1) + 1):
-        o_ring = np.uint64((c % win) * nkc)
-        _vertical_sums(
-            left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, ring, o_ring
-        )
+        o_ring = np.uint64((c % nslots) * nkc)
+        if incremental:
+            _vertical_update(
+                left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, ring, o_ring
+            )
+        else:
+            _vertical_sums(
+                left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, ring, o_ring
+            )
         for i in range(unkc):
             hsum[i] += ring[o_ring + i]
     for i in range(unkc):
@@ -180,14 +262,20 @@ def band_costs(left_t, right_t, width, dmin, ndisp, radius, spread, ring, hsum, 
     for x in range(1, width):
         add = x + radius
         sub = x - radius - 1
-        o_ring = np.uint64((add % win) * nkc)  # also the slot of column ``sub``: ``win`` apart
         if sub >= 0:
+            o_sub = np.uint64((sub % nslots) * nkc)
             for i in range(unkc):
-                hsum[i] -= ring[o_ring + i]
+                hsum[i] -= ring[o_sub + i]
         if add < width:
-            _vertical_sums(
-                left_t, right_t, add, width, width_p, dmin, ndisp, radius, spread, ring, o_ring
-            )
+            o_ring = np.uint64((add % nslots) * nkc)  # with a ring, column ``sub``'s slot
+            if incremental:
+                _vertical_update(
+                    left_t, right_t, add, width, width_p, dmin, ndisp, radius, spread, ring, o_ring
+                )
+            else:
+                _vertical_sums(
+                    left_t, right_t, add, width, width_p, dmin, ndisp, radius, spread, ring, o_ring
+                )
             for i in range(unkc):
                 hsum[i] += ring[o_ring + i]
         o_out = np.uint64(x * nk + nr)
@@ -696,8 +784,15 @@ def match_band_rows(
 ):
     """Run the whole-scanline DP of every row (SAD cost), ``BAND_ROWS`` rows at a time.
 
-    The results of ``_kernels.match_dsi_rows`` with ``bt=False``, bit for bit. Bands are
-    the only parallel loop: ``nchunks`` runs of consecutive bands. With ``anchored``,
+    The results of ``_kernels.match_dsi_rows`` with ``bt=False``, bit for bit. The only
+    parallel loop is over ``nchunks`` runs of consecutive rows (those of runs of
+    ``ceil(height / R / nchunks)`` bands). In a chunk of ``n`` rows from ``y_a``, band row
+    (lane) ``r`` runs down rows ``y_a + r * run + t``, ``run = ceil(n / R)``, at band step
+    ``t``, so that each lane's row moves down by one from band to band and the vertical
+    window sums are updated (``band_lane_costs``: two absolute differences per cell) after
+    the chunk's first band (computed afresh). Lanes past the chunk's rows are idle: their
+    sums stay those of their last row (or of clamped rows), no pins, results not written.
+    With ``anchored``,
     ``partner[y, x] = j`` pins left pixel ``(y, x)`` to right pixel ``(y, j)`` (-1: no pin;
     along a row increasing in both ``x`` and ``j``, each pair inside the disparity range),
     and each row gets the result of ``_kernels.gcp_row``'s segment-by-segment DP through
@@ -705,17 +800,22 @@ def match_band_rows(
     read.
     """
     height, width = disp.shape
+    height_p, width_p = left_p.shape
     nr = BAND_ROWS
     nbands = (height + nr - 1) // nr
-    width_p = left_p.shape[1]
     win = 2 * radius + 1
     nk = (ndisp + 2) * nr
     for ch in nb.prange(nchunks):
         b0, b1 = _chunk_bounds(nbands, nchunks, ch)
-        left_t = np.empty(win * width_p * nr, dtype=np.int64)
-        right_t = np.empty(win * width_p * nr, dtype=np.int64)
+        # the chunk's rows; lane r takes rows y_a + r * run + t at band step t
+        y_a = b0 * nr
+        n = max(0, min(height, b1 * nr) - y_a)
+        run = (n + nr - 1) // nr
+        left_t = np.empty(max(win, 2) * width_p * nr, dtype=np.int64)
+        right_t = np.empty(max(win, 2) * width_p * nr, dtype=np.int64)
+        rows = np.empty(max(win, 2) * nr, dtype=np.int64)
         spread = np.empty(2 * ndisp * nr, dtype=np.int64)
-        ring = np.empty(win * ndisp * nr, dtype=np.int64)
+        vs = np.empty(width * ndisp * nr, dtype=np.int64)
         hsum = np.empty(ndisp * nr, dtype=np.int64)
         cost = np.empty(width * nk, dtype=np.float64)
         table = np.empty((width + 2) * nk, dtype=np.float64)
@@ -723,15 +823,29 @@ def match_band_rows(
         pins = np.full(width * nr, -1, dtype=np.int64)
         pinned = np.zeros(width, dtype=np.bool_)
         anchor_total = np.empty(width * nr, dtype=np.float64)
-        for b in range(b0, b1):
-            y0 = b * nr
-            band_signals(left_p, right_p, y0, radius, left_t, right_t)
-            band_costs(left_t, right_t, width, dmin, ndisp, radius, spread, ring, hsum, cost)
+        for t in range(run):
+            if t == 0:  # the window rows of each lane's first row (past the image: any rows)
+                for tt in range(win):
+                    for r in range(nr):
+                        rows[tt * nr + r] = min(y_a + r * run + tt, height_p - 1)
+                band_lane_signals(left_p, right_p, rows, win, left_t, right_t)
+            else:  # the rows leaving and entering each lane's window; idle lanes: none
+                for r in range(nr):
+                    if r * run + t < n:
+                        rows[r] = y_a + r * run + t - 1
+                        rows[nr + r] = y_a + r * run + t + 2 * radius
+                    else:
+                        rows[r] = 0
+                        rows[nr + r] = 0
+                band_lane_signals(left_p, right_p, rows, 2, left_t, right_t)
+            band_lane_costs(
+                left_t, right_t, width, dmin, ndisp, radius, spread, vs, t > 0, hsum, cost
+            )
             if anchored:
                 for x in range(width):
                     pinned[x] = False
                     for r in range(nr):
-                        j = partner[y0 + r, x] if y0 + r < height else -1
+                        j = partner[y_a + r * run + t, x] if r * run + t < n else -1
                         pins[x * nr + r] = j
                         if j >= 0:
                             pinned[x] = True
@@ -750,8 +864,10 @@ def match_band_rows(
                 prev2_work,
                 table,
             )
-            for r in range(min(nr, height - y0)):
-                y = y0 + r
+            for r in range(nr):
+                if r * run + t >= n:
+                    continue
+                y = y_a + r * run + t
                 for x in range(width):
                     disp[y, x] = np.nan
                     flags[y, x] = FLAG_BORDER
