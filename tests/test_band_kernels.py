@@ -287,8 +287,10 @@ def test_lanes_of_any_height_and_more_chunks_than_bands(height):
             assert_same(expected, got)
 
 
-def test_incremental_lane_costs_equal_row_costs():
-    # band_lane_costs moved down row by row (lane r on rows r * run + t) gives row_costs
+@pytest.mark.parametrize("dtype", [np.int64, np.int32])
+def test_incremental_lane_costs_equal_row_costs(dtype):
+    # band_lane_costs moved down row by row (lane r on rows r * run + t) gives row_costs,
+    # with int64 buffers and with the int32 buffers of match_band_rows
     rng = np.random.default_rng(12)
     nr = _band_kernels.BAND_ROWS
     for dmin, ndisp, radius, width, height in (
@@ -299,11 +301,11 @@ def test_incremental_lane_costs_equal_row_costs():
         left_p, right_p = padded(left, radius), padded(right, radius)
         win = 2 * radius + 1
         nk = (ndisp + 2) * nr
-        left_t = np.empty(max(win, 2) * (width + 2 * radius) * nr, dtype=np.int64)
+        left_t = np.empty(max(win, 2) * (width + 2 * radius) * nr, dtype=dtype)
         right_t = np.empty_like(left_t)
         rows = np.empty(max(win, 2) * nr, dtype=np.int64)
-        spread = np.empty(2 * ndisp * nr, dtype=np.int64)
-        vs = np.empty(width * ndisp * nr, dtype=np.int64)
+        spread = np.empty(2 * ndisp * nr, dtype=dtype)
+        vs = np.empty(width * ndisp * nr, dtype=dtype)
         hsum = np.empty(ndisp * nr, dtype=np.int64)
         out = np.empty(width * nk)
         expected = np.empty((width, ndisp))

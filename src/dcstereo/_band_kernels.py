@@ -220,7 +220,9 @@ def band_lane_costs(
 ):
     """Compute ``band_costs``'s values, keeping the vertical sums of every column.
 
-    ``vs`` (int64, ``width * ndisp * R``) holds column ``c``'s sums at ``c * ndisp * R``.
+    ``vs`` (``width * ndisp * R``) holds column ``c``'s sums at ``c * ndisp * R``. The
+    driver keeps ``vs``, ``left_t``, ``right_t`` and ``spread`` in int32 (half the memory
+    traffic; the signals are int32, and ``row_costs`` keeps its vertical sums in int32 too).
 
     ``incremental`` False: ``left_t``/``right_t`` hold the ``2 radius + 1`` window rows of
     each lane (``band_lane_signals``) and the sums are computed afresh; True: ``vs`` holds
@@ -811,11 +813,11 @@ def match_band_rows(
         y_a = b0 * nr
         n = max(0, min(height, b1 * nr) - y_a)
         run = (n + nr - 1) // nr
-        left_t = np.empty(max(win, 2) * width_p * nr, dtype=np.int64)
-        right_t = np.empty(max(win, 2) * width_p * nr, dtype=np.int64)
+        left_t = np.empty(max(win, 2) * width_p * nr, dtype=np.int32)
+        right_t = np.empty(max(win, 2) * width_p * nr, dtype=np.int32)
         rows = np.empty(max(win, 2) * nr, dtype=np.int64)
-        spread = np.empty(2 * ndisp * nr, dtype=np.int64)
-        vs = np.empty(width * ndisp * nr, dtype=np.int64)
+        spread = np.empty(2 * ndisp * nr, dtype=np.int32)
+        vs = np.empty(width * ndisp * nr, dtype=np.int32)
         hsum = np.empty(ndisp * nr, dtype=np.int64)
         cost = np.empty(width * nk, dtype=np.float64)
         table = np.empty((width + 2) * nk, dtype=np.float64)
