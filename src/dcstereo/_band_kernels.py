@@ -264,6 +264,23 @@ def _costs(
     for x in range(1, width):
         add = x + radius
         sub = x - radius - 1
+        if sub >= 0 and add < width and nslots == width:  # kept sums: one pass
+            o_sub = np.uint64(sub * nkc)
+            o_ring = np.uint64(add * nkc)
+            if incremental:
+                _vertical_update(
+                    left_t, right_t, add, width, width_p, dmin, ndisp, radius, spread, ring, o_ring
+                )
+            else:
+                _vertical_sums(
+                    left_t, right_t, add, width, width_p, dmin, ndisp, radius, spread, ring, o_ring
+                )
+            o_out = np.uint64(x * nk + nr)
+            for i in range(unkc):
+                h = hsum[i] + (np.int64(ring[o_ring + i]) - np.int64(ring[o_sub + i]))
+                hsum[i] = h
+                out[o_out + i] = h
+            continue
         if sub >= 0:
             o_sub = np.uint64((sub % nslots) * nkc)
             for i in range(unkc):
