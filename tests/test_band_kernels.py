@@ -236,6 +236,7 @@ def test_any_size_band_equals_per_row(problem):
 
 
 def test_band_costs_equal_row_costs():
+    # the sums computed afresh, for bands of consecutive rows (past the image: the last row)
     rng = np.random.default_rng(11)
     for dmin, ndisp, radius, width in ((-3, 7, 2, 13), (4, 6, 1, 9), (0, 12, 3, 5), (-9, 4, 0, 6)):
         height = 11
@@ -247,16 +248,21 @@ def test_band_costs_equal_row_costs():
         nk = (ndisp + 2) * nr
         left_t = np.empty(win * (width + 2 * radius) * nr, dtype=np.int64)
         right_t = np.empty_like(left_t)
+        rows = np.empty(win * nr, dtype=np.int64)
         spread = np.empty(2 * ndisp * nr, dtype=np.int64)
-        ring = np.empty(win * ndisp * nr, dtype=np.int64)
+        vs = np.empty(width * ndisp * nr, dtype=np.int64)
         hsum = np.empty(ndisp * nr, dtype=np.int64)
         out = np.empty(width * nk)
         expected = np.empty((width, ndisp))
         vcol = np.empty((width, ndisp), dtype=np.int32)
         for y0 in range(0, height, nr):
-            _band_kernels.band_signals(left_p, right_p, y0, radius, left_t, right_t)
-            _band_kernels.band_costs(left_t, right_t, width, dmin, ndisp, radius, spread, ring,
-                                     hsum, out)  # fmt: skip
+            for t in range(win):
+                rows[t * nr : (t + 1) * nr] = np.minimum(
+                    y0 + t + np.arange(nr), left_p.shape[0] - 1
+                )
+            _band_kernels.band_lane_signals(left_p, right_p, rows, win, left_t, right_t)
+            _band_kernels.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread,
+                                          vs, False, hsum, out)  # fmt: skip
             band = out.reshape(width, ndisp + 2, nr)
             assert np.isinf(band[:, 0]).all() and np.isinf(band[:, -1]).all()
             for r in range(min(nr, height - y0)):

@@ -64,31 +64,13 @@ FLAG_BORDER = 2
 
 
 @nb.njit(cache=True)
-def band_signals(left_p, right_p, y0, radius, left_t, right_t):
-    """Rearrange the window rows of band ``y0`` for ``band_costs``.
-
-    For window row ``t`` (``0..2 radius``) and band row ``r``, the padded row
-    ``y0 + t + r`` (the last padded row for rows past the image: the rows of a last,
-    partial band are computed and thrown away): ``left_t[(t * wp + xp) * R + r]`` is its
-    padded pixel ``xp`` and ``right_t[(t * wp + wp - 1 - xp) * R + r]`` the right one,
-    stored right to left, so that the disparities of a left pixel run forward in memory.
-    """
-    height_p, width_p = left_p.shape
-    nr = BAND_ROWS
-    for t in range(2 * radius + 1):
-        for r in range(nr):
-            y = min(y0 + t + r, height_p - 1)
-            for xp in range(width_p):
-                left_t[(t * width_p + xp) * nr + r] = left_p[y, xp]
-                right_t[(t * width_p + width_p - 1 - xp) * nr + r] = right_p[y, xp]
-
-
-@nb.njit(cache=True)
 def band_lane_signals(left_p, right_p, rows, nt, left_t, right_t):
-    """``band_signals`` with the padded rows given per lane: ``rows[t * R + r]``, ``t < nt``.
+    """Rearrange padded rows of the two views for ``band_lane_costs``.
 
-    Window row ``t`` of band row (lane) ``r`` is padded row ``rows[t * R + r]``; the layout
-    of ``left_t``/``right_t`` is that of ``band_signals``.
+    Window row ``t`` (``t < nt``) of band row (lane) ``r`` is padded row ``rows[t * R + r]``:
+    ``left_t[(t * wp + xp) * R + r]`` is its padded pixel ``xp`` and
+    ``right_t[(t * wp + wp - 1 - xp) * R + r]`` the right one, stored right to left, so
+    that the disparities of a left pixel run forward in memory.
     """
     width_p = left_p.shape[1]
     nr = BAND_ROWS
@@ -115,14 +97,14 @@ def _spread(left_t, o_left, spread, o_spread, n):
 
 
 @nb.njit(cache=True, inline="always")
-def _vertical_sums(left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, ring, ring_off):
-    """Vertical window SADs of left column ``c`` into ``ring[ring_off + k * R + r]``.
+def _vertical_sums(left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, vs, vs_off):
+    """Vertical window SADs of left column ``c`` into ``vs[vs_off + k * R + r]``.
 
     Disparity ``dmin + k``, band row ``r``; 0 where the right pixel is outside the image.
 
     ``spread`` (int64, ``2 * ndisp * R``) is scratch: the left pixel's ``R`` values of a
     window row repeated along the disparities, so that the inner loops read both views
-    contiguously. Window rows are taken two at a time (one pass over ``ring`` per two).
+    contiguously. Window rows are taken two at a time (one pass over ``vs`` per two).
     """
     nr = BAND_ROWS
     win = 2 * radius + 1
@@ -130,25 +112,25 @@ def _vertical_sums(left_t, right_t, c, width, width_p, dmin, ndisp, radius, spre
     k_hi = min(ndisp - 1, c - dmin)
     if k_lo > k_hi:
         for i in range(np.uint64(ndisp * nr)):
-            ring[ring_off + i] = 0
+            vs[vs_off + i] = 0
         return
     for i in range(np.uint64(k_lo * nr)):
-        ring[ring_off + i] = 0
+        vs[vs_off + i] = 0
     for i in range(np.uint64((k_hi + 1) * nr), np.uint64(ndisp * nr)):
-        ring[ring_off + i] = 0
+        vs[vs_off + i] = 0
     n = np.uint64((k_hi - k_lo + 1) * nr)
-    o_ring = ring_off + np.uint64(k_lo * nr)
+    o_vs = vs_off + np.uint64(k_lo * nr)
     o_left = (width_p + c + radius) * nr  # window row 1; row t is (t - 1) * width_p * nr on
     o_right = np.uint64((width_p + width_p - 1 - (c - dmin - k_lo + radius)) * nr)
     step = np.uint64(width_p * nr)
     _spread(left_t, o_left - width_p * nr, spread, np.uint64(0), n)
     if win == 1:
         for i in range(n):
-            ring[o_ring + i] = abs(spread[i] - right_t[o_right - step + i])
+            vs[o_vs + i] = abs(spread[i] - right_t[o_right - step + i])
         return
     _spread(left_t, o_left, spread, n, n)
     for i in range(n):
-        ring[o_ring + i] = abs(spread[i] - right_t[o_right - step + i]) + abs(
+        vs[o_vs + i] = abs(spread[i] - right_t[o_right - step + i]) + abs(
             spread[n + i] - right_t[o_right + i]
         )
     for t in range(2, win, 2):
@@ -157,11 +139,11 @@ def _vertical_sums(left_t, right_t, c, width, width_p, dmin, ndisp, radius, spre
         _spread(left_t, o_l, spread, np.uint64(0), n)
         if t + 1 == win:
             for i in range(n):
-                ring[o_ring + i] += abs(spread[i] - right_t[o_r + i])
+                vs[o_vs + i] += abs(spread[i] - right_t[o_r + i])
         else:
             _spread(left_t, o_l + width_p * nr, spread, n, n)
             for i in range(n):
-                ring[o_ring + i] += abs(spread[i] - right_t[o_r + i]) + abs(
+                vs[o_vs + i] += abs(spread[i] - right_t[o_r + i]) + abs(
                     spread[n + i] - right_t[o_r + step + i]
                 )
 
@@ -194,111 +176,77 @@ def _vertical_update(left_t, right_t, c, width, width_p, dmin, ndisp, radius, sp
         )
 
 
-@nb.njit(cache=True)
-def band_costs(left_t, right_t, width, dmin, ndisp, radius, spread, ring, hsum, out):
-    """Windowed SAD of eq. 4 of a band into ``out[x * nk + (k + 1) * R + r]``.
-
-    ``nk = (ndisp + 2) * R``; the values are those of ``row_costs``.
-    ``left_t``/``right_t`` come from ``band_signals``. The window sums are exact integers
-    (int64 here, float64 in ``row_costs``: the same numbers), so the order of summation is
-    free: the vertical sums of each column are computed afresh from the ``2 radius + 1``
-    rows of each band row, the horizontal sums run along ``x`` (``ring``, int64,
-    ``(2 radius + 1) * ndisp * R``, holds the vertical sums of the columns in the window;
-    ``hsum``, int64, ``ndisp * R``, their sum). Then, as in ``row_costs``: inf where the
-    right pixel is outside the image, the truncated windows near the ends of each
-    disparity's range rescaled to the full window (``* W / columns used``, the same
-    float64 operations), and inf in the padding cells ``k = -1`` and ``k = ndisp``.
-    """
-    _costs(
-        left_t, right_t, width, dmin, ndisp, radius, spread, ring, 2 * radius + 1, False, hsum, out
-    )
+@nb.njit(cache=True, inline="always")
+def _column_sums(left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, vs, incremental):
+    """Vertical window sums of column ``c`` (afresh, or moved down a row); their offset."""
+    offset = np.uint64(c * ndisp * BAND_ROWS)
+    if incremental:
+        _vertical_update(
+            left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, vs, offset
+        )
+    else:
+        _vertical_sums(left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, vs, offset)
+    return offset
 
 
 @nb.njit(cache=True)
 def band_lane_costs(
     left_t, right_t, width, dmin, ndisp, radius, spread, vs, incremental, hsum, out
 ):
-    """Compute ``band_costs``'s values, keeping the vertical sums of every column.
+    """Windowed SAD of eq. 4 of a band into ``out[x * nk + (k + 1) * R + r]``.
 
-    ``vs`` (``width * ndisp * R``) holds column ``c``'s sums at ``c * ndisp * R``. The
-    driver keeps ``vs``, ``left_t``, ``right_t`` and ``spread`` in int32 (half the memory
-    traffic; the signals are int32, and ``row_costs`` keeps its vertical sums in int32 too).
+    ``nk = (ndisp + 2) * R``; the values are those of ``row_costs``, bit for bit. ``vs``
+    (``width * ndisp * R``) keeps the vertical sums of column ``c`` at ``c * ndisp * R``;
+    ``hsum`` (int64, ``ndisp * R``) is their running horizontal sum. The driver keeps
+    ``vs``, ``left_t``, ``right_t`` and ``spread`` in int32 (half the memory traffic; the
+    signals are int32, and ``row_costs`` keeps its vertical sums in int32 too).
 
     ``incremental`` False: ``left_t``/``right_t`` hold the ``2 radius + 1`` window rows of
     each lane (``band_lane_signals``) and the sums are computed afresh; True: ``vs`` holds
     the sums of the rows just above each lane's row, and ``left_t``/``right_t`` the
-    leaving and entering rows (see ``_vertical_update``). The values are those of
-    ``band_costs`` (exact integers, then the same float64 operations).
+    leaving and entering rows (see ``_vertical_update``). The window sums are exact
+    integers, so the order of summation is free. Then, as in ``row_costs``: inf where the
+    right pixel is outside the image, the truncated windows near the ends of each
+    disparity's range rescaled to the full window (``* W / columns used``, the same
+    float64 operations), and inf in the padding cells ``k = -1`` and ``k = ndisp``.
     """
-    _costs(left_t, right_t, width, dmin, ndisp, radius, spread, vs, width, incremental, hsum, out)
-
-
-@nb.njit(cache=True)
-def _costs(
-    left_t, right_t, width, dmin, ndisp, radius, spread, ring, nslots, incremental, hsum, out
-):
-    """Compute ``band_costs``, column ``c``'s vertical sums in slot ``c % nslots`` of ``ring``."""
     nr = BAND_ROWS
     win = 2 * radius + 1
     width_p = width + 2 * radius
-    nkc = ndisp * nr
+    nkc = np.uint64(ndisp * nr)
     nk = (ndisp + 2) * nr
-    unkc = np.uint64(nkc)
     inf = np.inf
-    for i in range(unkc):
+    for i in range(nkc):
         hsum[i] = 0
     for c in range(min(radius, width - 1) + 1):
-        o_ring = np.uint64((c % nslots) * nkc)
-        if incremental:
-            _vertical_update(
-                left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, ring, o_ring
-            )
-        else:
-            _vertical_sums(
-                left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, ring, o_ring
-            )
-        for i in range(unkc):
-            hsum[i] += ring[o_ring + i]
-    for i in range(unkc):
+        o_c = _column_sums(
+            left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, vs, incremental
+        )
+        for i in range(nkc):
+            hsum[i] += vs[o_c + i]
+    for i in range(nkc):
         out[np.uint64(nr) + i] = hsum[i]
     for x in range(1, width):
         add = x + radius
         sub = x - radius - 1
-        if sub >= 0 and add < width and nslots == width:  # kept sums: one pass
-            o_sub = np.uint64(sub * nkc)
-            o_ring = np.uint64(add * nkc)
-            if incremental:
-                _vertical_update(
-                    left_t, right_t, add, width, width_p, dmin, ndisp, radius, spread, ring, o_ring
-                )
-            else:
-                _vertical_sums(
-                    left_t, right_t, add, width, width_p, dmin, ndisp, radius, spread, ring, o_ring
-                )
-            o_out = np.uint64(x * nk + nr)
-            for i in range(unkc):
-                h = hsum[i] + (np.int64(ring[o_ring + i]) - np.int64(ring[o_sub + i]))
-                hsum[i] = h
-                out[o_out + i] = h
-            continue
-        if sub >= 0:
-            o_sub = np.uint64((sub % nslots) * nkc)
-            for i in range(unkc):
-                hsum[i] -= ring[o_sub + i]
-        if add < width:
-            o_ring = np.uint64((add % nslots) * nkc)  # with a ring, column ``sub``'s slot
-            if incremental:
-                _vertical_update(
-                    left_t, right_t, add, width, width_p, dmin, ndisp, radius, spread, ring, o_ring
-                )
-            else:
-                _vertical_sums(
-                    left_t, right_t, add, width, width_p, dmin, ndisp, radius, spread, ring, o_ring
-                )
-            for i in range(unkc):
-                hsum[i] += ring[o_ring + i]
         o_out = np.uint64(x * nk + nr)
-        for i in range(unkc):
+        o_sub = np.uint64(max(sub, 0) * nkc)
+        if add < width:
+            o_add = _column_sums(
+                left_t, right_t, add, width, width_p, dmin, ndisp, radius, spread, vs, incremental
+            )
+            if sub >= 0:  # the bulk of the row: one pass
+                for i in range(nkc):
+                    h = hsum[i] + (np.int64(vs[o_add + i]) - np.int64(vs[o_sub + i]))
+                    hsum[i] = h
+                    out[o_out + i] = h
+                continue
+            for i in range(nkc):
+                hsum[i] += vs[o_add + i]
+        elif sub >= 0:
+            for i in range(nkc):
+                hsum[i] -= vs[o_sub + i]
+        for i in range(nkc):
             out[o_out + i] = hsum[i]
     for x in range(width):
         for r in range(nr):
@@ -424,7 +372,7 @@ def band_forward(
 ):
     """Forward pass of the whole-scanline DP (eq. 5) of the ``BAND_ROWS`` rows of a band.
 
-    ``cost`` comes from ``band_costs``; ``table`` (float64, at least
+    ``cost`` comes from ``band_lane_costs``; ``table`` (float64, at least
     ``(width + 2) * nk``) gets node ``(x, dmin + k)`` of band row ``r`` at
     ``(x + 2) * nk + (k + 1) * R + r``; columns -2 and -1 (the virtual start) come first,
     as in ``scanline_dp`` with ``x_lo = j_lo = 0``, ``x_hi = j_hi = width - 1``.

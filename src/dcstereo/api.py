@@ -87,6 +87,11 @@ def _padded_signals(left, right, radius):
     )
 
 
+def _doubled(cost: float, scale: float) -> float:
+    """Return a per-pixel cost (gray levels) in the kernels' doubled integer units."""
+    return float(np.rint(2.0 * cost * scale))
+
+
 def cost_scale(window: int) -> float:
     """Return the internal cost units per gray level of mean absolute difference."""
     return float(SIGNAL_STEPS * window * window)
@@ -149,8 +154,8 @@ def _match_dsi(left, right, params: MatchParams) -> DisparityResult:
     left_p, right_p = _padded_signals(left, right, radius)
     disparity, flags, total, nchunks = _outputs(left.shape)
     scale = cost_scale(params.window)
-    occ2 = float(np.rint(2.0 * params.occlusion_cost * scale))
-    slant2 = float(np.rint(2.0 * params.effective_slant_cost * scale))
+    occ2 = _doubled(params.occlusion_cost, scale)
+    slant2 = _doubled(params.effective_slant_cost, scale)
     five = params.method == "dsi5"
     if params.cost == "bt":
         _kernels.match_dsi_rows(
@@ -197,7 +202,7 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
     ser = np.empty(disparity.shape, dtype=np.float32)
     vs = np.empty(disparity.shape, dtype=np.float32)
     scale = cost_scale(params.window)
-    occ2 = float(np.rint(2.0 * params.occlusion_cost * scale))
+    occ2 = _doubled(params.occlusion_cost, scale)
     _kernels.match_dc_rows(
         left_p,
         right_p,
@@ -206,7 +211,7 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
         radius,
         params.cost == "bt",
         occ2,
-        float(np.rint(2.0 * params.effective_slant_cost * scale)),
+        _doubled(params.effective_slant_cost, scale),
         float(params.ser_min),
         float(params.vs_max),
         params.vs_relative,
@@ -247,7 +252,7 @@ def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
     disparity, flags, total, nchunks = _outputs(left.shape)
     partner = np.empty(disparity.shape, dtype=np.int64)
     scale = cost_scale(params.window)
-    occ2 = float(np.rint(2.0 * params.occlusion_cost * scale))
+    occ2 = _doubled(params.occlusion_cost, scale)
     _kernels.match_gcp_rows(
         left_p,
         right_p,
