@@ -7,13 +7,16 @@ import os
 import subprocess
 import sys
 import textwrap
+from unittest import mock
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from dcstereo import _band_kernels, _kernels
+import dcstereo
+from dcstereo import _band_kernels, _kernels, api
+from dcstereo.api import _NO_TESTS
 from dcstereo.datasets import load_middlebury
 from dcstereo.signal import matching_signal
 
@@ -47,7 +50,8 @@ def banded(left, right, dmin, ndisp, radius, occ2, five, slant2, partner=None, n
         partner = np.empty((0, 0), dtype=np.int64)
     _band_kernels.match_band_rows(
         padded(left, radius), padded(right, radius), dmin, ndisp, radius, occ2, five, slant2,
-        anchored, partner, nchunks, disp, flags, total,
+        int(anchored), partner, np.empty((0, 0)), np.empty((0, 0)), _NO_TESTS, nchunks, disp,
+        flags, total, np.empty((0, 0), dtype=np.float32), np.empty((0, 0), dtype=np.float32),
     )  # fmt: skip
     return disp, flags, total
 
@@ -355,6 +359,10 @@ def test_band_kernels_run_as_plain_python():
                           t.banded(left, right, -1, 4, 1, 900.0, five, 300.0))
             t.assert_same(t.segmented(left, right, -1, 4, 1, 900.0, five, 300.0, partner),
                           t.banded(left, right, -1, 4, 1, 900.0, five, 300.0, partner))
+        texture = rng.integers(0, 256, (9, 24)).astype(np.uint8)
+        left, right = texture[:, :-2], texture[:, 2:]
+        t.assert_same_dc(t.dc_by_rows(left, right, max_disparity=4, window=3),
+                         t.dcstereo.match(left, right, max_disparity=4, window=3))
         print("ok")
         """
     )
@@ -378,3 +386,112 @@ def test_band_equals_per_row_on_middlebury(middlebury_root, scene):
     for five in (False, True):
         expected = per_row(left, right, 0, ndisp, 2, 8000.0, five, 4000.0)
         assert_same(expected, banded(left, right, 0, ndisp, 2, 8000.0, five, 4000.0))
+
+
+# --------------------------------------------------------------------------- dc on bands
+
+
+def naive_block_match(column):
+    """Per row of ``column`` (shape (ndisp, R)): first least index (-1: all inf) and the
+    uniqueness ratio (second least over ``|k - best| > 1`` over the least; 0 without a
+    match, inf over a zero least cost, 1 when both are zero)."""
+    ks, ratios = [], []
+    for values in column.T:
+        if not np.isfinite(values).any():
+            ks.append(-1)
+            ratios.append(0.0)
+            continue
+        best_k = int(np.argmin(values))  # the first of the least
+        far = [v for k, v in enumerate(values) if abs(k - best_k) > 1]
+        second = min(far, default=np.inf)
+        best = values[best_k]
+        ratios.append(second / best if best > 0 else (np.inf if second > 0 else 1.0))
+        ks.append(best_k)
+    return ks, ratios
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_band_block_match_equals_the_naive_one(seed):
+    rng = np.random.default_rng(300 + seed)
+    nr = _band_kernels.BAND_ROWS
+    for _ in range(20):
+        ndisp = int(rng.integers(1, 40))
+        width = int(rng.integers(1, 12))
+        # few distinct values: ties everywhere, zeros, inf cells, whole inf columns
+        cells = rng.integers(0, 4, (width, ndisp, nr)).astype(np.float64)
+        cells[rng.random(cells.shape) < 0.2] = np.inf
+        cells[:, :, 0] = np.inf if rng.random() < 0.3 else cells[:, :, 0]
+        cost = np.full((width, ndisp + 2, nr), np.inf)
+        cost[:, 1:-1] = cells
+        wta_k = np.empty(width * nr, dtype=np.int64)
+        wta_ratio = np.empty(width * nr)
+        scratch = np.empty((2, (ndisp + 2) * nr))
+        _band_kernels.band_block_match(
+            cost.ravel(), width, ndisp, scratch[0], scratch[1], wta_k, wta_ratio
+        )
+        for x in range(width):
+            ks, ratios = naive_block_match(cells[x])
+            assert list(wta_k[x * nr : (x + 1) * nr]) == ks
+            np.testing.assert_array_equal(wta_ratio[x * nr : (x + 1) * nr], ratios)
+
+
+def dc_by_rows(left, right, **options):
+    """``dc`` through the row-by-row kernel (``_kernels.match_dc_rows``): the reference."""
+    with mock.patch.object(api, "_dc_on_bands", lambda params: False):
+        return dcstereo.match(left, right, **options)
+
+
+def assert_same_dc(expected, got):
+    assert got.disparity.tobytes() == expected.disparity.tobytes()
+    np.testing.assert_array_equal(got.flags, expected.flags)
+    np.testing.assert_array_equal(got.features, expected.features)
+
+
+DC_OPTIONS = [
+    {},
+    {"lr_check": False},
+    {"edge_guard": 0},
+    {"vs_relative": False, "vs_max": 80.0, "ser_min": 2.0},
+    {"feature_floor": 0.0, "uniqueness": 1.2, "edge_guard": 1},
+]
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_dc_on_bands_equals_the_row_kernel(seed):
+    # the band path (features on the band's costs, then the pinned band DP) gives the
+    # pairs, disparities and flags of the row-by-row path, which fills each interval
+    rng = np.random.default_rng(700 + seed)
+    accepted = 0
+    for options in DC_OPTIONS:
+        height = int(rng.integers(5, 30))
+        width = int(rng.integers(14, 60))
+        shift = int(rng.integers(0, 6))
+        texture = rng.integers(0, 256, (height, width + 16)).astype(np.uint8)
+        left = texture[:, 8 : 8 + width]
+        noise = rng.integers(-6, 7, (height, width))
+        right = texture[:, 8 + shift : 8 + shift + width].astype(int) + noise
+        right = np.clip(right, 0, 255).astype(np.uint8)
+        kw = dict(
+            max_disparity=int(rng.integers(shift, shift + 8)),
+            min_disparity=int(rng.integers(-3, 1)),
+            window=int(rng.choice([1, 3, 5])),
+            **options,
+        )
+        expected = dc_by_rows(left, right, **kw)
+        got = dcstereo.match(left, right, **kw)
+        assert_same_dc(expected, got)
+        accepted += len(got.features)
+    assert accepted > 0
+
+
+@pytest.mark.dataset
+@pytest.mark.slow
+@pytest.mark.parametrize("scene", ["tsukuba", "venus", "teddy", "cones"])
+def test_dc_on_bands_equals_the_row_kernel_on_middlebury(middlebury_root, scene):
+    data = load_middlebury(scene, root=middlebury_root.parent)
+    for options in (DC_OPTIONS[0], DC_OPTIONS[3], {"window": 7, "min_disparity": 2}):
+        kw = dict(max_disparity=data.max_disparity, **options)
+        expected = dc_by_rows(data.left, data.right, **kw)
+        got = dcstereo.match(data.left, data.right, **kw)
+        assert len(got.features) > 1000
+        assert_same_dc(expected, got)

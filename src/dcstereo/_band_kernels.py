@@ -288,29 +288,14 @@ def band_lane_costs(
 
 
 @nb.njit(cache=True, inline="always")
-def _cells5(tab, o_row, o_prev, prev2, o_prev2, cost, o_here, o_left, k_lo, k_hi, occ2, slant2):
-    """Five-step cells ``k_lo..k_hi`` of one column, steps from earlier columns only.
-
-    c, d, e, a: ``_earlier_steps5``, the same expressions in the same order.
-    """
-    nr = np.uint64(BAND_ROWS)
-    for p in range(np.uint64((k_lo + 1) * BAND_ROWS), np.uint64((k_hi + 2) * BAND_ROWS)):
-        h2 = 2.0 * cost[o_here + p]
-        c = tab[o_prev + p] + h2
-        d = tab[o_prev + p + nr] + h2 + cost[o_here + p + nr] + cost[o_left + p] + slant2
-        e = prev2[o_prev2 + p - nr] + h2 + cost[o_left + p - nr] + cost[o_left + p] + slant2
-        a = tab[o_prev + p - nr] + occ2
-        tab[o_row + p] = min(min(c, d), min(e, a))
-
-
-@nb.njit(cache=True, inline="always")
 def _cells5_chain(
     tab, o_row, o_prev, prev2, o_prev2, cost, o_here, o_left, k_lo, k_hi, occ2, slant2
 ):
-    """``_cells5`` and the b steps down the column in one descending loop.
+    """Five-step cells ``k_lo..k_hi`` of one column, in one descending loop.
 
-    Each cell is then ``min`` of its value and the cell above plus ``occ2`` (the value of
-    ``scanline_dp``'s branch).
+    The steps from earlier columns (c, d, e, a: ``_earlier_steps5``, the same expressions
+    in the same order), then the b step from the cell above: ``min`` with its value plus
+    ``occ2`` (the value of ``scanline_dp``'s branch).
     """
     nr = np.uint64(BAND_ROWS)
     top = np.uint64((k_hi + 2) * BAND_ROWS - 1)
@@ -326,32 +311,14 @@ def _cells5_chain(
 
 
 @nb.njit(cache=True, inline="always")
-def _cells3(tab, o_row, o_prev, cost, o_here, k_lo, k_hi, occ2):
-    """Three-step cells of one column, steps c and a only (``_earlier_steps3``)."""
-    nr = np.uint64(BAND_ROWS)
-    for p in range(np.uint64((k_lo + 1) * BAND_ROWS), np.uint64((k_hi + 2) * BAND_ROWS)):
-        tab[o_row + p] = min(tab[o_prev + p] + 2.0 * cost[o_here + p], tab[o_prev + p - nr] + occ2)
-
-
-@nb.njit(cache=True, inline="always")
 def _cells3_chain(tab, o_row, o_prev, cost, o_here, k_lo, k_hi, occ2):
-    """``_cells3`` and the b steps in one descending loop (see ``_cells5_chain``)."""
+    """Three-step cells: steps c and a (``_earlier_steps3``), then b (see ``_cells5_chain``)."""
     nr = np.uint64(BAND_ROWS)
     top = np.uint64((k_hi + 2) * BAND_ROWS - 1)
     for i in range(np.uint64((k_hi - k_lo + 1) * BAND_ROWS)):
         p = top - i
         cell = min(tab[o_prev + p] + 2.0 * cost[o_here + p], tab[o_prev + p - nr] + occ2)
         tab[o_row + p] = min(cell, tab[o_row + p + nr] + occ2)
-
-
-@nb.njit(cache=True, inline="always")
-def _b_chain(tab, o_row, k_lo, k_hi, occ2):
-    """Take the b steps down one column (k descending: (x, d+1) -> (x, d))."""
-    nr = np.uint64(BAND_ROWS)
-    top = np.uint64((k_hi + 2) * BAND_ROWS - 1)
-    for i in range(np.uint64((k_hi - k_lo + 1) * BAND_ROWS)):
-        p = top - i
-        tab[o_row + p] = min(tab[o_row + p], tab[o_row + p + nr] + occ2)
 
 
 @nb.njit(cache=True)
@@ -388,6 +355,11 @@ def band_forward(
     unk = np.uint64(nk)
     inf = np.inf
     free = np.ones(nr, dtype=np.bool_)  # the virtual start: before a row's first anchor
+    # b_run[m]: the cell m b steps below an anchor (0 + occ2 + ... + occ2, in that order)
+    b_run = np.empty(ndisp + 1)
+    b_run[0] = 0.0
+    for m in range(1, ndisp + 1):
+        b_run[m] = b_run[m - 1] + occ2
     for i in range(np.uint64(2 * nk)):
         table[i] = inf
     for k in range(min(ndisp, -dmin + 1)):  # j = -1 - dmin - k >= -1
@@ -432,48 +404,22 @@ def band_forward(
             continue
         slant_ok = five and x >= 1
         o_left = o_here - unk if x >= 1 else o_here
-        if not pin_here:
-            if slant_ok:
-                _cells5_chain(
-                    table,
-                    o_row,
-                    o_prev,
-                    prev2,
-                    o_prev2,
-                    cost,
-                    o_here,
-                    o_left,
-                    k_lo,
-                    k_hi,
-                    occ2,
-                    slant2,
-                )
-            else:
-                _cells3_chain(table, o_row, o_prev, cost, o_here, k_lo, k_hi, occ2)
-            continue
         if slant_ok:
-            _cells5(
-                table,
-                o_row,
-                o_prev,
-                prev2,
-                o_prev2,
-                cost,
-                o_here,
-                o_left,
-                k_lo,
-                k_hi,
-                occ2,
-                slant2,
+            _cells5_chain(
+                table, o_row, o_prev, prev2, o_prev2, cost, o_here, o_left, k_lo, k_hi, occ2, slant2
             )
         else:
-            _cells3(table, o_row, o_prev, cost, o_here, k_lo, k_hi, occ2)
+            _cells3_chain(table, o_row, o_prev, cost, o_here, k_lo, k_hi, occ2)
+        if not pin_here:
+            continue
         for r in range(nr):
             j = pins[x * nr + r]
             if j < 0:
                 continue
-            # the anchor ends a segment: its value by a match step (no a, no b) ...
-            p = int((x - j - dmin + 1) * nr + r)  # an int: np.uint64 + np.int64 is float
+            # the anchor ends a segment: its value by a match step (no a, no b), from the
+            # columns before ...
+            k_a = x - j - dmin
+            p = int((k_a + 1) * nr + r)  # an int: np.uint64 + np.int64 is float
             h2 = 2.0 * cost[o_here + p]
             best = table[o_prev + p] + h2
             if slant_ok:
@@ -490,12 +436,12 @@ def band_forward(
                     + slant2,
                 )
             anchor_total[x * nr + r] = best
-            # ... and starts the next one: the column holds only the anchor (0) and,
-            # after the b-chain, the cells below it
-            for k in range(k_lo, k_hi + 1):
+            # ... and starts the next one: the column holds only the anchor (0) and the
+            # b steps below it (the values of clearing it and running the b-chain)
+            for k in range(k_lo, k_a + 1):
+                table[o_row + (k + 1) * nr + r] = b_run[k_a - k]
+            for k in range(k_a + 1, k_hi + 1):
                 table[o_row + (k + 1) * nr + r] = inf
-            table[o_row + p] = 0.0
-        _b_chain(table, o_row, k_lo, k_hi, occ2)
 
 
 @nb.njit(cache=True, inline="always")
@@ -723,6 +669,295 @@ def band_backtrack_row(
     return total
 
 
+# --------------------------------------------------------------------------- dc features
+#
+# The feature search of ``dc`` (``_kernels.divide_row`` with its up-front tests: the
+# uniqueness test on, no limit on the tries) on the costs of a band, so that ``dc`` runs on
+# the band DP with its pairs as pins. Its results are those of ``divide_row``, bit for bit.
+
+
+@nb.njit(cache=True)
+def band_block_match(cost, width, ndisp, pre, suf, wta_k, wta_ratio):
+    """Whole-band block match of every left pixel of the ``R`` rows of a band.
+
+    ``wta_k[x * R + r]`` is the least-cost index ``k`` of column ``x`` of band row ``r``
+    (ties: the smallest; -1 when the whole band is inf) and ``wta_ratio[x * R + r]`` its
+    uniqueness ratio (0 where the band is empty): the values of ``_kernels.block_match``,
+    bit for bit (only comparisons and the same one division).
+
+    Per column, one flat pass over the cells (a vector loop, the lanes independent): the
+    prefix minima ``pre`` and the suffix minima ``suf`` along ``k`` (float64 scratch,
+    ``(ndisp + 2) * R``; the inf padding cells are the empty prefix and suffix). The least
+    cost is the last prefix minimum; its first index the first cell where the prefix
+    minimum reaches it (a binary search: the prefix minima do not increase); the second
+    cost, over ``|k - best| > 1``, the least of the prefix minimum two cells below the
+    match and the suffix minimum two cells above.
+    """
+    nr = BAND_ROWS
+    unr = np.uint64(nr)
+    nblocks = ndisp + 2  # cells k = -1 .. ndisp, the two padding ones included
+    unk = np.uint64(nblocks * nr)
+    top = unk - unr
+    inf = np.inf
+    for x in range(width):
+        o = np.uint64(x) * unk
+        for i in range(unr):
+            pre[i] = cost[o + i]
+            suf[top + i] = cost[o + top + i]
+        # one loop, two independent chains: the prefix minima up from the bottom, the
+        # suffix minima down from the top
+        for i in range(top):
+            p = unr + i
+            q = top - np.uint64(1) - i
+            pre[p] = min(pre[p - unr], cost[o + p])
+            suf[q] = min(suf[q + unr], cost[o + q])
+        for r in range(nr):
+            i = x * nr + r
+            best = pre[(nblocks - 1) * nr + r]
+            if not best < inf:
+                wta_k[i] = -1
+                wta_ratio[i] = 0.0
+                continue
+            # the first block b (= k + 1) with pre[b] == best, in 1..ndisp (pre[ndisp] is
+            # the least: the last block is inf): a binary search without branches (the
+            # prefix minima do not increase), the answer in b .. b + n - 1
+            b = 1
+            n = ndisp
+            while n > 1:
+                half = n // 2
+                b += half * (pre[(b + half - 1) * nr + r] > best)
+                n -= half
+            wta_k[i] = b - 1
+            second = min(pre[max(b - 2, 0) * nr + r], suf[min(b + 2, nblocks - 1) * nr + r])
+            if best > 0:
+                wta_ratio[i] = second / best
+            else:
+                wta_ratio[i] = inf if second > 0 else 1.0
+
+
+@nb.njit(cache=True, inline="always")
+def _better(values, a, b):
+    """Return the better of candidates ``a`` and ``b`` (larger value; ties: smaller index)."""
+    if values[b] > values[a] or (values[b] == values[a] and b < a):
+        return b
+    return a
+
+
+@nb.njit(cache=True)
+def _sparse_build(values, n, sparse):
+    """Sparse table of range maxima: ``sparse[l, i]`` the best of ``i .. i + 2**l - 1``."""
+    for i in range(n):
+        sparse[0, i] = i
+    level = 1
+    while (1 << level) <= n:
+        half = 1 << (level - 1)
+        for i in range(n - (1 << level) + 1):
+            sparse[level, i] = _better(values, sparse[level - 1, i], sparse[level - 1, i + half])
+        level += 1
+
+
+@nb.njit(cache=True, inline="always")
+def _sparse_best(values, sparse, lo, hi):
+    """Return the best candidate of ``lo..hi`` (``lo <= hi``) from two table entries."""
+    level = 0
+    while (2 << level) <= hi - lo + 1:
+        level += 1
+    return _better(values, sparse[level, lo], sparse[level, hi - (1 << level) + 1])
+
+
+@nb.njit(cache=True)
+def _window_ssd(left_p, right_p, y, x, j, radius):
+    """Window sum of squared signal differences of the pair ``x <-> j`` of padded row ``y``.
+
+    Both windows inside the image (every feature candidate): exact integers, the value of
+    ``_kernels.window_ssd``.
+    """
+    win = 2 * radius + 1
+    si = 0
+    for t in range(win):
+        for c in range(win):
+            di = np.int64(left_p[y + t, x + c]) - np.int64(right_p[y + t, j + c])
+            si += di * di
+    return float(si)
+
+
+@nb.njit(cache=True, inline="always")
+def _variance_similarity(var_left, var_right, vs_relative):
+    """VS (eq. 3), as ``_kernels.variance_similarity``."""
+    vs = abs(var_left - var_right)
+    if vs_relative:
+        total = var_left + var_right
+        vs = vs / total if total > 0 else 0.0
+    return vs
+
+
+@nb.njit(cache=True)
+def band_row_features(
+    cost,
+    width,
+    ndisp,
+    r,
+    dmin,
+    radius,
+    left_p,
+    right_p,
+    y,
+    var_l,
+    var_r,
+    wta_k,
+    wta_ratio,
+    tests,
+    iwork,
+    fwork,
+    stack,
+    pins,
+    partner_row,
+    ser_row,
+    vs_row,
+):
+    """Find the reliable feature pairs of band row ``r`` (image row ``y``), as ``divide_row``.
+
+    ``cost``, ``wta_k`` and ``wta_ratio`` are the band's (``band_lane_costs``,
+    ``band_block_match``); ``var_l``/``var_r`` the window variances of row ``y`` in both
+    views. ``tests`` is ``(ser_min, vs_max, vs_relative, var_floor, lr_check, uniqueness,
+    edge_guard, signal_steps)`` (``uniqueness > 0``; no limit on the tries). The up-front
+    tests of ``divide_row`` (variance floor, uniqueness, range, VS, guard, SER) pick the
+    candidates; the search takes the strongest candidate of each interval that lies in its
+    ordering range and passes the left-right test, and splits the interval at it. Pair
+    ``x <-> j`` is written to ``pins[x * R + r]`` (which must hold -1), ``partner_row[x]``,
+    ``ser_row[x]`` and ``vs_row[x]``. No fill: the pinned band DP does it. Scratch:
+    ``iwork`` (int64, (6 + levels, width), ``2**(levels - 1) >= width``), ``fwork``
+    (float64, (4, width)), ``stack`` (int64, (width + 2, 6)).
+    """
+    ser_min, vs_max, vs_relative, var_floor, lr_check, uniqueness, edge_guard, steps = tests
+    nr = BAND_ROWS
+    nk = (ndisp + 2) * nr
+    cand_x = iwork[0]
+    held = iwork[1]
+    cand_k = iwork[2]
+    lr_j = iwork[3]
+    lr_below = iwork[4]
+    lr_above = iwork[5]
+    cand_ser = fwork[0]
+    cand_vs = fwork[1]
+    cand_var = fwork[2]
+    cand_live = fwork[3]
+    sparse = iwork[6:]
+    n = 0
+    for p in range(radius, width - radius):
+        if not var_l[p] >= var_floor:
+            continue
+        best_k = wta_k[p * nr + r]
+        if best_k < 0 or wta_ratio[p * nr + r] < uniqueness:
+            continue
+        j = p - dmin - best_k
+        if j < radius or j > width - 1 - radius:
+            continue
+        if not _variance_similarity(var_l[p], var_r[j], vs_relative) <= vs_max:
+            continue
+        if edge_guard > 0:
+            guarded = True
+            for x2 in (p - edge_guard, p + edge_guard):
+                x2 = min(max(x2, 0), width - 1)
+                k2 = wta_k[x2 * nr + r]
+                if k2 < 0 or abs(k2 - best_k) > 1 or wta_ratio[x2 * nr + r] < uniqueness:
+                    guarded = False
+            if not guarded:
+                continue
+        ssd = _window_ssd(left_p, right_p, y, p, j, radius) / float(steps * steps)
+        total = var_l[p] + var_r[j]
+        ser = total / ssd if ssd > 0 else np.inf
+        vs = _variance_similarity(var_l[p], var_r[j], vs_relative)
+        if not (ser >= ser_min and vs <= vs_max):
+            continue
+        cand_x[n] = p
+        cand_k[n] = best_k
+        cand_ser[n] = ser
+        cand_vs[n] = vs
+        cand_var[n] = var_l[p]
+        cand_live[n] = var_l[p]
+        lr_j[n] = -1
+        n += 1
+    _sparse_build(cand_var, n, sparse)
+    top = 1
+    stack[0, 0] = -1
+    stack[0, 1] = width
+    stack[0, 2] = -1
+    stack[0, 3] = width
+    stack[0, 4] = 0
+    stack[0, 5] = n - 1
+    while top > 0:
+        top -= 1
+        a = stack[top, 0]
+        c = stack[top, 1]
+        b = stack[top, 2]
+        e = stack[top, 3]
+        i_lo = stack[top, 4]
+        i_hi = stack[top, 5]
+        if not (c - a > 1 and e - b > 1 and i_lo <= i_hi):
+            continue
+        nheld = 0
+        while True:
+            i = _sparse_best(cand_var, sparse, i_lo, i_hi)
+            if not cand_live[i] > -np.inf:
+                i = -1
+                strongest = -np.inf
+                for q in range(i_lo, i_hi + 1):
+                    if cand_live[q] > strongest:
+                        strongest = cand_live[q]
+                        i = q
+            if i < 0:
+                break
+            p = cand_x[i]
+            cand_live[i] = -np.inf
+            k_lo = max(0, p - min(e - 1, width - 1 - radius) - dmin)
+            k_hi = min(ndisp - 1, p - max(b + 1, radius) - dmin)
+            best_k = cand_k[i]
+            if not k_lo <= best_k <= k_hi:
+                continue  # the sub-problems' ranges nest: retired
+            best = cost[p * nk + (best_k + 1) * nr + r]
+            j = p - dmin - best_k
+            if lr_check:
+                if lr_j[i] != j:
+                    lr_j[i] = j
+                    lr_below[i] = -1
+                    lr_above[i] = width
+                    for k in range(ndisp):
+                        x = j + dmin + k
+                        if x < 0 or x >= width or x == p:
+                            continue
+                        if not cost[x * nk + (k + 1) * nr + r] <= best:
+                            continue
+                        if x < p:
+                            lr_below[i] = max(lr_below[i], x)
+                        else:
+                            lr_above[i] = min(lr_above[i], x)
+                if lr_below[i] > a or lr_above[i] < c:
+                    held[nheld] = i  # a narrower interval may let it pass
+                    nheld += 1
+                    continue
+            pins[p * nr + r] = j
+            partner_row[p] = j
+            ser_row[p] = cand_ser[i]
+            vs_row[p] = cand_vs[i]
+            stack[top, 0] = a
+            stack[top, 1] = p
+            stack[top, 2] = b
+            stack[top, 3] = j
+            stack[top, 4] = i_lo
+            stack[top, 5] = i - 1
+            stack[top + 1, 0] = p
+            stack[top + 1, 1] = c
+            stack[top + 1, 2] = j
+            stack[top + 1, 3] = e
+            stack[top + 1, 4] = i + 1
+            stack[top + 1, 5] = i_hi
+            top += 2
+            break
+        for h in range(nheld):
+            cand_live[held[h]] = cand_var[held[h]]
+
+
 # --------------------------------------------------------------------------- drivers
 
 
@@ -742,12 +977,17 @@ def match_band_rows(
     occ2,
     five,
     slant2,
-    anchored,
+    pin_mode,
     partner,
+    var_l,
+    var_r,
+    tests,
     nchunks,
     disp,
     flags,
     total,
+    ser_out,
+    vs_out,
 ):
     """Run the whole-scanline DP of every row (SAD cost), ``BAND_ROWS`` rows at a time.
 
@@ -759,12 +999,15 @@ def match_band_rows(
     window sums are updated (``band_lane_costs``: two absolute differences per cell) after
     the chunk's first band (computed afresh). Lanes past the chunk's rows are idle: their
     sums stay those of their last row (or of clamped rows), no pins, results not written.
-    With ``anchored``,
-    ``partner[y, x] = j`` pins left pixel ``(y, x)`` to right pixel ``(y, j)`` (-1: no pin;
-    along a row increasing in both ``x`` and ``j``, each pair inside the disparity range),
-    and each row gets the result of ``_kernels.gcp_row``'s segment-by-segment DP through
-    its pins, with the five- or three-step model (``five``); otherwise ``partner`` is not
-    read.
+
+    ``pin_mode`` 0: no pins (``partner``, ``var_l``, ``var_r``, ``ser_out``, ``vs_out``
+    and ``tests`` are not used). 1: ``partner[y, x] = j`` pins left pixel ``(y, x)`` to right
+    pixel ``(y, j)`` (-1: no pin; along a row increasing in both ``x`` and ``j``, each pair
+    inside the disparity range), and each row gets the result of ``_kernels.gcp_row``'s
+    segment-by-segment DP through its pins, with the five- or three-step model (``five``).
+    2: ``dc``: the pins are the reliable feature pairs of ``band_row_features`` (``tests``;
+    ``var_l``/``var_r`` the window variances of the two views), written to ``partner``
+    (-1 elsewhere) with their SER and VS (``ser_out``, ``vs_out``, NaN elsewhere), and then as 1.
     """
     height, width = disp.shape
     height_p, width_p = left_p.shape
@@ -790,6 +1033,19 @@ def match_band_rows(
         pins = np.full(width * nr, -1, dtype=np.int64)
         pinned = np.zeros(width, dtype=np.bool_)
         anchor_total = np.empty(width * nr, dtype=np.float64)
+        anchored = pin_mode > 0
+        search = pin_mode == 2
+        nwork = width if search else 1
+        pre = np.empty(nk if search else 1, dtype=np.float64)
+        suf = np.empty(nk if search else 1, dtype=np.float64)
+        wta_k = np.empty(nwork * nr, dtype=np.int64)
+        wta_ratio = np.empty(nwork * nr, dtype=np.float64)
+        levels = 1
+        while (1 << (levels - 1)) < width:
+            levels += 1
+        iwork = np.empty((6 + levels, nwork), dtype=np.int64)
+        fwork = np.empty((4, nwork), dtype=np.float64)
+        stack = np.empty((nwork + 2, 6), dtype=np.int64)
         for t in range(run):
             if t == 0:  # the window rows of each lane's first row (past the image: any rows)
                 for tt in range(win):
@@ -808,7 +1064,47 @@ def match_band_rows(
             band_lane_costs(
                 left_t, right_t, width, dmin, ndisp, radius, spread, vs, t > 0, hsum, cost
             )
-            if anchored:
+            if search:
+                band_block_match(cost, width, ndisp, pre, suf, wta_k, wta_ratio)
+                for i in range(width * nr):
+                    pins[i] = -1
+                for r in range(nr):
+                    if r * run + t >= n:
+                        continue
+                    y = y_a + r * run + t
+                    for x in range(width):
+                        partner[y, x] = -1
+                        ser_out[y, x] = np.nan
+                        vs_out[y, x] = np.nan
+                    band_row_features(
+                        cost,
+                        width,
+                        ndisp,
+                        r,
+                        dmin,
+                        radius,
+                        left_p,
+                        right_p,
+                        y,
+                        var_l[y],
+                        var_r[y],
+                        wta_k,
+                        wta_ratio,
+                        tests,
+                        iwork,
+                        fwork,
+                        stack,
+                        pins,
+                        partner[y],
+                        ser_out[y],
+                        vs_out[y],
+                    )
+                for x in range(width):
+                    pinned[x] = False
+                    for r in range(nr):
+                        if pins[x * nr + r] >= 0:
+                            pinned[x] = True
+            elif anchored:
                 for x in range(width):
                     pinned[x] = False
                     for r in range(nr):

@@ -174,7 +174,6 @@ def _match_dsi(left, right, params: MatchParams) -> DisparityResult:
             total,
         )
     else:
-        bands = -(-left.shape[0] // _band_kernels.BAND_ROWS)
         _band_kernels.match_band_rows(
             left_p,
             right_p,
@@ -184,17 +183,41 @@ def _match_dsi(left, right, params: MatchParams) -> DisparityResult:
             occ2,
             five,
             slant2,
-            False,
+            0,
             np.empty((0, 0), dtype=np.int64),
-            max(1, min(bands, 4 * numba.get_num_threads())),
+            np.empty((0, 0)),
+            np.empty((0, 0)),
+            _NO_TESTS,
+            _band_chunks(left.shape[0]),
             disparity,
             flags,
             total,
+            np.empty((0, 0), dtype=np.float32),
+            np.empty((0, 0), dtype=np.float32),
         )
     return DisparityResult(disparity, flags, params, total / (2.0 * scale))
 
 
+#: ``tests`` of ``_band_kernels.match_band_rows`` when it searches no features.
+_NO_TESTS = (0.0, 0.0, False, 0.0, False, 0.0, 0, 1)
+
+
+def _band_chunks(height: int) -> int:
+    bands = -(-height // _band_kernels.BAND_ROWS)
+    return max(1, min(bands, 4 * numba.get_num_threads()))
+
+
 def _match_dc(left, right, params: MatchParams) -> DisparityResult:
+    """``dc`` / ``dc-linear``: reliable feature pairs pin the path; the DP fills between.
+
+    ``dc`` with the SAD cost, the uniqueness test on and no limit on the tries (the
+    defaults) runs on the band kernels: the feature search of each row on its band's
+    costs, then the band DP through the pairs (``_band_kernels.match_band_rows``). The
+    other settings run row by row (``_kernels.match_dc_rows``), which fills each interval
+    between pairs separately. Both give the same pairs and maps; the band path's
+    ``path_cost`` is that of the whole path through the pairs (the row-by-row one leaves
+    out intervals with no left pixel inside).
+    """
     radius = params.window // 2
     left_p, right_p = _padded_signals(left, right, radius)
     disparity, flags, total, nchunks = _outputs(left.shape)
@@ -203,6 +226,44 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
     vs = np.empty(disparity.shape, dtype=np.float32)
     scale = cost_scale(params.window)
     occ2 = _doubled(params.occlusion_cost, scale)
+    if _dc_on_bands(params):
+        var_l = np.empty(disparity.shape)
+        var_r = np.empty(disparity.shape)
+        _kernels.window_variance_image(left_p, radius, SIGNAL_STEPS, nchunks, var_l)
+        _kernels.window_variance_image(right_p, radius, SIGNAL_STEPS, nchunks, var_r)
+        tests = (
+            float(params.ser_min),
+            float(params.vs_max),
+            bool(params.vs_relative),
+            float(params.feature_floor),
+            bool(params.lr_check),
+            float(params.uniqueness),
+            int(params.effective_edge_guard),
+            int(SIGNAL_STEPS),
+        )
+        _band_kernels.match_band_rows(
+            left_p,
+            right_p,
+            params.min_disparity,
+            params.num_disparities,
+            radius,
+            occ2,
+            True,
+            _doubled(params.effective_slant_cost, scale),
+            2,
+            partner,
+            var_l,
+            var_r,
+            tests,
+            _band_chunks(left.shape[0]),
+            disparity,
+            flags,
+            total,
+            ser,
+            vs,
+        )
+        features = _features(partner, flags, ser, vs)
+        return DisparityResult(disparity, flags, params, total / (2.0 * scale), features)
     _kernels.match_dc_rows(
         left_p,
         right_p,
@@ -235,6 +296,16 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
     if params.method == "dc-linear":
         path_cost = np.full_like(path_cost, np.nan)
     return DisparityResult(disparity, flags, params, path_cost, features)
+
+
+def _dc_on_bands(params: MatchParams) -> bool:
+    """Whether ``dc`` runs on the band kernels (see ``_match_dc``)."""
+    return (
+        params.method == "dc"
+        and params.cost == "sad"
+        and params.uniqueness > 0
+        and params.max_candidates == 0
+    )
 
 
 def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
