@@ -569,6 +569,31 @@ def window_variance_image(signal_p, radius, signal_steps, nchunks, out):
 
 
 @nb.njit(cache=True)
+def collect_features(partner, ser, vs, flag, flags, out):
+    """Write the pairs ``(row, x_left, x_right, SER, VS)`` where ``partner >= 0`` to ``out``.
+
+    In row-major order; ``out`` (float64, (n, 5)) must have one row per pair (``n`` the
+    count of ``partner >= 0``). ``ser``/``vs`` of shape (0, 0): NaN. Each pair's pixel gets
+    ``flag`` in ``flags``.
+    """
+    height, width = partner.shape
+    given = ser.shape[0] > 0
+    n = 0
+    for y in range(height):
+        for x in range(width):
+            j = partner[y, x]
+            if j < 0:
+                continue
+            out[n, 0] = y
+            out[n, 1] = x
+            out[n, 2] = j
+            out[n, 3] = ser[y, x] if given else np.nan
+            out[n, 4] = vs[y, x] if given else np.nan
+            flags[y, x] |= flag
+            n += 1
+
+
+@nb.njit(cache=True)
 def pixel_variance(signal_p, y, x, radius, signal_steps):
     """Window variance of the one pixel ``(y, x)``, like ``window_variance_row``."""
     win = 2 * radius + 1

@@ -112,15 +112,10 @@ def _features(partner, flags, ser=None, vs=None):
     Sorted by row and column; SER and VS are NaN when not given. The pairs are marked
     ``FLAG_FEATURE`` in ``flags``.
     """
-    rows, cols = np.nonzero(partner >= 0)
-    features = np.full((rows.size, 5), np.nan, dtype=np.float64)
-    features[:, 0] = rows
-    features[:, 1] = cols
-    features[:, 2] = partner[rows, cols]
-    if ser is not None:
-        features[:, 3] = ser[rows, cols]
-        features[:, 4] = vs[rows, cols]
-    flags[rows, cols] |= FLAG_FEATURE
+    if ser is None:
+        ser = vs = np.empty((0, 0), dtype=np.float32)
+    features = np.empty((np.count_nonzero(partner >= 0), 5), dtype=np.float64)
+    _kernels.collect_features(partner, ser, vs, FLAG_FEATURE, flags, features)
     return features
 
 
