@@ -437,7 +437,7 @@ def test_band_block_match_equals_the_naive_one(seed):
 
 def dc_by_rows(left, right, **options):
     """``dc`` through the row-by-row kernel (``_kernels.match_dc_rows``): the reference."""
-    with mock.patch.object(api, "_dc_on_bands", lambda params: False):
+    with mock.patch.object(api, "_dc_on_bands", lambda params, width: False):
         return dcstereo.match(left, right, **options)
 
 
@@ -495,3 +495,16 @@ def test_dc_on_bands_equals_the_row_kernel_on_middlebury(middlebury_root, scene)
         got = dcstereo.match(data.left, data.right, **kw)
         assert len(got.features) > 1000
         assert_same_dc(expected, got)
+
+
+def test_dc_takes_the_bands_while_a_band_fits_the_caches():
+    # a band's costs are width x (D + 2) x 8 float64: 450 x 66 x 64 bytes (1.8 MiB) runs on
+    # bands, 4000 x 66 x 64 (16.1 MiB) and 3000 x 258 x 64 (47 MiB) row by row, as do the
+    # options the band search does not implement
+    params = dcstereo.MatchParams(max_disparity=63)
+    assert api._dc_on_bands(params, 450)
+    assert not api._dc_on_bands(params, 4000)
+    assert not api._dc_on_bands(dcstereo.MatchParams(max_disparity=255), 3000)
+    for options in ({"cost": "bt"}, {"max_candidates": 5}, {"uniqueness": 0.0},
+                    {"method": "dc-linear"}):  # fmt: skip
+        assert not api._dc_on_bands(dcstereo.MatchParams(max_disparity=63, **options), 450)

@@ -206,11 +206,12 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
     """``dc`` / ``dc-linear``: reliable feature pairs pin the path; the DP fills between.
 
     ``dc`` with the SAD cost, the uniqueness test on and no limit on the tries (the
-    defaults) runs on the band kernels: the feature search of each row on its band's
-    costs, then the band DP through the pairs (``_band_kernels.match_band_rows``). The
-    other settings run row by row (``_kernels.match_dc_rows``), which fills each interval
-    between pairs separately. Both give the same pairs and maps; the band path's
-    ``path_cost`` is that of the whole path through the pairs (the row-by-row one leaves
+    defaults), on images whose band costs fit ``DC_BAND_BYTES``, runs on the band
+    kernels: the feature search of each row on its band's costs, then the band DP through
+    the pairs (``_band_kernels.match_band_rows``). The other settings run row by row
+    (``_kernels.match_dc_rows``), which fills each interval between pairs separately.
+    Both give the same pairs and maps; the band path's ``path_cost`` is that of the whole
+    path through the pairs (the row-by-row one leaves
     out intervals with no left pixel inside).
     """
     radius = params.window // 2
@@ -221,7 +222,7 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
     vs = np.empty(disparity.shape, dtype=np.float32)
     scale = cost_scale(params.window)
     occ2 = _doubled(params.occlusion_cost, scale)
-    if _dc_on_bands(params):
+    if _dc_on_bands(params, left.shape[1]):
         var_l = np.empty(disparity.shape)
         var_r = np.empty(disparity.shape)
         _kernels.window_variance_image(left_p, radius, SIGNAL_STEPS, nchunks, var_l)
@@ -293,13 +294,22 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
     return DisparityResult(disparity, flags, params, path_cost, features)
 
 
-def _dc_on_bands(params: MatchParams) -> bool:
+#: Largest band cost array (bytes) with which ``dc`` runs on the band kernels: beyond it the
+#: band's costs leave the caches, and the search's reads (the block match, the left-right
+#: test's diagonals) cost more than the band DP saves (3000 x 2000 x 256: 50 MB per band,
+#: ``dc`` 14.4 s on bands against 8.3 s row by row, one thread; docs/SPEED.md).
+DC_BAND_BYTES = 16 * 2**20
+
+
+def _dc_on_bands(params: MatchParams, width: int) -> bool:
     """Whether ``dc`` runs on the band kernels (see ``_match_dc``)."""
+    band_bytes = width * (params.num_disparities + 2) * _band_kernels.BAND_ROWS * 8
     return (
         params.method == "dc"
         and params.cost == "sad"
         and params.uniqueness > 0
         and params.max_candidates == 0
+        and band_bytes <= DC_BAND_BYTES
     )
 
 
