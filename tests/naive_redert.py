@@ -10,9 +10,12 @@ import math
 
 import numpy as np
 
-#: Path states: ("m", o) matched with orientation index o, ("l",) left pixel occluded,
-#: ("r",) right pixel occluded, ("s",) the virtual start.
-LEFT, RIGHT, START = ("l",), ("r",), ("s",)
+#: Path states: ("m", o) matched with orientation index o; ("l", c) / ("r", c) left /
+#: right pixel occluded, the c-th pixel of its run of occlusions (c == run_cap: that one
+#: or a later one); ("s",) the virtual start; ("lb",) / ("rb",) left / right pixel
+#: occluded in a run that began at the virtual start (a border run).
+START = ("s",)
+LEFT_BORDER, RIGHT_BORDER = ("lb",), ("rb",)
 
 
 def pixel_cost(left, right, y, x, e, q, radius, steps=4):
@@ -88,7 +91,9 @@ def _cell(array, dmin, i, j, o):
     return array[i, k, o]
 
 
-def moves(node_ij, state, node, seg, dmin, oq, occ, orient, slant, steps=4):
+def moves(
+    node_ij, state, node, seg, dmin, oq, occ, orient, slant, steps=4, discount=0.0, run_cap=1
+):
     """Every move out of ``node_ij`` in ``state``: yields ``(next_node, next_state, cost)``.
 
     * a matched state ``o2`` is entered either by a segment of slope ``oq[o2] / steps`` from a
@@ -97,7 +102,11 @@ def moves(node_ij, state, node, seg, dmin, oq, occ, orient, slant, steps=4):
       ``(i, j) -> (i + 1, j + 1)``, from an occlusion state or the start, cost ``node``;
       both need a finite cost;
     * a left occlusion ``(i, j) -> (i + 1, j)`` and a right occlusion ``(i, j) -> (i, j + 1)``
-      cost ``occ`` from any state;
+      from any state cost ``occ``, less ``discount`` for the 2nd to ``run_cap``-th pixel
+      of a run (consecutive occlusions, left and right alike) that began after a match;
+      a run from the start is a border run (its own states, never discounted). Without
+      a discount (``run_cap == 1`` or ``discount == 0``) a run from the start uses the
+      ordinary states, as the kernel does;
     * every node after the start lies inside both images and in the band
       ``dmin <= i - j < dmin + ndisp``.
     """
@@ -116,13 +125,23 @@ def moves(node_ij, state, node, seg, dmin, oq, occ, orient, slant, steps=4):
                 yield (ni, nj), ("m", o2), _cell(seg, dmin, ni, nj, o2) + extra
         elif inside(i + 1, j + 1) and _cell(node, dmin, i + 1, j + 1, o2) < math.inf:
             yield (i + 1, j + 1), ("m", o2), _cell(node, dmin, i + 1, j + 1, o2)
+    border = run_cap > 1 and discount > 0
+    if state[0] in ("l", "r"):  # the run goes on
+        count = state[1] + 1
+        cost = occ - discount if count <= run_cap else occ
+        count = min(count, run_cap)
+        left, right = ("l", count), ("r", count)
+    elif state[0] == "m" or not border:  # a run begins
+        left, right, cost = ("l", 1), ("r", 1), occ
+    else:  # a border run begins or goes on
+        left, right, cost = LEFT_BORDER, RIGHT_BORDER, occ
     if inside(i + 1, j):
-        yield (i + 1, j), LEFT, occ
+        yield (i + 1, j), left, cost
     if inside(i, j + 1):
-        yield (i, j + 1), RIGHT, occ
+        yield (i, j + 1), right, cost
 
 
-def enumerate_paths(node, seg, dmin, oq, occ, orient, slant, steps=4):
+def enumerate_paths(node, seg, dmin, oq, occ, orient, slant, steps=4, discount=0.0, run_cap=1):
     """Every admissible path of one whole scanline, with its cost.
 
     Yields ``(total, path)``, ``path`` a list of ``((i, j), state)`` from the virtual start
@@ -136,7 +155,9 @@ def enumerate_paths(node, seg, dmin, oq, occ, orient, slant, steps=4):
         (i, j), state = path[-1]
         if len(path) > 1 and (i == width - 1 or j == width - 1):
             yield total, list(path)
-        for nxt, nstate, c in moves((i, j), state, node, seg, dmin, oq, occ, orient, slant, steps):
+        for nxt, nstate, c in moves(
+            (i, j), state, node, seg, dmin, oq, occ, orient, slant, steps, discount, run_cap
+        ):
             path.append((nxt, nstate))
             yield from walk(path, total + c)
             path.pop()
@@ -147,13 +168,13 @@ def enumerate_paths(node, seg, dmin, oq, occ, orient, slant, steps=4):
                 yield from walk([((i, j), START)], 0.0)
 
 
-def best_path_cost(node, seg, dmin, oq, occ, orient, slant, steps=4):
+def best_path_cost(node, seg, dmin, oq, occ, orient, slant, steps=4, discount=0.0, run_cap=1):
     """The optimal cost over all admissible paths (inf when there is none)."""
-    paths = enumerate_paths(node, seg, dmin, oq, occ, orient, slant, steps)
+    paths = enumerate_paths(node, seg, dmin, oq, occ, orient, slant, steps, discount, run_cap)
     return min((t for t, _ in paths), default=math.inf)
 
 
-def path_cost(path, node, seg, dmin, oq, occ, orient, slant, steps=4):
+def path_cost(path, node, seg, dmin, oq, occ, orient, slant, steps=4, discount=0.0, run_cap=1):
     """Cost of a given path under the oracle's rules, or raise AssertionError."""
     width = node.shape[0]
     (i, j), state = path[0]
@@ -162,7 +183,9 @@ def path_cost(path, node, seg, dmin, oq, occ, orient, slant, steps=4):
     for (prev, prev_state), (cur, cur_state) in zip(path[:-1], path[1:], strict=True):
         options = {
             (n, s): c
-            for n, s, c in moves(prev, prev_state, node, seg, dmin, oq, occ, orient, slant, steps)
+            for n, s, c in moves(
+                prev, prev_state, node, seg, dmin, oq, occ, orient, slant, steps, discount, run_cap
+            )
         }
         assert (cur, cur_state) in options, f"inadmissible step {prev} {prev_state} -> {cur}"
         total += options[(cur, cur_state)]

@@ -19,8 +19,10 @@ Conventions (shared with ``_kernels.py``):
   ``dmin + k`` with orientation ``o``; ``seg[x, k, o]`` the cost of the segment of
   orientation ``o`` ending at that node (see :func:`sheared_costs`); ``inf`` where the
   right pixel ``x - d`` (or the segment's start node) is outside the image.
-* DP states per band node ``(x, k)``: ``0..O-1`` matched with orientation ``o``,
-  ``O`` left pixel ``x`` occluded, ``O + 1`` right pixel ``j`` occluded.
+* DP states per band node ``(x, k)``: ``0..O-1`` matched with orientation ``o``, then
+  left pixel ``x`` occluded and right pixel ``j`` occluded, one state per position in a
+  run of occlusions up to ``run_cap``, and two for a run from the scanline's start (see
+  :func:`scanline_dp`).
 """
 
 import numba as nb
@@ -190,7 +192,21 @@ def sheared_costs(columns, e_lo, steps, dmin, oq, radius, node, seg):
 
 @nb.njit(cache=True)
 def scanline_dp(
-    node, seg, steps, dmin, oq, occ, orient, slant, table, back, path_x, path_k, path_st
+    node,
+    seg,
+    steps,
+    dmin,
+    oq,
+    occ,
+    discount,
+    run_cap,
+    orient,
+    slant,
+    table,
+    back,
+    path_x,
+    path_k,
+    path_st,
 ):
     """Cheapest path of one whole scanline through the (x, d, orientation) states.
 
@@ -202,24 +218,36 @@ def scanline_dp(
     * matched with orientation ``o2`` by a diagonal step (cost ``node[x, k, o2]``): from an
       occlusion state, or the virtual start, at ``(x - 1, k)``: a new surface, any
       orientation, no orientation cost;
-    * left pixel ``x`` occluded (cost ``occ``): from any state at ``(x - 1, k - 1)``;
-    * right pixel ``j`` occluded (cost ``occ``): from any state at ``(x, k + 1)``.
+    * left pixel ``x`` occluded: from any state at ``(x - 1, k - 1)``;
+    * right pixel ``j`` occluded: from any state at ``(x, k + 1)``.
+
+    An occluded pixel costs ``occ``, less ``discount`` for the 2nd to ``run_cap``-th pixel
+    of a run of occlusions (consecutive occlusion states, left and right alike) entered
+    from a matched state. A run from the virtual start (the scanline's border, not a jump
+    between surfaces) pays ``occ`` for every pixel, in two states of its own; with
+    ``run_cap == 1`` or ``discount == 0`` every occluded pixel costs ``occ`` and the
+    border runs share the ordinary states (the model of ``dsi3``).
 
     Virtual start nodes (``x == -1`` or ``j == -1``, in the band) cost 0 and are left
     by a diagonal match or an occlusion. The path ends at the cheapest state of a node
     with ``x == width - 1`` or ``j == width - 1``. Returns ``(n, total)``: the path (end
     to start) in ``path_x/k/st[:n]``, one entry per node; ``n == 0`` when no path exists.
 
-    Back-pointer codes: a matched state stores ``1 + o1`` (segment from matched ``o1``),
-    ``O + 1`` / ``O + 2`` (diagonal from the left / right occlusion state) or ``O + 3``
-    (diagonal from the virtual start); an occlusion state stores ``1 + state`` of its
-    predecessor or ``O + 3`` (virtual start).
+    States (``N = run_cap``): ``0..O-1`` matched with orientation ``o``; ``O + c - 1``
+    left pixel occluded and ``O + N + c - 1`` right pixel occluded, the ``c``-th pixel of
+    its run (``c == N``: the ``N``-th or a later one); ``O + 2 N`` / ``O + 2 N + 1`` left /
+    right pixel occluded in a border run. Back-pointer codes: a matched state entered by
+    a segment stores ``1 + o1``; any other state stores ``1 + state`` of its predecessor,
+    or ``O + 2 N + 3`` (the virtual start).
     """
     width, ndisp, norient = node.shape
     s_left = norient
-    s_right = norient + 1
-    nstates = norient + 2
-    start_code = norient + 3
+    s_right = norient + run_cap
+    s_left_border = norient + 2 * run_cap
+    s_right_border = s_left_border + 1
+    nstates = s_left_border + 2
+    start_code = nstates + 1
+    border_runs = run_cap > 1 and discount > 0.0
     inf = np.inf
     for x in range(width):
         for k in range(ndisp):
@@ -237,12 +265,10 @@ def scanline_dp(
                 diag_best = 0.0
                 diag_code = start_code
             else:
-                if table[x - 1, k, s_left] < diag_best:
-                    diag_best = table[x - 1, k, s_left]
-                    diag_code = norient + 1
-                if table[x - 1, k, s_right] < diag_best:
-                    diag_best = table[x - 1, k, s_right]
-                    diag_code = norient + 2
+                for st in range(s_left, nstates):
+                    if table[x - 1, k, st] < diag_best:
+                        diag_best = table[x - 1, k, st]
+                        diag_code = 1 + st
             for o2 in range(norient):
                 best = inf
                 code = CODE_NONE
@@ -269,36 +295,63 @@ def scanline_dp(
                         code = c
                 table[x, k, o2] = best
                 back[x, k, o2] = code
-            # left pixel x occluded, from (x - 1, k - 1)
-            if k >= 1:
-                if x - 1 == -1:
-                    table[x, k, s_left] = occ
-                    back[x, k, s_left] = start_code
+            # left pixel x occluded, from (x - 1, k - 1); right pixel j occluded, from
+            # (x, k + 1): the same rules
+            for side in range(2):
+                if side == 0:
+                    if k < 1:
+                        continue
+                    at_start = x - 1 == -1
+                    px, pk, base, s_border = x - 1, k - 1, s_left, s_left_border
                 else:
+                    if k + 1 >= ndisp:
+                        continue
+                    at_start = j - 1 == -1
+                    px, pk, base, s_border = x, k + 1, s_right, s_right_border
+                if not border_runs:
+                    s_border = base
+                if at_start:
+                    table[x, k, s_border] = occ
+                    back[x, k, s_border] = start_code
+                    continue
+                if border_runs:
                     best = inf
                     code = CODE_NONE
-                    for st in range(nstates):
-                        if table[x - 1, k - 1, st] < best:
-                            best = table[x - 1, k - 1, st]
+                    for st in (s_left_border, s_right_border):
+                        if table[px, pk, st] < best:
+                            best = table[px, pk, st]
                             code = 1 + st
                     if code != CODE_NONE:
-                        table[x, k, s_left] = best + occ
-                        back[x, k, s_left] = code
-            # right pixel j occluded, from (x, k + 1)
-            if k + 1 < ndisp:
-                if j - 1 == -1:
-                    table[x, k, s_right] = occ
-                    back[x, k, s_right] = start_code
-                else:
+                        table[x, k, s_border] = best + occ
+                        back[x, k, s_border] = code
+                for count in range(1, run_cap + 1):
                     best = inf
                     code = CODE_NONE
-                    for st in range(nstates):
-                        if table[x, k + 1, st] < best:
-                            best = table[x, k + 1, st]
-                            code = 1 + st
+                    if count == 1:
+                        # the first pixel of a run, after a match (run_cap 1: every
+                        # occluded pixel, from any state, as in dsi3)
+                        last = norient + 2 if run_cap == 1 else norient
+                        for st in range(last):
+                            if table[px, pk, st] < best:
+                                best = table[px, pk, st]
+                                code = 1 + st
+                        best += occ
+                    else:
+                        # the run goes on: a discounted pixel, the count-th of the run
+                        for st in (s_left + count - 2, s_right + count - 2):
+                            w = table[px, pk, st] + (occ - discount)
+                            if w < best:
+                                best = w
+                                code = 1 + st
+                        if count == run_cap:  # or a pixel beyond the discounted ones
+                            for st in (s_left + count - 1, s_right + count - 1):
+                                w = table[px, pk, st] + occ
+                                if w < best:
+                                    best = w
+                                    code = 1 + st
                     if code != CODE_NONE:
-                        table[x, k, s_right] = best + occ
-                        back[x, k, s_right] = code
+                        table[x, k, base + count - 1] = best
+                        back[x, k, base + count - 1] = code
 
     # the end: nodes with x == width - 1, then nodes with j == width - 1 (x < width - 1)
     end_x = -1
@@ -335,14 +388,12 @@ def scanline_dp(
         if code == start_code:
             break
         if st < norient:
-            if code == norient + 1:
-                x, st = x - 1, s_left
-            elif code == norient + 2:
-                x, st = x - 1, s_right
+            if code > norient:  # diagonal, from an occlusion state
+                x, st = x - 1, code - 1
             else:
                 length, delta = segment_shape(oq[st], steps)
                 x, k, st = x - length, k - delta, code - 1
-        elif st == s_left:
+        elif st < s_right or st == s_left_border:
             x, k, st = x - 1, k - 1, code - 1
         else:
             k, st = k + 1, code - 1
@@ -350,12 +401,16 @@ def scanline_dp(
 
 
 @nb.njit(cache=True)
-def apply_path(path_x, path_k, path_st, n, steps, dmin, oq, disp_row, flag_row, orient_row):
+def apply_path(
+    path_x, path_k, path_st, n, steps, dmin, oq, run_cap, disp_row, flag_row, orient_row
+):
     """Write disparities, occlusions and orientations (slopes) of a backtracked path.
 
     A node entered by a segment writes the segment's pixels (interpolated disparities,
-    multiples of ``1 / steps``); a node entered diagonally writes its own pixel. The path is stored
-    end to start, so entry ``i + 1`` is the node before entry ``i``.
+    multiples of ``1 / steps``); a node entered diagonally writes its own pixel; a left
+    occlusion state (``O .. O + run_cap - 1`` or ``O + 2 run_cap``, see
+    :func:`scanline_dp`) marks its pixel occluded. The path is stored end to start, so
+    entry ``i + 1`` is the node before entry ``i``.
     """
     norient = oq.shape[0]
     for i in range(n):
@@ -371,7 +426,7 @@ def apply_path(path_x, path_k, path_st, n, steps, dmin, oq, disp_row, flag_row, 
                 disp_row[p] = d + q * (p - x) / steps
                 flag_row[p] = 0
                 orient_row[p] = q / steps
-        elif st == norient:
+        elif st < norient + run_cap or st == norient + 2 * run_cap:  # left pixel occluded
             disp_row[x] = np.nan
             flag_row[x] = FLAG_OCCLUDED
 
@@ -395,6 +450,8 @@ def match_redert_rows(
     steps,
     oq,
     occ,
+    discount,
+    run_cap,
     orient,
     slant,
     nchunks,
@@ -406,7 +463,7 @@ def match_redert_rows(
     """Run the orientation DP on every row; rows (in chunks) are the only parallel loop.
 
     Per thread: the column sums (W x sampled disparities), the cost volume and
-    the DP tables (W x D x orientations); never H x W x D.
+    the DP tables (W x D x (orientations + 2 run_cap + 2)); never H x W x D.
     """
     height, width = disp.shape
     norient = oq.shape[0]
@@ -420,8 +477,8 @@ def match_redert_rows(
         columns = np.empty((width, ne), dtype=np.int64)
         node = np.empty((width, ndisp, norient), dtype=np.float64)
         seg = np.empty((width, ndisp, norient), dtype=np.float64)
-        table = np.empty((width, ndisp, norient + 2), dtype=np.float64)
-        back = np.empty((width, ndisp, norient + 2), dtype=np.uint8)
+        table = np.empty((width, ndisp, norient + 2 * run_cap + 2), dtype=np.float64)
+        back = np.empty((width, ndisp, norient + 2 * run_cap + 2), dtype=np.uint8)
         path_x = np.empty(2 * width + 2, dtype=np.int64)
         path_k = np.empty(2 * width + 2, dtype=np.int64)
         path_st = np.empty(2 * width + 2, dtype=np.int64)
@@ -433,7 +490,23 @@ def match_redert_rows(
                 flags[y, x] = FLAG_BORDER
                 slopes[y, x] = np.nan
             n, t = scanline_dp(
-                node, seg, steps, dmin, oq, occ, orient, slant, table, back, path_x, path_k, path_st
+                node,
+                seg,
+                steps,
+                dmin,
+                oq,
+                occ,
+                discount,
+                run_cap,
+                orient,
+                slant,
+                table,
+                back,
+                path_x,
+                path_k,
+                path_st,
             )
-            apply_path(path_x, path_k, path_st, n, steps, dmin, oq, disp[y], flags[y], slopes[y])
+            apply_path(
+                path_x, path_k, path_st, n, steps, dmin, oq, run_cap, disp[y], flags[y], slopes[y]
+            )
             total[y] = t

@@ -34,7 +34,14 @@ COSTS = ("sad", "bt")
 DEFAULT_ORIENTATIONS = (-0.5, -0.25, -0.125, 0.0, 0.125, 0.25, 0.5)
 #: ``redert``: cost of a change of orientation between neighbouring matched pixels, in
 #: the units of ``occlusion_cost``.
-DEFAULT_ORIENTATION_COST = 2.0
+DEFAULT_ORIENTATION_COST = 0.5
+#: ``redert``: the fraction of ``occlusion_cost`` taken off the pixels of a run of
+#: occlusions after its first (a jump between surfaces costs less than its pixels apart).
+DEFAULT_OCCLUSION_DISCOUNT = 0.2
+#: ``redert``: how many pixels of a run after its first get the discount.
+DEFAULT_OCCLUSION_DISCOUNT_PIXELS = 5
+#: ``redert``: the largest ``occlusion_discount_pixels`` (the DP keeps a state per pixel).
+MAX_OCCLUSION_DISCOUNT_PIXELS = 64
 
 
 @dataclass(frozen=True)
@@ -137,6 +144,19 @@ class MatchParams:
         ``redert`` only: cost of a change of orientation between neighbouring matched
         pixels, in the units of ``occlusion_cost``; default
         :data:`DEFAULT_ORIENTATION_COST`.
+    occlusion_discount : float
+        ``redert`` only, in ``[0, 1)``: the fraction of ``occlusion_cost`` taken off the
+        pixels of a run of occlusions (consecutive occluded left and right pixels between
+        two matches, as at a jump between surfaces) after the run's first pixel, for
+        ``occlusion_discount_pixels`` of them; the first pixel and those beyond cost
+        ``occlusion_cost``. A run that begins at the scanline's start gets no discount.
+        Default :data:`DEFAULT_OCCLUSION_DISCOUNT`; 0 charges every occluded pixel alike,
+        as the other methods do.
+    occlusion_discount_pixels : int
+        ``redert`` only: how many pixels of a run after its first get
+        ``occlusion_discount`` (0 to :data:`MAX_OCCLUSION_DISCOUNT_PIXELS`; 0: none).
+        Default :data:`DEFAULT_OCCLUSION_DISCOUNT_PIXELS`: a run of ``n`` pixels costs
+        ``occlusion_cost * (n - occlusion_discount * min(n - 1, 5))``.
     """
 
     max_disparity: int
@@ -156,6 +176,8 @@ class MatchParams:
     edge_guard: int | None = None
     orientations: tuple[float, ...] = DEFAULT_ORIENTATIONS
     orientation_cost: float = DEFAULT_ORIENTATION_COST
+    occlusion_discount: float = DEFAULT_OCCLUSION_DISCOUNT
+    occlusion_discount_pixels: int = DEFAULT_OCCLUSION_DISCOUNT_PIXELS
     cost: str = "sad"
     gcp_uniqueness: float = DEFAULT_GCP_UNIQUENESS
     gcp_variance_floor: float = DEFAULT_GCP_VARIANCE_FLOOR
@@ -220,7 +242,7 @@ class MatchParams:
         self._check_orientations()
 
     def _check_orientations(self):
-        """Validate the ``redert`` parameters ``orientations`` and ``orientation_cost``."""
+        """Validate the ``redert`` parameters (orientations, their cost, the discount)."""
         values = self.orientations
         if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
             raise ValueError(f"orientations must be a sequence of slopes, got {values!r}")
@@ -245,6 +267,20 @@ class MatchParams:
             raise ValueError(f"orientation_cost must be a non-negative number, got {cost!r}")
         if not math.isfinite(cost):
             raise ValueError(f"orientation_cost must be finite, got {cost!r}")
+        share = self.occlusion_discount
+        if isinstance(share, bool) or not isinstance(share, (int, float)) or not 0 <= share < 1:
+            raise ValueError(f"occlusion_discount must be a number in [0, 1), got {share!r}")
+        count = self.occlusion_discount_pixels
+        if isinstance(count, float) and count.is_integer():
+            count = int(count)
+            object.__setattr__(self, "occlusion_discount_pixels", count)
+        if isinstance(count, bool) or not isinstance(count, int):
+            raise TypeError(f"occlusion_discount_pixels must be an integer, got {count!r}")
+        if not 0 <= count <= MAX_OCCLUSION_DISCOUNT_PIXELS:
+            raise ValueError(
+                f"occlusion_discount_pixels must be 0 to {MAX_OCCLUSION_DISCOUNT_PIXELS}, "
+                f"got {count}"
+            )
 
     @property
     def effective_slant_cost(self) -> float:
