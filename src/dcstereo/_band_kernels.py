@@ -1099,18 +1099,15 @@ def match_band_rows(
                         ser_out[y],
                         vs_out[y],
                     )
+            elif anchored:
+                for x in range(width):
+                    for r in range(nr):
+                        pins[x * nr + r] = partner[y_a + r * run + t, x] if r * run + t < n else -1
+            if anchored:
                 for x in range(width):
                     pinned[x] = False
                     for r in range(nr):
                         if pins[x * nr + r] >= 0:
-                            pinned[x] = True
-            elif anchored:
-                for x in range(width):
-                    pinned[x] = False
-                    for r in range(nr):
-                        j = partner[y_a + r * run + t, x] if r * run + t < n else -1
-                        pins[x * nr + r] = j
-                        if j >= 0:
                             pinned[x] = True
             band_forward(
                 cost,
