@@ -50,8 +50,8 @@ def banded(left, right, dmin, ndisp, radius, occ2, five, slant2, partner=None, n
         partner = np.empty((0, 0), dtype=np.int64)
     _band_kernels.match_band_rows(
         padded(left, radius), padded(right, radius), dmin, ndisp, radius, occ2, five, slant2,
-        int(anchored), partner, np.empty((0, 0)), np.empty((0, 0)), _NO_TESTS, nchunks, disp,
-        flags, total, np.empty((0, 0), dtype=np.float32), np.empty((0, 0), dtype=np.float32),
+        int(anchored), partner, _NO_TESTS, nchunks, disp, flags, total,
+        np.empty((0, 0), dtype=np.float32), np.empty((0, 0), dtype=np.float32),
     )  # fmt: skip
     return disp, flags, total
 
@@ -300,7 +300,8 @@ def test_lanes_of_any_height_and_more_chunks_than_bands(height):
 @pytest.mark.parametrize("dtype", [np.int64, np.int32])
 def test_incremental_lane_costs_equal_row_costs(dtype):
     # band_lane_costs moved down row by row (lane r on rows r * run + t) gives row_costs,
-    # with int64 buffers and with the int32 buffers of match_band_rows
+    # and band_lane_variance window_variance_row (both views), with int64 buffers and with
+    # the int32 buffers of match_band_rows
     rng = np.random.default_rng(12)
     nr = _band_kernels.BAND_ROWS
     for dmin, ndisp, radius, width, height in (
@@ -320,6 +321,12 @@ def test_incremental_lane_costs_equal_row_costs(dtype):
         out = np.empty(width * nk)
         expected = np.empty((width, ndisp))
         vcol = np.empty((width, ndisp), dtype=np.int32)
+        colsum = np.empty((2, (width + 2 * radius) * nr), dtype=np.int64)
+        colsq = np.empty_like(colsum)
+        hs = np.empty((2, width * nr), dtype=np.int64)
+        var = np.empty((2, width * nr))
+        var_row = np.empty(width)
+        col_row = np.empty((2, width + 2 * radius), dtype=np.int64)
         run = -(-height // nr)
         for t in range(run):
             if t == 0:
@@ -335,6 +342,9 @@ def test_incremental_lane_costs_equal_row_costs(dtype):
                                             right_t)  # fmt: skip
             _band_kernels.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread,
                                           vs, t > 0, hsum, out)  # fmt: skip
+            for v, sig_t in enumerate((left_t, right_t)):
+                _band_kernels.band_lane_variance(sig_t, width, radius, 3, t > 0, colsum[v],
+                                                 colsq[v], hs[0], hs[1], var[v])  # fmt: skip
             band = out.reshape(width, ndisp + 2, nr)
             assert np.isinf(band[:, 0]).all() and np.isinf(band[:, -1]).all()
             for r in range(nr):
@@ -343,6 +353,13 @@ def test_incremental_lane_costs_equal_row_costs(dtype):
                 _kernels.row_costs(left_p, right_p, r * run + t, dmin, ndisp, radius, vcol,
                                    expected, False)  # fmt: skip
                 assert band[:, 1:-1, r].tobytes() == expected.tobytes()
+                for v, signal_p in enumerate((left_p, right_p)):
+                    _kernels.window_variance_row(signal_p, r * run + t, radius, 3, col_row[0],
+                                                 col_row[1], var_row, False)  # fmt: skip
+                    lane = var[v].reshape(width, nr)[:, r]
+                    if v == 1:  # the right view is stored right to left
+                        lane = lane[::-1]
+                    assert lane.tobytes() == var_row.tobytes()
 
 
 def test_band_kernels_run_as_plain_python():

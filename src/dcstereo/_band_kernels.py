@@ -279,6 +279,66 @@ def band_lane_costs(
                     out[i] = out[i] * win / used
 
 
+@nb.njit(cache=True)
+def band_lane_variance(sig_t, width, radius, steps, incremental, colsum, colsq, hsum, hsq, out):
+    """Window variance of every pixel of the band's rows, in one view's band layout.
+
+    ``sig_t`` is ``left_t`` or ``right_t`` of ``band_lane_signals`` (the rows as for
+    ``band_lane_costs``); ``out[u * R + r]`` is the variance of the window at storage
+    column ``u`` of lane ``r``: left pixel ``x = u``, right pixel ``x = width - 1 - u``
+    (the right view is stored right to left). The values of ``_kernels.window_variance_row``
+    bit for bit: exact integer sums, then the same one float64 expression. ``colsum`` and
+    ``colsq`` (int64, ``wp * R``) keep the vertical window sums of the signal and of its
+    square; ``incremental`` moves them down a row (row 0 of ``sig_t`` leaving, row 1
+    entering), else they are summed afresh from its ``2 radius + 1`` window rows.
+    ``hsum``/``hsq`` (int64, ``width * R``) are scratch for the window sums.
+    """
+    nr = BAND_ROWS
+    win = 2 * radius + 1
+    n = win * win
+    width_p = width + 2 * radius
+    m = np.uint64(width_p * nr)
+    if incremental:
+        o_l = np.uint64(0)
+        o_e = m
+        for i in range(m):
+            ve = np.int64(sig_t[o_e + i])
+            vl = np.int64(sig_t[o_l + i])
+            colsum[i] += ve - vl
+            colsq[i] += ve * ve - vl * vl
+    else:
+        for i in range(m):
+            v = np.int64(sig_t[i])
+            colsum[i] = v
+            colsq[i] = v * v
+        for t in range(1, win):
+            o = np.uint64(t) * m
+            for i in range(m):
+                v = np.int64(sig_t[o + i])
+                colsum[i] += v
+                colsq[i] += v * v
+    norm = float(n) * float(n) * float(steps) * float(steps)
+    # the window sums of storage column 0, then a running sum along the columns (one flat
+    # loop: each lane's sum at i from the one at i - R)
+    unr = np.uint64(nr)
+    for r in range(unr):
+        sm = np.int64(0)
+        sq = np.int64(0)
+        for c in range(win):
+            sm += colsum[c * nr + r]
+            sq += colsq[c * nr + r]
+        hsum[r] = sm
+        hsq[r] = sq
+        out[r] = float(n * sq - sm * sm) / norm
+    o_add = np.uint64((win - 1) * nr)
+    for i in range(unr, np.uint64(width * nr)):
+        sm = hsum[i - unr] + colsum[o_add + i] - colsum[i - unr]
+        sq = hsq[i - unr] + colsq[o_add + i] - colsq[i - unr]
+        hsum[i] = sm
+        hsq[i] = sq
+        out[i] = float(n * sq - sm * sm) / norm
+
+
 # --------------------------------------------------------------------------- DP
 #
 # The table and the costs are flat: cell ``k`` of band row ``r`` in column ``x`` is
@@ -818,9 +878,10 @@ def band_row_features(
     """Find the reliable feature pairs of band row ``r`` (image row ``y``), as ``divide_row``.
 
     ``cost``, ``wta_k`` and ``wta_ratio`` are the band's (``band_lane_costs``,
-    ``band_block_match``); ``var_l``/``var_r`` the window variances of row ``y`` in both
-    views. ``tests`` is ``(ser_min, vs_max, vs_relative, var_floor, lr_check, uniqueness,
-    edge_guard, signal_steps)`` (``uniqueness > 0``; no limit on the tries). The up-front
+    ``band_block_match``); ``var_l``/``var_r`` the window variances of the band in both
+    views (``band_lane_variance``: the right view's stored right to left). ``tests`` is
+    ``(ser_min, vs_max, vs_relative, var_floor, lr_check, uniqueness, edge_guard,
+    signal_steps)`` (``uniqueness > 0``; no limit on the tries). The up-front
     tests of ``divide_row`` (variance floor, uniqueness, range, VS, guard, SER) pick the
     candidates; the search takes the strongest candidate of each interval that lies in its
     ordering range and passes the left-right test, and splits the interval at it. Pair
@@ -845,7 +906,8 @@ def band_row_features(
     sparse = iwork[6:]
     n = 0
     for p in range(radius, width - radius):
-        if not var_l[p] >= var_floor:
+        v_l = var_l[p * nr + r]
+        if not v_l >= var_floor:
             continue
         best_k = wta_k[p * nr + r]
         if best_k < 0 or wta_ratio[p * nr + r] < uniqueness:
@@ -853,7 +915,8 @@ def band_row_features(
         j = p - dmin - best_k
         if j < radius or j > width - 1 - radius:
             continue
-        if not _variance_similarity(var_l[p], var_r[j], vs_relative) <= vs_max:
+        v_r = var_r[(width - 1 - j) * nr + r]
+        if not _variance_similarity(v_l, v_r, vs_relative) <= vs_max:
             continue
         if edge_guard > 0:
             guarded = True
@@ -865,17 +928,17 @@ def band_row_features(
             if not guarded:
                 continue
         ssd = _window_ssd(left_p, right_p, y, p, j, radius) / float(steps * steps)
-        total = var_l[p] + var_r[j]
+        total = v_l + v_r
         ser = total / ssd if ssd > 0 else np.inf
-        vs = _variance_similarity(var_l[p], var_r[j], vs_relative)
+        vs = _variance_similarity(v_l, v_r, vs_relative)
         if not (ser >= ser_min and vs <= vs_max):
             continue
         cand_x[n] = p
         cand_k[n] = best_k
         cand_ser[n] = ser
         cand_vs[n] = vs
-        cand_var[n] = var_l[p]
-        cand_live[n] = var_l[p]
+        cand_var[n] = v_l
+        cand_live[n] = v_l
         lr_j[n] = -1
         n += 1
     _sparse_build(cand_var, n, sparse)
@@ -979,8 +1042,6 @@ def match_band_rows(
     slant2,
     pin_mode,
     partner,
-    var_l,
-    var_r,
     tests,
     nchunks,
     disp,
@@ -1000,14 +1061,15 @@ def match_band_rows(
     the chunk's first band (computed afresh). Lanes past the chunk's rows are idle: their
     sums stay those of their last row (or of clamped rows), no pins, results not written.
 
-    ``pin_mode`` 0: no pins (``partner``, ``var_l``, ``var_r``, ``ser_out``, ``vs_out``
-    and ``tests`` are not used). 1: ``partner[y, x] = j`` pins left pixel ``(y, x)`` to right
+    ``pin_mode`` 0: no pins (``partner``, ``ser_out``, ``vs_out`` and ``tests`` are not
+    used). 1: ``partner[y, x] = j`` pins left pixel ``(y, x)`` to right
     pixel ``(y, j)`` (-1: no pin; along a row increasing in both ``x`` and ``j``, each pair
     inside the disparity range), and each row gets the result of ``_kernels.gcp_row``'s
     segment-by-segment DP through its pins, with the five- or three-step model (``five``).
     2: ``dc``: the pins are the reliable feature pairs of ``band_row_features`` (``tests``;
-    ``var_l``/``var_r`` the window variances of the two views), written to ``partner``
-    (-1 elsewhere) with their SER and VS (``ser_out``, ``vs_out``, NaN elsewhere), and then as 1.
+    the window variances of the two views from ``band_lane_variance``), written to
+    ``partner`` (-1 elsewhere) with their SER and VS (``ser_out``, ``vs_out``, NaN
+    elsewhere), and then as 1.
     """
     height, width = disp.shape
     height_p, width_p = left_p.shape
@@ -1040,6 +1102,12 @@ def match_band_rows(
         suf = np.empty(nk if search else 1, dtype=np.float64)
         wta_k = np.empty(nwork * nr, dtype=np.int64)
         wta_ratio = np.empty(nwork * nr, dtype=np.float64)
+        nvar = width_p * nr if search else 1
+        colsum = np.empty((2, nvar), dtype=np.int64)
+        colsq = np.empty((2, nvar), dtype=np.int64)
+        hsq = np.empty((2, nwork * nr), dtype=np.int64)
+        var_band = np.empty((2, nwork * nr), dtype=np.float64)
+        steps = tests[7]
         levels = 1
         while (1 << (levels - 1)) < width:
             levels += 1
@@ -1065,6 +1133,14 @@ def match_band_rows(
                 left_t, right_t, width, dmin, ndisp, radius, spread, vs, t > 0, hsum, cost
             )
             if search:
+                band_lane_variance(
+                    left_t, width, radius, steps, t > 0, colsum[0], colsq[0], hsq[0], hsq[1],
+                    var_band[0],
+                )  # fmt: skip
+                band_lane_variance(
+                    right_t, width, radius, steps, t > 0, colsum[1], colsq[1], hsq[0], hsq[1],
+                    var_band[1],
+                )  # fmt: skip
                 band_block_match(cost, width, ndisp, pre, suf, wta_k, wta_ratio)
                 for i in range(width * nr):
                     pins[i] = -1
@@ -1086,8 +1162,8 @@ def match_band_rows(
                         left_p,
                         right_p,
                         y,
-                        var_l[y],
-                        var_r[y],
+                        var_band[0],
+                        var_band[1],
                         wta_k,
                         wta_ratio,
                         tests,

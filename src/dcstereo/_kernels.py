@@ -555,19 +555,6 @@ def window_variance_row(signal_p, y, radius, signal_steps, colsum, colsq, out, i
         out[x] = float(n * q - s * s) / norm
 
 
-@nb.njit(parallel=True, cache=True)
-def window_variance_image(signal_p, radius, signal_steps, nchunks, out):
-    """Window variance of every pixel (``window_variance_row`` down each chunk of rows)."""
-    height = out.shape[0]
-    wp = signal_p.shape[1]
-    for ch in nb.prange(nchunks):
-        y0, y1 = _chunk_bounds(height, nchunks, ch)
-        colsum = np.empty(wp, dtype=np.int64)
-        colsq = np.empty(wp, dtype=np.int64)
-        for y in range(y0, y1):
-            window_variance_row(signal_p, y, radius, signal_steps, colsum, colsq, out[y], y > y0)
-
-
 @nb.njit(cache=True)
 def collect_features(partner, ser, vs, flag, flags, out):
     """Write the pairs ``(row, x_left, x_right, SER, VS)`` where ``partner >= 0`` to ``out``.

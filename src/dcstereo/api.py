@@ -180,8 +180,6 @@ def _match_dsi(left, right, params: MatchParams) -> DisparityResult:
             slant2,
             0,
             np.empty((0, 0), dtype=np.int64),
-            np.empty((0, 0)),
-            np.empty((0, 0)),
             _NO_TESTS,
             _band_chunks(left.shape[0]),
             disparity,
@@ -223,10 +221,6 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
     scale = cost_scale(params.window)
     occ2 = _doubled(params.occlusion_cost, scale)
     if _dc_on_bands(params, left.shape[1]):
-        var_l = np.empty(disparity.shape)
-        var_r = np.empty(disparity.shape)
-        _kernels.window_variance_image(left_p, radius, SIGNAL_STEPS, nchunks, var_l)
-        _kernels.window_variance_image(right_p, radius, SIGNAL_STEPS, nchunks, var_r)
         tests = (
             float(params.ser_min),
             float(params.vs_max),
@@ -248,8 +242,6 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
             _doubled(params.effective_slant_cost, scale),
             2,
             partner,
-            var_l,
-            var_r,
             tests,
             _band_chunks(left.shape[0]),
             disparity,
