@@ -299,11 +299,9 @@ def band_lane_variance(sig_t, width, radius, steps, incremental, colsum, colsq, 
     width_p = width + 2 * radius
     m = np.uint64(width_p * nr)
     if incremental:
-        o_l = np.uint64(0)
-        o_e = m
-        for i in range(m):
-            ve = np.int64(sig_t[o_e + i])
-            vl = np.int64(sig_t[o_l + i])
+        for i in range(m):  # row 0 leaves, row 1 enters
+            ve = np.int64(sig_t[m + i])
+            vl = np.int64(sig_t[i])
             colsum[i] += ve - vl
             colsq[i] += ve * ve - vl * vl
     else:
@@ -1105,7 +1103,7 @@ def match_band_rows(
         nvar = width_p * nr if search else 1
         colsum = np.empty((2, nvar), dtype=np.int64)
         colsq = np.empty((2, nvar), dtype=np.int64)
-        hsq = np.empty((2, nwork * nr), dtype=np.int64)
+        hwork = np.empty((2, nwork * nr), dtype=np.int64)  # band_lane_variance's scratch
         var_band = np.empty((2, nwork * nr), dtype=np.float64)
         steps = tests[7]
         levels = 1
@@ -1134,11 +1132,11 @@ def match_band_rows(
             )
             if search:
                 band_lane_variance(
-                    left_t, width, radius, steps, t > 0, colsum[0], colsq[0], hsq[0], hsq[1],
+                    left_t, width, radius, steps, t > 0, colsum[0], colsq[0], hwork[0], hwork[1],
                     var_band[0],
                 )  # fmt: skip
                 band_lane_variance(
-                    right_t, width, radius, steps, t > 0, colsum[1], colsq[1], hsq[0], hsq[1],
+                    right_t, width, radius, steps, t > 0, colsum[1], colsq[1], hwork[0], hwork[1],
                     var_band[1],
                 )  # fmt: skip
                 band_block_match(cost, width, ndisp, pre, suf, wta_k, wta_ratio)
