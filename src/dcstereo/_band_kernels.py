@@ -810,7 +810,10 @@ def _sparse_build(values, n, sparse):
     while (1 << level) <= n:
         half = 1 << (level - 1)
         for i in range(n - (1 << level) + 1):
-            sparse[level, i] = _better(values, sparse[level - 1, i], sparse[level - 1, i + half])
+            # a select, not _better's branches: the right half's index is the larger
+            a = sparse[level - 1, i]
+            b = sparse[level - 1, i + half]
+            sparse[level, i] = b if values[b] > values[a] else a
         level += 1
 
 
@@ -823,18 +826,19 @@ def _sparse_best(values, sparse, lo, hi):
     return _better(values, sparse[level, lo], sparse[level, hi - (1 << level) + 1])
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _window_ssd(left_p, right_p, y, x, j, radius):
     """Window sum of squared signal differences of the pair ``x <-> j`` of padded row ``y``.
 
     Both windows inside the image (every feature candidate): exact integers, the value of
-    ``_kernels.window_ssd``.
+    ``_kernels.window_ssd``. Unsigned indices: no wrap-around selects.
     """
-    win = 2 * radius + 1
+    win = np.uint64(2 * radius + 1)
     si = 0
     for t in range(win):
+        yt = np.uint64(y) + t
         for c in range(win):
-            di = np.int64(left_p[y + t, x + c]) - np.int64(right_p[y + t, j + c])
+            di = np.int64(left_p[yt, np.uint64(x) + c]) - np.int64(right_p[yt, np.uint64(j) + c])
             si += di * di
     return float(si)
 
@@ -847,6 +851,69 @@ def _variance_similarity(var_left, var_right, vs_relative):
         total = var_left + var_right
         vs = vs / total if total > 0 else 0.0
     return vs
+
+
+@nb.njit(cache=True, inline="always")
+def _mask_cell(var_l, wta_k, wta_ratio, i, x, i_a, i_b, dmin, radius, width, var_floor, uniq):
+    """The cheap up-front tests of cell ``i`` (left pixel ``x``), its guard cells ``i_a``, ``i_b``."""
+    k = wta_k[i]
+    j = x - dmin - k
+    k_a = wta_k[i_a]
+    k_b = wta_k[i_b]
+    return (
+        (var_l[i] >= var_floor)
+        & (k >= 0)
+        & (wta_ratio[i] >= uniq)
+        & (j >= radius)
+        & (j <= width - 1 - radius)
+        & (k_a >= 0)
+        & (abs(k_a - k) <= 1)
+        & (wta_ratio[i_a] >= uniq)
+        & (k_b >= 0)
+        & (abs(k_b - k) <= 1)
+        & (wta_ratio[i_b] >= uniq)
+    )
+
+
+@nb.njit(cache=True)
+def band_feature_mask(var_l, wta_k, wta_ratio, width, dmin, radius, tests, keep):
+    """Mark the pixels of a band that pass the cheap up-front tests of ``divide_row``.
+
+    ``keep[x * R + r]`` (uint8) gets 1 where left pixel ``x`` of band row ``r`` passes the
+    variance floor, the uniqueness test, the range test (its match ``j`` at least
+    ``radius`` inside the image) and the edge guard (``tests``, see
+    ``band_row_features``); 0 elsewhere (the ``radius`` columns at each end included).
+    The same comparisons on the same values, without branches: the columns whose guard
+    columns lie inside the image are one flat vector loop (the guard cells at fixed
+    offsets), the few others clamp them as ``divide_row`` does. VS and SER are left to
+    the row search (VS needs the right view's variance at the match: a gather, which
+    keeps the loop from being vectorized).
+    """
+    ser_min, vs_max, vs_relative, var_floor, lr_check, uniq, edge_guard, steps = tests
+    nr = BAND_ROWS
+    for i in range(np.uint64(width * nr)):
+        keep[i] = 0
+    if width <= 2 * radius:
+        return
+    guard = max(edge_guard, 0)  # 0: the guard cells are the cell itself (implied tests)
+    x_lo = min(max(radius, guard), width - radius)  # the vector loop's columns
+    x_hi = max(min(width - radius, width - guard), x_lo)
+    g = np.uint64(guard * nr)
+    for i in range(np.uint64(x_lo * nr), np.uint64(x_hi * nr)):
+        x = np.int64(i >> np.uint64(3))
+        keep[i] = _mask_cell(
+            var_l, wta_k, wta_ratio, i, x, i - g, i + g, dmin, radius, width, var_floor, uniq
+        )
+    for x in range(radius, width - radius):
+        if x_lo <= x < x_hi:
+            continue
+        i_a = max(x - guard, 0) * nr
+        i_b = min(x + guard, width - 1) * nr
+        for r in range(nr):
+            keep[x * nr + r] = _mask_cell(
+                var_l, wta_k, wta_ratio, x * nr + r, x, i_a + r, i_b + r, dmin, radius, width,
+                var_floor, uniq,
+            )  # fmt: skip
 
 
 @nb.njit(cache=True)
@@ -863,7 +930,7 @@ def band_row_features(
     var_l,
     var_r,
     wta_k,
-    wta_ratio,
+    keep,
     tests,
     iwork,
     fwork,
@@ -875,13 +942,14 @@ def band_row_features(
 ):
     """Find the reliable feature pairs of band row ``r`` (image row ``y``), as ``divide_row``.
 
-    ``cost``, ``wta_k`` and ``wta_ratio`` are the band's (``band_lane_costs``,
-    ``band_block_match``); ``var_l``/``var_r`` the window variances of the band in both
-    views (``band_lane_variance``: the right view's stored right to left). ``tests`` is
+    ``cost`` and ``wta_k`` are the band's (``band_lane_costs``, ``band_block_match``);
+    ``left_p``/``right_p`` the padded signals; ``var_l``/``var_r`` the window variances of the band in both views
+    (``band_lane_variance``: the right view's stored right to left). ``tests`` is
     ``(ser_min, vs_max, vs_relative, var_floor, lr_check, uniqueness, edge_guard,
-    signal_steps)`` (``uniqueness > 0``; no limit on the tries). The up-front
-    tests of ``divide_row`` (variance floor, uniqueness, range, VS, guard, SER) pick the
-    candidates; the search takes the strongest candidate of each interval that lies in its
+    signal_steps)`` (``uniqueness > 0``; no limit on the tries). The up-front tests of
+    ``divide_row`` pick the candidates: ``keep`` (``band_feature_mask``) holds the
+    outcome of the variance floor, uniqueness, range and guard tests, and VS and SER are
+    tested here, on the survivors; the search takes the strongest candidate of each interval that lies in its
     ordering range and passes the left-right test, and splits the interval at it. Pair
     ``x <-> j`` is written to ``pins[x * R + r]`` (which must hold -1), ``partner_row[x]``,
     ``ser_row[x]`` and ``vs_row[x]``. No fill: the pinned band DP does it. Scratch:
@@ -902,34 +970,25 @@ def band_row_features(
     cand_var = fwork[2]
     cand_live = fwork[3]
     sparse = iwork[6:]
-    n = 0
+    # the survivors of the cheap tests (band_feature_mask), in order, without branches
+    m = 0
     for p in range(radius, width - radius):
+        cand_x[m] = p
+        m += keep[p * nr + r]
+    n = 0
+    for q in range(m):
+        p = cand_x[q]
         v_l = var_l[p * nr + r]
-        if not v_l >= var_floor:
-            continue
         best_k = wta_k[p * nr + r]
-        if best_k < 0 or wta_ratio[p * nr + r] < uniqueness:
-            continue
         j = p - dmin - best_k
-        if j < radius or j > width - 1 - radius:
-            continue
         v_r = var_r[(width - 1 - j) * nr + r]
-        if not _variance_similarity(v_l, v_r, vs_relative) <= vs_max:
+        vs = _variance_similarity(v_l, v_r, vs_relative)
+        if not vs <= vs_max:
             continue
-        if edge_guard > 0:
-            guarded = True
-            for x2 in (p - edge_guard, p + edge_guard):
-                x2 = min(max(x2, 0), width - 1)
-                k2 = wta_k[x2 * nr + r]
-                if k2 < 0 or abs(k2 - best_k) > 1 or wta_ratio[x2 * nr + r] < uniqueness:
-                    guarded = False
-            if not guarded:
-                continue
         ssd = _window_ssd(left_p, right_p, y, p, j, radius) / float(steps * steps)
         total = v_l + v_r
         ser = total / ssd if ssd > 0 else np.inf
-        vs = _variance_similarity(v_l, v_r, vs_relative)
-        if not (ser >= ser_min and vs <= vs_max):
+        if not ser >= ser_min:
             continue
         cand_x[n] = p
         cand_k[n] = best_k
@@ -980,19 +1039,21 @@ def band_row_features(
             j = p - dmin - best_k
             if lr_check:
                 if lr_j[i] != j:
+                    # the other left pixels x whose cost with j is at most best: the
+                    # nearest on each side of p (selects: the loads do not wait on branches)
                     lr_j[i] = j
-                    lr_below[i] = -1
-                    lr_above[i] = width
-                    for k in range(ndisp):
+                    below = -1
+                    above = width
+                    k0 = max(0, -(j + dmin))
+                    o = np.uint64((j + dmin + k0) * nk + (k0 + 1) * nr + r)
+                    for k in range(k0, min(ndisp, width - j - dmin)):
                         x = j + dmin + k
-                        if x < 0 or x >= width or x == p:
-                            continue
-                        if not cost[x * nk + (k + 1) * nr + r] <= best:
-                            continue
-                        if x < p:
-                            lr_below[i] = max(lr_below[i], x)
-                        else:
-                            lr_above[i] = min(lr_above[i], x)
+                        hit = cost[o] <= best
+                        below = x if hit & (x < p) else below
+                        above = min(above, x) if hit & (x > p) else above
+                        o += np.uint64(nk + nr)
+                    lr_below[i] = below
+                    lr_above[i] = above
                 if lr_below[i] > a or lr_above[i] < c:
                     held[nheld] = i  # a narrower interval may let it pass
                     nheld += 1
@@ -1100,6 +1161,7 @@ def match_band_rows(
         suf = np.empty(nk if search else 1, dtype=np.float64)
         wta_k = np.empty(nwork * nr, dtype=np.int64)
         wta_ratio = np.empty(nwork * nr, dtype=np.float64)
+        keep = np.empty(nwork * nr, dtype=np.uint8)
         nvar = width_p * nr if search else 1
         colsum = np.empty((2, nvar), dtype=np.int64)
         colsq = np.empty((2, nvar), dtype=np.int64)
@@ -1140,6 +1202,7 @@ def match_band_rows(
                     var_band[1],
                 )  # fmt: skip
                 band_block_match(cost, width, ndisp, pre, suf, wta_k, wta_ratio)
+                band_feature_mask(var_band[0], wta_k, wta_ratio, width, dmin, radius, tests, keep)
                 for i in range(width * nr):
                     pins[i] = -1
                 for r in range(nr):
@@ -1163,7 +1226,7 @@ def match_band_rows(
                         var_band[0],
                         var_band[1],
                         wta_k,
-                        wta_ratio,
+                        keep,
                         tests,
                         iwork,
                         fwork,
