@@ -452,6 +452,52 @@ def test_band_block_match_equals_the_naive_one(seed):
             np.testing.assert_array_equal(wta_ratio[x * nr : (x + 1) * nr], ratios)
 
 
+def naive_feature_mask(var_l, wta_k, wta_ratio, width, dmin, radius, var_floor, uniq, guard):
+    """The cheap up-front tests of ``divide_row``, one pixel at a time: the twin of the mask."""
+    nr = _band_kernels.BAND_ROWS
+    keep = np.zeros(width * nr, dtype=np.uint8)
+    for r in range(nr):
+        for x in range(radius, width - radius):
+            i = x * nr + r
+            k = wta_k[i]
+            if not var_l[i] >= var_floor or k < 0 or wta_ratio[i] < uniq:
+                continue
+            if not radius <= x - dmin - k <= width - 1 - radius:
+                continue
+            neighbours = [min(max(x2, 0), width - 1) for x2 in (x - guard, x + guard)]
+            if guard > 0 and any(
+                wta_k[x2 * nr + r] < 0
+                or abs(wta_k[x2 * nr + r] - k) > 1
+                or wta_ratio[x2 * nr + r] < uniq
+                for x2 in neighbours
+            ):
+                continue
+            keep[i] = 1
+    return keep
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_band_feature_mask_equals_the_naive_one(seed):
+    rng = np.random.default_rng(500 + seed)
+    nr = _band_kernels.BAND_ROWS
+    for _ in range(20):
+        width = int(rng.integers(1, 30))
+        radius = int(rng.integers(0, 4))
+        guard = int(rng.integers(0, 6))
+        dmin = int(rng.integers(-5, 6))
+        ndisp = int(rng.integers(1, 12))
+        var_l = rng.integers(0, 5, width * nr).astype(np.float64)
+        wta_k = rng.integers(-1, ndisp, width * nr).astype(np.int64)
+        # neighbours often agree, so that the guard passes now and then
+        wta_k[nr:] = np.where(rng.random(wta_k.size - nr) < 0.6, wta_k[:-nr], wta_k[nr:])
+        wta_ratio = rng.choice([0.0, 1.0, 1.5, 2.0, np.inf], width * nr)
+        tests = (1.0, 1.0, True, 2.0, True, 1.5, guard, 4)
+        keep = np.full(width * nr, 7, dtype=np.uint8)
+        _band_kernels.band_feature_mask(var_l, wta_k, wta_ratio, width, dmin, radius, tests, keep)
+        expected = naive_feature_mask(var_l, wta_k, wta_ratio, width, dmin, radius, 2.0, 1.5, guard)
+        np.testing.assert_array_equal(keep, expected)
+
+
 def dc_by_rows(left, right, **options):
     """``dc`` through the row-by-row kernel (``_kernels.match_dc_rows``): the reference."""
     with mock.patch.object(api, "_dc_on_bands", lambda params, width: False):
