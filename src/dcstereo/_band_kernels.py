@@ -855,7 +855,7 @@ def _variance_similarity(var_left, var_right, vs_relative):
 
 @nb.njit(cache=True, inline="always")
 def _mask_cell(var_l, wta_k, wta_ratio, i, x, i_a, i_b, dmin, radius, width, var_floor, uniq):
-    """The cheap up-front tests of cell ``i`` (left pixel ``x``), its guard cells ``i_a``, ``i_b``."""
+    """Return the cheap tests of cell ``i`` (left pixel ``x``; guard cells ``i_a``, ``i_b``)."""
     k = wta_k[i]
     j = x - dmin - k
     k_a = wta_k[i_a]
@@ -943,16 +943,17 @@ def band_row_features(
     """Find the reliable feature pairs of band row ``r`` (image row ``y``), as ``divide_row``.
 
     ``cost`` and ``wta_k`` are the band's (``band_lane_costs``, ``band_block_match``);
-    ``left_p``/``right_p`` the padded signals; ``var_l``/``var_r`` the window variances of the band in both views
-    (``band_lane_variance``: the right view's stored right to left). ``tests`` is
-    ``(ser_min, vs_max, vs_relative, var_floor, lr_check, uniqueness, edge_guard,
-    signal_steps)`` (``uniqueness > 0``; no limit on the tries). The up-front tests of
-    ``divide_row`` pick the candidates: ``keep`` (``band_feature_mask``) holds the
-    outcome of the variance floor, uniqueness, range and guard tests, and VS and SER are
-    tested here, on the survivors; the search takes the strongest candidate of each interval that lies in its
-    ordering range and passes the left-right test, and splits the interval at it. Pair
-    ``x <-> j`` is written to ``pins[x * R + r]`` (which must hold -1), ``partner_row[x]``,
-    ``ser_row[x]`` and ``vs_row[x]``. No fill: the pinned band DP does it. Scratch:
+    ``left_p``/``right_p`` the padded signals; ``var_l``/``var_r`` the window variances of
+    the band in both views (``band_lane_variance``: the right view's stored right to
+    left). ``tests`` is ``(ser_min, vs_max, vs_relative, var_floor, lr_check, uniqueness,
+    edge_guard, signal_steps)`` (``uniqueness > 0``; no limit on the tries). The up-front
+    tests of ``divide_row`` pick the candidates: ``keep`` (``band_feature_mask``) holds
+    the outcome of the variance floor, uniqueness, range and guard tests, and VS and SER
+    are tested here, on the survivors. The search takes the strongest candidate of each
+    interval that lies in its ordering range and passes the left-right test, and splits
+    the interval at it. Pair ``x <-> j`` is written to ``pins[x * R + r]`` (which must
+    hold -1), ``partner_row[x]``, ``ser_row[x]`` and ``vs_row[x]``. No fill: the pinned
+    band DP does it. Scratch:
     ``iwork`` (int64, (6 + levels, width), ``2**(levels - 1) >= width``), ``fwork``
     (float64, (4, width)), ``stack`` (int64, (width + 2, 6)).
     """
