@@ -900,7 +900,7 @@ def band_feature_mask(var_l, wta_k, wta_ratio, width, dmin, radius, tests, keep)
     x_hi = max(min(width - radius, width - guard), x_lo)
     g = np.uint64(guard * nr)
     for i in range(np.uint64(x_lo * nr), np.uint64(x_hi * nr)):
-        x = np.int64(i >> np.uint64(3))
+        x = np.int64(i // np.uint64(nr))
         keep[i] = _mask_cell(
             var_l, wta_k, wta_ratio, i, x, i - g, i + g, dmin, radius, width, var_floor, uniq
         )
