@@ -904,16 +904,15 @@ def band_feature_mask(var_l, wta_k, wta_ratio, width, dmin, radius, tests, keep)
         keep[i] = _mask_cell(
             var_l, wta_k, wta_ratio, i, x, i - g, i + g, dmin, radius, width, var_floor, uniq
         )
-    for x in range(radius, width - radius):
-        if x_lo <= x < x_hi:
-            continue
-        i_a = max(x - guard, 0) * nr
-        i_b = min(x + guard, width - 1) * nr
-        for r in range(nr):
-            keep[x * nr + r] = _mask_cell(
-                var_l, wta_k, wta_ratio, x * nr + r, x, i_a + r, i_b + r, dmin, radius, width,
-                var_floor, uniq,
-            )  # fmt: skip
+    for lo, hi in ((radius, x_lo), (x_hi, width - radius)):  # the border columns
+        for x in range(lo, hi):
+            i_a = max(x - guard, 0) * nr
+            i_b = min(x + guard, width - 1) * nr
+            for r in range(nr):
+                keep[x * nr + r] = _mask_cell(
+                    var_l, wta_k, wta_ratio, x * nr + r, x, i_a + r, i_b + r, dmin, radius, width,
+                    var_floor, uniq,
+                )  # fmt: skip
 
 
 @nb.njit(cache=True)
