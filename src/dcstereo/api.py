@@ -9,7 +9,7 @@ from . import _band_kernels, _kernels
 from .params import MatchParams
 from .redert import match_redert as _match_redert
 from .result import FLAG_FEATURE, DisparityResult
-from .signal import SIGNAL_STEPS, check_image, matching_signal
+from .signal import SIGNAL_STEPS, check_image, padded_signal
 
 
 def match(
@@ -80,11 +80,7 @@ def match(
 
 
 def _padded_signals(left, right, radius):
-    pad = ((radius, radius), (radius, radius))
-    return (
-        np.pad(matching_signal(left), pad, mode="edge"),
-        np.pad(matching_signal(right), pad, mode="edge"),
-    )
+    return padded_signal(left, radius), padded_signal(right, radius)
 
 
 def _doubled(cost: float, scale: float) -> float:

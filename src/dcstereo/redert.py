@@ -89,7 +89,7 @@ import numpy as np
 from . import _redert_kernels
 from .params import MatchParams
 from .result import DisparityResult
-from .signal import SIGNAL_STEPS, check_image, matching_signal
+from .signal import SIGNAL_STEPS, check_image, padded_signal
 
 
 def redert_cost_scale(window: int, steps: int) -> float:
@@ -174,9 +174,8 @@ def match_redert(
         raise ValueError(f"left and right images differ in shape: {left.shape} vs {right.shape}")
     params.check_image_size(*left.shape[:2])
     radius = params.window // 2
-    pad = ((radius, radius), (radius, radius))
-    left_p = np.pad(matching_signal(left), pad, mode="edge")
-    right_p = np.pad(matching_signal(right), pad, mode="edge")
+    left_p = padded_signal(left, radius)
+    right_p = padded_signal(right, radius)
     height, width = left.shape[:2]
     disparity = np.empty((height, width), dtype=np.float32)
     flags = np.empty((height, width), dtype=np.uint8)

@@ -15,10 +15,12 @@ the same disparity map.
 
 import numpy as np
 
+from . import _signal_kernels
+from ._signal_kernels import LUMA
+
 #: Quantization steps per gray level of the matching signal.
 SIGNAL_STEPS = 16
 
-_LUMA = np.array([0.299, 0.587, 0.114])
 
 
 def check_image(image: np.ndarray, name: str) -> np.ndarray:
@@ -66,10 +68,37 @@ def intensity(image: np.ndarray) -> np.ndarray:
     else:
         scaled = array.astype(np.float64) * 255.0
     if scaled.ndim == 3:
-        scaled = scaled[:, :, :3] @ _LUMA
+        # summed in this order, as ``_signal_kernels.padded_signal`` does (not a matmul,
+        # whose BLAS may round differently)
+        scaled = scaled[:, :, 0] * LUMA[0] + scaled[:, :, 1] * LUMA[1] + scaled[:, :, 2] * LUMA[2]
     return scaled
 
 
 def matching_signal(image: np.ndarray) -> np.ndarray:
     """Return the int32 matching signal (intensity in 1/16 gray levels) of a checked image."""
     return np.rint(intensity(image) * SIGNAL_STEPS).astype(np.int32)
+
+
+def padded_signal(image: np.ndarray, radius: int) -> np.ndarray:
+    """Return ``matching_signal(image)`` edge-padded by ``radius`` on every side.
+
+    The same values as ``np.pad(matching_signal(image), radius, mode="edge")``, computed in
+    one compiled pass over the rows (in parallel) instead of several numpy passes.
+    """
+    array = np.asarray(image)
+    if array.dtype == np.uint8:
+        mode = _signal_kernels.MODE_UINT8
+    elif array.dtype == np.uint16:
+        mode = _signal_kernels.MODE_UINT16
+    else:
+        mode = _signal_kernels.MODE_FLOAT
+    if mode == _signal_kernels.MODE_FLOAT and array.dtype not in (np.float32, np.float64):
+        array = array.astype(np.float64)  # float16, longdouble: as ``intensity`` takes them
+    elif not array.dtype.isnative:
+        array = array.astype(array.dtype.newbyteorder("="))
+    if array.ndim == 2:
+        array = array[:, :, np.newaxis]
+    height, width = array.shape[:2]
+    out = np.empty((height + 2 * radius, width + 2 * radius), dtype=np.int32)
+    _signal_kernels.padded_signal(array, mode, SIGNAL_STEPS, radius, out)
+    return out

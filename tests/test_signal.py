@@ -1,0 +1,53 @@
+"""The matching signal: the compiled padded signal against numpy's, bit for bit."""
+
+import numpy as np
+import pytest
+
+from dcstereo.signal import SIGNAL_STEPS, matching_signal, padded_signal
+
+
+def _naive_padded(image, radius):
+    """The reference: numpy's signal, then numpy's edge padding."""
+    return np.pad(matching_signal(image), radius, mode="edge")
+
+
+def _images():
+    rng = np.random.default_rng(7)
+    yield "uint8 gray", rng.integers(0, 256, (7, 9), dtype=np.uint8)
+    yield "uint8 colour", rng.integers(0, 256, (6, 11, 3), dtype=np.uint8)
+    yield "uint8 rgba", rng.integers(0, 256, (5, 4, 4), dtype=np.uint8)
+    yield "uint8 colour, reversed columns", rng.integers(0, 256, (8, 8, 3), dtype=np.uint8)[:, ::-1]
+    yield "uint16 gray", rng.integers(0, 65536, (5, 6), dtype=np.uint16)
+    yield "uint16 colour", rng.integers(0, 65536, (5, 6, 3), dtype=np.uint16)
+    yield "uint16 big-endian", rng.integers(0, 65536, (5, 6)).astype(">u2")
+    yield "float64 gray", rng.random((6, 5))
+    yield "float64 rgba", rng.random((6, 5, 4))
+    yield "float32 colour", rng.random((5, 7, 3)).astype(np.float32)
+    yield "float16 gray", rng.random((4, 4)).astype(np.float16)
+    # intensities on every half step of the 1/16 quantization: rint's ties to even
+    yield "float64 ties", (np.arange(64.0) / (2 * SIGNAL_STEPS * 255.0)).reshape(2, 32)
+
+
+@pytest.mark.parametrize("radius", [0, 1, 2, 3])
+def test_padded_signal_equals_numpy(radius):
+    for name, image in _images():
+        got = padded_signal(image, radius)
+        want = _naive_padded(image, radius)
+        assert got.dtype == np.int32, name
+        assert got.shape == want.shape, name
+        np.testing.assert_array_equal(got, want, err_msg=name)
+
+
+def test_colour_signal_by_hand():
+    pixel = np.array([[[10, 20, 30]]], dtype=np.uint8)
+    # 0.299 * 10 + 0.587 * 20 + 0.114 * 30 = 18.15 gray levels; 290.4 sixteenths
+    assert matching_signal(pixel)[0, 0] == 290
+    assert padded_signal(pixel, 1).tolist() == [[290] * 3] * 3
+
+
+def test_same_picture_in_every_dtype_gives_one_signal():
+    rng = np.random.default_rng(3)
+    image = rng.integers(0, 256, (9, 10, 3), dtype=np.uint8)
+    want = padded_signal(image, 2)
+    np.testing.assert_array_equal(padded_signal(image.astype(np.uint16) * 257, 2), want)
+    np.testing.assert_array_equal(padded_signal(image / 255.0, 2), want)
