@@ -22,7 +22,6 @@ from ._signal_kernels import LUMA
 SIGNAL_STEPS = 16
 
 
-
 def check_image(image: np.ndarray, name: str) -> np.ndarray:
     """Validate one input image and return it as an array (no copy when possible).
 
