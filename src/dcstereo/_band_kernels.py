@@ -1039,14 +1039,18 @@ def band_row_features(
             j = p - dmin - best_k
             if lr_check:
                 if lr_j[i] != j:
-                    # the other left pixels x whose cost with j is at most best: the
-                    # nearest on each side of p (selects: the loads do not wait on branches)
+                    # the other left pixels x of the interval whose cost with j is at most
+                    # best: the nearest on each side of p, or the interval's ends, a and c
+                    # (selects: the loads do not wait on branches). Only hits inside (a, c)
+                    # decide, here and in every later try of this candidate: it is tried
+                    # again only in the sub-intervals of this one.
                     lr_j[i] = j
-                    below = -1
-                    above = width
-                    k0 = max(0, -(j + dmin))
+                    below = a
+                    above = c
+                    k0 = max(0, -(j + dmin), a + 1 - j - dmin)
+                    k1 = min(ndisp, width - j - dmin, c - j - dmin)
                     o = np.uint64((j + dmin + k0) * nk + (k0 + 1) * nr + r)
-                    for k in range(k0, min(ndisp, width - j - dmin)):
+                    for k in range(k0, k1):
                         x = j + dmin + k
                         hit = cost[o] <= best
                         below = x if hit & (x < p) else below
