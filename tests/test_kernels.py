@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import naive
+from dcstereo.result import FLAG_FEATURE
 from dcstereo import _kernels
 
 STEP_NAMES = {
@@ -175,3 +176,29 @@ def test_oracle_enumerates_the_hand_counted_paths():
     # a = 10, then b = 15. Every node with i == 1 or j == 1 ends a path.
     totals = sorted(t for t, _, _ in paths)
     assert totals == [3.0, 4.0, 6.0, 7.0, 9.0, 10.0, 11.0, 15.0]
+
+
+@pytest.mark.parametrize("with_scores", [True, False])
+def test_collect_features_equals_numpy_nonzero(with_scores):
+    rng = np.random.default_rng(11)
+    partner = np.where(rng.random((13, 17)) < 0.3, rng.integers(0, 17, (13, 17)), -1)
+    partner[4] = -1  # a row without pairs
+    ser = rng.random((13, 17)).astype(np.float32)
+    vs = rng.random((13, 17)).astype(np.float32)
+    flags = rng.integers(0, 4, (13, 17)).astype(np.uint8)
+    want_flags = np.where(partner >= 0, flags | FLAG_FEATURE, flags)
+    rows, cols = np.nonzero(partner >= 0)  # row-major, as the kernel
+    empty = np.empty((0, 0), dtype=np.float32)
+    got = _kernels.collect_features(
+        partner, ser if with_scores else empty, vs if with_scores else empty, FLAG_FEATURE, flags
+    )
+    assert got.shape == (rows.size, 5)
+    np.testing.assert_array_equal(got[:, 0], rows)
+    np.testing.assert_array_equal(got[:, 1], cols)
+    np.testing.assert_array_equal(got[:, 2], partner[rows, cols])
+    if with_scores:
+        np.testing.assert_array_equal(got[:, 3], ser[rows, cols])
+        np.testing.assert_array_equal(got[:, 4], vs[rows, cols])
+    else:
+        assert np.isnan(got[:, 3:]).all()
+    np.testing.assert_array_equal(flags, want_flags)

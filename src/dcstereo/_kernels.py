@@ -555,18 +555,27 @@ def window_variance_row(signal_p, y, radius, signal_steps, colsum, colsq, out, i
         out[x] = float(n * q - s * s) / norm
 
 
-@nb.njit(cache=True)
-def collect_features(partner, ser, vs, flag, flags, out):
-    """Write the pairs ``(row, x_left, x_right, SER, VS)`` where ``partner >= 0`` to ``out``.
+@nb.njit(cache=True, parallel=True)
+def collect_features(partner, ser, vs, flag, flags):
+    """Return the pairs ``(row, x_left, x_right, SER, VS)`` where ``partner >= 0``.
 
-    In row-major order; ``out`` (float64, (n, 5)) must have one row per pair (``n`` the
-    count of ``partner >= 0``). ``ser``/``vs`` of shape (0, 0): NaN. Each pair's pixel gets
-    ``flag`` in ``flags``.
+    Float64, (n, 5), in row-major order. ``ser``/``vs`` of shape (0, 0): NaN. Each pair's
+    pixel gets ``flag`` in ``flags``. Rows in parallel: a count per row, then each row
+    writes its pairs from its own start.
     """
     height, width = partner.shape
     given = ser.shape[0] > 0
-    n = 0
+    starts = np.zeros(height + 1, dtype=np.int64)
+    for y in nb.prange(height):
+        count = 0
+        for x in range(width):
+            count += partner[y, x] >= 0
+        starts[y + 1] = count
     for y in range(height):
+        starts[y + 1] += starts[y]
+    out = np.empty((starts[height], 5))
+    for y in nb.prange(height):
+        n = starts[y]
         for x in range(width):
             j = partner[y, x]
             if j < 0:
@@ -578,6 +587,7 @@ def collect_features(partner, ser, vs, flag, flags, out):
             out[n, 4] = vs[y, x] if given else np.nan
             flags[y, x] |= flag
             n += 1
+    return out
 
 
 @nb.njit(cache=True)

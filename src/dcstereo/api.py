@@ -110,9 +110,7 @@ def _features(partner, flags, ser=None, vs=None):
     """
     if ser is None:
         ser = vs = np.empty((0, 0), dtype=np.float32)
-    features = np.empty((np.count_nonzero(partner >= 0), 5), dtype=np.float64)
-    _kernels.collect_features(partner, ser, vs, FLAG_FEATURE, flags, features)
-    return features
+    return _kernels.collect_features(partner, ser, vs, FLAG_FEATURE, flags)
 
 
 def _match_block(left, right, params: MatchParams) -> DisparityResult:
