@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import naive
-from dcstereo.result import FLAG_FEATURE
 from dcstereo import _kernels
+from dcstereo.result import FLAG_FEATURE
 
 STEP_NAMES = {
     _kernels.STEP_C: naive.C,
