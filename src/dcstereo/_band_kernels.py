@@ -1089,8 +1089,10 @@ def band_row_features(
 
 @nb.njit(cache=True)
 def _chunk_bounds(count, nchunks, c):
-    step = (count + nchunks - 1) // nchunks
-    return c * step, min(count, (c + 1) * step)
+    # sizes differ by at most one, spread evenly: the parallel loop hands each thread an
+    # equal run of chunks, so ceil-sized chunks (and a short last one) would leave one
+    # thread more work (36 bands in 8 chunks: 20 against 16)
+    return c * count // nchunks, (c + 1) * count // nchunks
 
 
 @nb.njit(parallel=True, cache=True)
@@ -1117,7 +1119,7 @@ def match_band_rows(
 
     The results of ``_kernels.match_dsi_rows`` with ``bt=False``, bit for bit. The only
     parallel loop is over ``nchunks`` runs of consecutive rows (those of runs of
-    ``ceil(height / R / nchunks)`` bands). In a chunk of ``n`` rows from ``y_a``, band row
+    ``ceil(height / R)`` bands split as evenly as they go). In a chunk of ``n`` rows from ``y_a``, band row
     (lane) ``r`` runs down rows ``y_a + r * run + t``, ``run = ceil(n / R)``, at band step
     ``t``, so that each lane's row moves down by one from band to band and the vertical
     window sums are updated (``band_lane_costs``: two absolute differences per cell) after
