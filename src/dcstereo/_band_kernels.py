@@ -1118,8 +1118,8 @@ def match_band_rows(
     """Run the whole-scanline DP of every row (SAD cost), ``BAND_ROWS`` rows at a time.
 
     The results of ``_kernels.match_dsi_rows`` with ``bt=False``, bit for bit. The only
-    parallel loop is over ``nchunks`` runs of consecutive rows (those of runs of
-    ``ceil(height / R)`` bands split as evenly as they go). In a chunk of ``n`` rows from ``y_a``, band row
+    parallel loop is over ``nchunks`` runs of consecutive rows (the ``ceil(height / R)``
+    bands split as evenly as they go). In a chunk of ``n`` rows from ``y_a``, band row
     (lane) ``r`` runs down rows ``y_a + r * run + t``, ``run = ceil(n / R)``, at band step
     ``t``, so that each lane's row moves down by one from band to band and the vertical
     window sums are updated (``band_lane_costs``: two absolute differences per cell) after
