@@ -18,6 +18,7 @@ import dcstereo
 from dcstereo import _band_kernels, _kernels, api
 from dcstereo.api import _NO_TESTS
 from dcstereo.datasets import load_middlebury
+from dcstereo.params import MAX_WINDOW
 from dcstereo.signal import matching_signal
 
 
@@ -317,7 +318,7 @@ def test_incremental_lane_costs_equal_row_costs(dtype):
         rows = np.empty(max(win, 2) * nr, dtype=np.int64)
         spread = np.empty(2 * ndisp * nr, dtype=dtype)
         vs = np.empty(width * ndisp * nr, dtype=dtype)
-        hsum = np.empty(ndisp * nr, dtype=np.int64)
+        hsum = np.empty(ndisp * nr, dtype=dtype)
         out = np.empty(width * nk)
         expected = np.empty((width, ndisp))
         vcol = np.empty((width, ndisp), dtype=np.int32)
@@ -360,6 +361,33 @@ def test_incremental_lane_costs_equal_row_costs(dtype):
                     if v == 1:  # the right view is stored right to left
                         lane = lane[::-1]
                     assert lane.tobytes() == var_row.tobytes()
+
+
+def test_largest_window_sums_fit_the_int32_buffers():
+    # MAX_WINDOW with the largest absolute difference everywhere (4080, a white left view
+    # and a black right one), in match_band_rows' int32 buffers, moved down a row too: every
+    # cost is 4080 * MAX_WINDOW**2, just under 2**31, and none wraps around
+    win = MAX_WINDOW
+    radius, width, ndisp, dmin = win // 2, win, 2, 0
+    nr = _band_kernels.BAND_ROWS
+    assert 4080 * win**2 < 2**31 <= 4080 * (win + 2) ** 2
+    left_p = np.full((win + 1, width + 2 * radius), 4080, dtype=np.int32)
+    right_p = np.zeros_like(left_p)
+    left_t = np.empty(win * (width + 2 * radius) * nr, dtype=np.int32)
+    right_t = np.empty_like(left_t)
+    spread = np.empty(2 * ndisp * nr, dtype=np.int32)
+    vs = np.empty(width * ndisp * nr, dtype=np.int32)
+    hsum = np.empty(ndisp * nr, dtype=np.int32)
+    out = np.empty(width * (ndisp + 2) * nr)
+    for incremental in (False, True):
+        rows = np.repeat(np.arange(win) + incremental, nr)[: (2 if incremental else win) * nr]
+        _band_kernels.band_lane_signals(left_p, right_p, rows, rows.size // nr, left_t, right_t)
+        _band_kernels.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread, vs,
+                                      incremental, hsum, out)  # fmt: skip
+        band = out.reshape(width, ndisp + 2, nr)[:, 1:-1]
+        finite = band[np.isfinite(band)]
+        assert finite.size == (2 * width - 1) * nr  # d = 1 has no match at x = 0
+        assert (finite == 4080.0 * win * win).all()
 
 
 def test_band_kernels_run_as_plain_python():

@@ -196,9 +196,11 @@ def band_lane_costs(
 
     ``nk = (ndisp + 2) * R``; the values are those of ``row_costs``, bit for bit. ``vs``
     (``width * ndisp * R``) keeps the vertical sums of column ``c`` at ``c * ndisp * R``;
-    ``hsum`` (int64, ``ndisp * R``) is their running horizontal sum. The driver keeps
-    ``vs``, ``left_t``, ``right_t`` and ``spread`` in int32 (half the memory traffic; the
-    signals are int32, and ``row_costs`` keeps its vertical sums in int32 too).
+    ``hsum`` (``ndisp * R``) is their running horizontal sum. The driver keeps ``vs``,
+    ``hsum``, ``left_t``, ``right_t`` and ``spread`` in int32 (half the memory traffic and
+    one int32 -> float64 conversion per cell; the signals are int32, ``row_costs`` keeps
+    its vertical sums in int32 too, and a window sum fits: ``MatchParams`` takes windows
+    up to ``MAX_WINDOW``, whose 4080 * window**2 is below 2**31).
 
     ``incremental`` False: ``left_t``/``right_t`` hold the ``2 radius + 1`` window rows of
     each lane (``band_lane_signals``) and the sums are computed afresh; True: ``vs`` holds
@@ -236,7 +238,7 @@ def band_lane_costs(
             )
             if sub >= 0:  # the bulk of the row: one pass
                 for i in range(nkc):
-                    h = hsum[i] + (np.int64(vs[o_add + i]) - np.int64(vs[o_sub + i]))
+                    h = np.int32(hsum[i] + (vs[o_add + i] - vs[o_sub + i]))
                     hsum[i] = h
                     out[o_out + i] = h
                 continue
@@ -1152,7 +1154,7 @@ def match_band_rows(
         rows = np.empty(max(win, 2) * nr, dtype=np.int64)
         spread = np.empty(2 * ndisp * nr, dtype=np.int32)
         vs = np.empty(width * ndisp * nr, dtype=np.int32)
-        hsum = np.empty(ndisp * nr, dtype=np.int64)
+        hsum = np.empty(ndisp * nr, dtype=np.int32)
         cost = np.empty(width * nk, dtype=np.float64)
         table = np.empty((width + 2) * nk, dtype=np.float64)
         prev2_work = np.empty(nk, dtype=np.float64)

@@ -26,6 +26,10 @@ DEFAULT_UNIQUENESS = 2.0
 DEFAULT_GCP_UNIQUENESS = 3.0
 DEFAULT_GCP_VARIANCE_FLOOR = 100.0
 
+#: Largest window: the band kernels sum a window's absolute differences (each at most
+#: 255 gray levels in 1/16 steps, 4080) in 32-bit integers, and 4080 * 725**2 < 2**31.
+MAX_WINDOW = 725
+
 #: Matching costs: the paper's windowed SAD (eq. 4) and Birchfield-Tomasi's
 #: sampling-insensitive dissimilarity summed over the same window.
 COSTS = ("sad", "bt")
@@ -199,6 +203,11 @@ class MatchParams:
             raise ValueError(f"unknown method {self.method!r}; choose one of {', '.join(METHODS)}")
         if self.window < 1 or self.window % 2 == 0:
             raise ValueError(f"window must be a positive odd integer, got {self.window}")
+        if self.window > MAX_WINDOW:
+            raise ValueError(
+                f"window={self.window} is larger than {MAX_WINDOW}, the largest whose window "
+                "sums fit the kernels' 32-bit integers"
+            )
         cost = self.occlusion_cost
         if isinstance(cost, bool) or not isinstance(cost, (int, float)) or not math.isfinite(cost):
             raise ValueError(f"occlusion_cost must be a finite number, got {cost!r}")
