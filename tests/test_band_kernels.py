@@ -468,14 +468,27 @@ def test_band_block_match_equals_the_naive_one(seed):
         cells[:, :, 0] = np.inf if rng.random() < 0.3 else cells[:, :, 0]
         cost = np.full((width, ndisp + 2, nr), np.inf)
         cost[:, 1:-1] = cells
+        if rng.random() < 0.5:  # large integers: the keys' range
+            cells = np.where(np.isinf(cells), cells, 2.0**31 - 1 - cells)
         wta_k = np.empty(width * nr, dtype=np.int64)
         wta_ratio = np.empty(width * nr)
         scratch = np.empty((2, (ndisp + 2) * nr))
-        _band_kernels.band_block_match(
-            cost.ravel(), width, ndisp, scratch[0], scratch[1], wta_k, wta_ratio
-        )
+        # integer costs: keyed columns, binary-searched ones, and a mix
+        cut = int(rng.integers(0, width + 1))
+        for x_int_lo, x_int_hi in ((0, width), (width, 0), (cut, width), (0, cut)):
+            cost[:, 1:-1] = cells
+            _band_kernels.band_block_match(cost.ravel(), width, ndisp, x_int_lo, x_int_hi,
+                                           scratch[0], scratch[1], wta_k, wta_ratio)  # fmt: skip
+            for x in range(width):
+                ks, ratios = naive_block_match(cells[x])
+                assert list(wta_k[x * nr : (x + 1) * nr]) == ks
+                np.testing.assert_array_equal(wta_ratio[x * nr : (x + 1) * nr], ratios)
+        # fractional costs (the truncated windows): the binary search
+        cost[:, 1:-1] = cells + rng.integers(0, 4, cells.shape) / 3.0
+        _band_kernels.band_block_match(cost.ravel(), width, ndisp, width, 0, scratch[0],
+                                       scratch[1], wta_k, wta_ratio)  # fmt: skip
         for x in range(width):
-            ks, ratios = naive_block_match(cells[x])
+            ks, ratios = naive_block_match(cost[x, 1:-1])
             assert list(wta_k[x * nr : (x + 1) * nr]) == ks
             np.testing.assert_array_equal(wta_ratio[x * nr : (x + 1) * nr], ratios)
 

@@ -736,7 +736,7 @@ def band_backtrack_row(
 
 
 @nb.njit(cache=True)
-def band_block_match(cost, width, ndisp, pre, suf, wta_k, wta_ratio):
+def band_block_match(cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio):
     """Whole-band block match of every left pixel of the ``R`` rows of a band.
 
     ``wta_k[x * R + r]`` is the least-cost index ``k`` of column ``x`` of band row ``r``
@@ -747,10 +747,16 @@ def band_block_match(cost, width, ndisp, pre, suf, wta_k, wta_ratio):
     Per column, one flat pass over the cells (a vector loop, the lanes independent): the
     prefix minima ``pre`` and the suffix minima ``suf`` along ``k`` (float64 scratch,
     ``(ndisp + 2) * R``; the inf padding cells are the empty prefix and suffix). The least
-    cost is the last prefix minimum; its first index the first cell where the prefix
-    minimum reaches it (a binary search: the prefix minima do not increase); the second
-    cost, over ``|k - best| > 1``, the least of the prefix minimum two cells below the
-    match and the suffix minimum two cells above.
+    cost is the last prefix minimum; the second cost, over ``|k - best| > 1``, the least of
+    the prefix minimum two cells below the match and the suffix minimum two cells above.
+
+    The match's first index: in columns ``x_int_lo <= x < x_int_hi``, whose costs must all
+    be integers below ``2**31`` or inf (``band_lane_costs``: all but the columns of the
+    truncated windows), the minima are taken over keys ``cost * M + (k + 1)``, ``M`` a
+    power of two above the cell count: exact, and ordered as ``(cost, k)``, so the least
+    key carries the first index of the least cost. Elsewhere a binary search finds the
+    first cell where the prefix minimum reaches the least cost (the prefix minima do not
+    increase).
     """
     nr = BAND_ROWS
     unr = np.uint64(nr)
@@ -758,18 +764,38 @@ def band_block_match(cost, width, ndisp, pre, suf, wta_k, wta_ratio):
     unk = np.uint64(nblocks * nr)
     top = unk - unr
     inf = np.inf
+    scale = 1.0
+    while scale <= nblocks:
+        scale *= 2.0
+    unscale = 1.0 / scale  # exact: a power of two
+    blocks = np.empty(unk)  # block (k + 1) of each flat cell: a load in the loop below
+    for i in range(unk):  # costs less than the index arithmetic
+        blocks[i] = np.float64(i // unr)
     for x in range(width):
         o = np.uint64(x) * unk
-        for i in range(unr):
-            pre[i] = cost[o + i]
-            suf[top + i] = cost[o + top + i]
-        # one loop, two independent chains: the prefix minima up from the bottom, the
-        # suffix minima down from the top
-        for i in range(top):
-            p = unr + i
-            q = top - np.uint64(1) - i
-            pre[p] = min(pre[p - unr], cost[o + p])
-            suf[q] = min(suf[q + unr], cost[o + q])
+        keyed = x_int_lo <= x < x_int_hi
+        if keyed:
+            for i in range(unr):
+                pre[i] = cost[o + i]  # the padding cells: inf, their key
+                suf[top + i] = cost[o + top + i]
+            # two independent chains in one loop, as below, over the keys; block
+            # b = p // R of flat cell p is k + 1
+            for i in range(top):
+                p = unr + i
+                q = top - np.uint64(1) - i
+                pre[p] = min(pre[p - unr], cost[o + p] * scale + blocks[p])
+                suf[q] = min(suf[q + unr], cost[o + q] * scale + blocks[q])
+        else:
+            for i in range(unr):
+                pre[i] = cost[o + i]
+                suf[top + i] = cost[o + top + i]
+            # one loop, two independent chains: the prefix minima up from the bottom, the
+            # suffix minima down from the top
+            for i in range(top):
+                p = unr + i
+                q = top - np.uint64(1) - i
+                pre[p] = min(pre[p - unr], cost[o + p])
+                suf[q] = min(suf[q + unr], cost[o + q])
         for r in range(nr):
             i = x * nr + r
             best = pre[(nblocks - 1) * nr + r]
@@ -777,17 +803,24 @@ def band_block_match(cost, width, ndisp, pre, suf, wta_k, wta_ratio):
                 wta_k[i] = -1
                 wta_ratio[i] = 0.0
                 continue
-            # the first block b (= k + 1) with pre[b] == best, in 1..ndisp (pre[ndisp] is
-            # the least: the last block is inf): a binary search without branches (the
-            # prefix minima do not increase), the answer in b .. b + n - 1
-            b = 1
-            n = ndisp
-            while n > 1:
-                half = n // 2
-                b += half * (pre[(b + half - 1) * nr + r] > best)
-                n -= half
+            if keyed:
+                key = best
+                best = np.floor(key * unscale)
+                b = int(key - best * scale)
+            else:
+                # the first block b (= k + 1) with pre[b] == best, in 1..ndisp (pre[ndisp]
+                # is the least: the last block is inf): a binary search without branches,
+                # the answer in b .. b + n - 1
+                b = 1
+                n = ndisp
+                while n > 1:
+                    half = n // 2
+                    b += half * (pre[(b + half - 1) * nr + r] > best)
+                    n -= half
             wta_k[i] = b - 1
             second = min(pre[max(b - 2, 0) * nr + r], suf[min(b + 2, nblocks - 1) * nr + r])
+            if keyed:
+                second = np.floor(second * unscale)
             if best > 0:
                 wta_ratio[i] = second / best
             else:
@@ -1143,6 +1176,10 @@ def match_band_rows(
     nbands = (height + nr - 1) // nr
     win = 2 * radius + 1
     nk = (ndisp + 2) * nr
+    # the columns whose costs are all integers (or inf): no truncated window, at any
+    # disparity, on either side (band_block_match's keyed search)
+    x_int_lo = radius + max(0, dmin + ndisp - 1)
+    x_int_hi = width - radius + min(0, dmin)
     for ch in nb.prange(nchunks):
         b0, b1 = _chunk_bounds(nbands, nchunks, ch)
         # the chunk's rows; lane r takes rows y_a + r * run + t at band step t
@@ -1208,7 +1245,9 @@ def match_band_rows(
                     right_t, width, radius, steps, t > 0, colsum[1], colsq[1], hwork[0], hwork[1],
                     var_band[1],
                 )  # fmt: skip
-                band_block_match(cost, width, ndisp, pre, suf, wta_k, wta_ratio)
+                band_block_match(
+                    cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio
+                )
                 band_feature_mask(var_band[0], wta_k, wta_ratio, width, dmin, radius, tests, keep)
                 for i in range(width * nr):
                     pins[i] = -1
