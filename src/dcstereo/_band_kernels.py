@@ -1245,9 +1245,7 @@ def match_band_rows(
                     right_t, width, radius, steps, t > 0, colsum[1], colsq[1], hwork[0], hwork[1],
                     var_band[1],
                 )  # fmt: skip
-                band_block_match(
-                    cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio
-                )
+                band_block_match(cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio)
                 band_feature_mask(var_band[0], wta_k, wta_ratio, width, dmin, radius, tests, keep)
                 for i in range(width * nr):
                     pins[i] = -1
