@@ -362,8 +362,9 @@ def _cells5_chain(
         p = top - i
         h2 = 2.0 * cost[o_here + p]
         c = tab[o_prev + p] + h2
-        d = tab[o_prev + p + nr] + h2 + cost[o_here + p + nr] + cost[o_left + p] + slant2
-        e = prev2[o_prev2 + p - nr] + h2 + cost[o_left + p - nr] + cost[o_left + p] + slant2
+        u = h2 + cost[o_left + p] + slant2
+        d = tab[o_prev + p + nr] + cost[o_here + p + nr] + u
+        e = prev2[o_prev2 + p - nr] + cost[o_left + p - nr] + u
         a = tab[o_prev + p - nr] + occ2
         cell = min(min(c, d), min(e, a))
         tab[o_row + p] = min(cell, tab[o_row + p + nr] + occ2)
@@ -482,18 +483,9 @@ def band_forward(
             h2 = 2.0 * cost[o_here + p]
             best = table[o_prev + p] + h2
             if slant_ok:
-                best = min(
-                    best,
-                    table[o_prev + p + nr] + h2 + cost[o_here + p + nr] + cost[o_left + p] + slant2,
-                )
-                best = min(
-                    best,
-                    prev2[o_prev2 + p - nr]
-                    + h2
-                    + cost[o_left + p - nr]
-                    + cost[o_left + p]
-                    + slant2,
-                )
+                u = h2 + cost[o_left + p] + slant2
+                best = min(best, table[o_prev + p + nr] + cost[o_here + p + nr] + u)
+                best = min(best, prev2[o_prev2 + p - nr] + cost[o_left + p - nr] + u)
             anchor_total[x * nr + r] = best
             # ... and starts the next one: the column holds only the anchor (0) and the
             # b steps below it (the values of clearing it and running the b-chain)
@@ -522,10 +514,11 @@ def _band_step(cost, table, nk, x, k, r, best, occ2, slant2, slant_ok, e_ok, fro
             return STEP_C
         if slant_ok:
             left = cost[o_cost - nk]
-            if table[o_row - nk + nr] + h2 + cost[o_cost + nr] + left + slant2 == best:
+            u = h2 + left + slant2
+            if table[o_row - nk + nr] + cost[o_cost + nr] + u == best:
                 return STEP_D
             if e_ok:
-                if table[o_row - 2 * nk - nr] + h2 + cost[o_cost - nk - nr] + left + slant2 == best:
+                if table[o_row - 2 * nk - nr] + cost[o_cost - nk - nr] + u == best:
                     return STEP_E
     if allow_ab:
         if from_left and table[o_row - nk - nr] + occ2 == best:

@@ -140,8 +140,9 @@ def _earlier_steps5(row, prev, prev2, here, left, k1, k2, occ2, slant2):
     for k in range(k1, k2 + 1):
         h2 = 2.0 * here[k]
         c = prev[k + 1] + h2
-        d = prev[k + 2] + h2 + here[k + 1] + left[k] + slant2
-        e = prev2[k] + h2 + left[k - 1] + left[k] + slant2
+        u = h2 + left[k] + slant2  # the d and e steps' shared terms, added once
+        d = prev[k + 2] + here[k + 1] + u
+        e = prev2[k] + left[k - 1] + u
         a = prev[k] + occ2
         row[k + 1] = min(min(c, d), min(e, a))
 
@@ -159,10 +160,11 @@ def _slow_cell(cost, table, x, r, k, ndisp, occ2, slant2, slant_ok, allow_a):
     h2 = 2.0 * cost[x, k]
     best = table[r - 1, k + 1] + h2
     if slant_ok:
+        u = h2 + cost[x - 1, k] + slant2
         if k + 1 < ndisp:
-            best = min(best, table[r - 1, k + 2] + h2 + cost[x, k + 1] + cost[x - 1, k] + slant2)
+            best = min(best, table[r - 1, k + 2] + cost[x, k + 1] + u)
         if k >= 1:
-            best = min(best, table[r - 2, k] + h2 + cost[x - 1, k - 1] + cost[x - 1, k] + slant2)
+            best = min(best, table[r - 2, k] + cost[x - 1, k - 1] + u)
     if allow_a:
         best = min(best, table[r - 1, k] + occ2)
     return best
@@ -181,11 +183,12 @@ def _step_into(cost, table, x, r, k, ndisp, occ2, slant2, slant_ok, allow_ab):
     if table[r - 1, k + 1] + h2 == best:
         return STEP_C
     if slant_ok:
+        u = h2 + cost[x - 1, k] + slant2
         if k + 1 < ndisp:
-            if table[r - 1, k + 2] + h2 + cost[x, k + 1] + cost[x - 1, k] + slant2 == best:
+            if table[r - 1, k + 2] + cost[x, k + 1] + u == best:
                 return STEP_D
         if k >= 1:
-            if table[r - 2, k] + h2 + cost[x - 1, k - 1] + cost[x - 1, k] + slant2 == best:
+            if table[r - 2, k] + cost[x - 1, k - 1] + u == best:
                 return STEP_E
     if allow_ab:
         if table[r - 1, k] + occ2 == best:
