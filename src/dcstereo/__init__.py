@@ -7,6 +7,7 @@ disparity-space dynamic program, with the baselines it is compared with.
 Convention: a left pixel ``(x, y)`` matches the right pixel ``(x - d, y)``, ``d >= 0``.
 """
 
+from . import _memory  # noqa: F401  (sets the allocator's thresholds once; see there)
 from .api import match
 from .params import METHODS, MatchParams
 from .result import (
