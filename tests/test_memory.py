@@ -13,10 +13,10 @@ from dcstereo import _memory
 
 def _is_glibc():
     try:
-        ctypes.CDLL(None).gnu_get_libc_version  # noqa: B018
-    except (OSError, AttributeError):
+        libc = ctypes.CDLL(None)
+    except OSError:
         return False
-    return sys.platform.startswith("linux")
+    return sys.platform.startswith("linux") and hasattr(libc, "gnu_get_libc_version")
 
 
 SCRIPT = textwrap.dedent(
