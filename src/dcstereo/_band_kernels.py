@@ -767,10 +767,10 @@ def band_block_match(cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wt
     for x in range(width):
         o = np.uint64(x) * unk
         keyed = x_int_lo <= x < x_int_hi
+        for i in range(unr):
+            pre[i] = cost[o + i]  # the padding cells: inf (and inf is their key)
+            suf[top + i] = cost[o + top + i]
         if keyed:
-            for i in range(unr):
-                pre[i] = cost[o + i]  # the padding cells: inf, their key
-                suf[top + i] = cost[o + top + i]
             # two independent chains in one loop, as below, over the keys; block
             # b = p // R of flat cell p is k + 1
             for i in range(top):
@@ -779,9 +779,6 @@ def band_block_match(cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wt
                 pre[p] = min(pre[p - unr], cost[o + p] * scale + blocks[p])
                 suf[q] = min(suf[q + unr], cost[o + q] * scale + blocks[q])
         else:
-            for i in range(unr):
-                pre[i] = cost[o + i]
-                suf[top + i] = cost[o + top + i]
             # one loop, two independent chains: the prefix minima up from the bottom, the
             # suffix minima down from the top
             for i in range(top):

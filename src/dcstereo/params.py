@@ -60,7 +60,7 @@ class MatchParams:
     method : str
         One of :data:`METHODS`.
     window : int
-        Odd side ``W`` of the square SAD window of eq. 4.
+        Odd side ``W`` of the square SAD window of eq. 4, at most :data:`MAX_WINDOW` (725).
     occlusion_cost : float
         ``C_occ`` of eq. 5 per occluded pixel, in the units of the per-pixel absolute
         difference on the 0..255 intensity scale (the window cost is the *mean* absolute
