@@ -34,6 +34,11 @@ dcstereo methods run with their defaults (``window=5``); OpenCV runs through
 speckle filter 100 px / 2): both sides include the conversion to gray and the conversion
 of the result to float32 with NaN holes.
 
+With ``--interleave N``, each Middlebury scene is also timed in one process per scene, all
+methods and thread counts alternating call by call, best of ``N`` rounds: on a shared
+machine a loaded minute shifts whole fresh-process rows, but it slows interleaved calls
+alike, so that table's ratios to SGBM and speed-ups hold.
+
 The first-call cost of each dcstereo method is measured on one scene: the first call in a
 child whose ``NUMBA_CACHE_DIR`` is a fresh empty folder (compile), then in a second child
 with that folder filled (load from the cache), and the steady-state call.
@@ -41,6 +46,7 @@ with that folder filled (load from the cache), and the steady-state call.
     python benchmarks/bench_speed.py
     python benchmarks/bench_speed.py --scenes teddy --methods dsi5,opencv-sgbm --threads 1
     python benchmarks/bench_speed.py --skip-large --json speed.json --markdown speed.md
+    python benchmarks/bench_speed.py --interleave 21 --json speed.json --markdown SPEED.md
 """
 
 import argparse
@@ -188,8 +194,52 @@ def set_threads(method, threads):
         cv2.setNumThreads(threads)
 
 
+def run_interleaved(spec):
+    """Time ``spec["methods"]`` at ``spec["threads"]`` in this one process, calls alternating.
+
+    After one warm-up call of each (method, threads) pair, ``spec["repeat"]`` rounds call
+    every pair once in turn; the best call of each pair is kept. A shared machine's load
+    changes from minute to minute, shifting whole fresh-process rows; calls that alternate
+    meet the same load, so their ratios hold. Returns ``{"rows": [...]}``.
+    """
+    case = spec["case"]
+    left, right, min_disparity, max_disparity, _ = load_case(case)
+    height, width = left.shape[:2]
+    calls = {}
+    for method in spec["methods"]:
+        calls[method] = make_call(method, left, right, min_disparity, max_disparity)
+    pairs = [(method, threads) for threads in spec["threads"] for method in spec["methods"]]
+    for method, threads in pairs:
+        set_threads(method, threads)
+        calls[method][0]()
+    best = dict.fromkeys(pairs, float("inf"))
+    for _ in range(spec["repeat"]):
+        for method, threads in pairs:
+            set_threads(method, threads)
+            best[method, threads] = min(best[method, threads], timed(calls[method][0]))
+    rows = []
+    for method, threads in pairs:
+        disparities = calls[method][1]
+        rows.append(
+            {
+                "scene": case["name"],
+                "height": height,
+                "width": width,
+                "disparities": int(disparities),
+                "method": method,
+                "threads": threads,
+                "ms": 1e3 * best[method, threads],
+                "mde_per_s": height * width * disparities / 1e6 / best[method, threads],
+                "repeat": spec["repeat"],
+            }
+        )
+    return {"rows": rows}
+
+
 def run_one(spec):
     """Measure one configuration in this process; returns the result row (a dict)."""
+    if spec["mode"] == "interleave":
+        return run_interleaved(spec)
     method, threads, case = spec["method"], spec["threads"], spec["case"]
     set_threads(method, threads)
     left, right, min_disparity, max_disparity, truth = load_case(case)
@@ -362,6 +412,17 @@ COLUMNS = (
 )
 
 
+INTERLEAVED_COLUMNS = (
+    ("scene", "scene", "s", 9),
+    ("D", "disparities", "d", 4),
+    ("method", "method", "s", 11),
+    ("thr", "threads", "d", 3),
+    ("ms", "ms", ".1f", 9),
+    ("Mde/s", "mde_per_s", ".1f", 8),
+    ("x SGBM", "time_vs_sgbm", ".2f", 6),
+)
+
+
 def speedup_columns(threads):
     """Columns of the speed-up table, titled with the two thread counts."""
     return (
@@ -493,6 +554,25 @@ def markdown_report(payload):
             "",
             markdown_table(payload["compile"], COMPILE_COLUMNS),
         ]
+    if payload.get("interleaved"):
+        parts += [
+            "",
+            "## Interleaved in one process",
+            "",
+            f"Each scene's methods and thread counts in one process, their calls alternating, "
+            f"best of {settings['interleave']} rounds after a warm-up call each: a loaded "
+            "period slows them all alike, so these ratios hold where a fresh-process row "
+            "above may have met other tenants' load.",
+            "",
+            markdown_table(payload["interleaved"], INTERLEAVED_COLUMNS),
+        ]
+        if payload.get("interleaved_speedup"):
+            parts += [
+                "",
+                markdown_table(
+                    payload["interleaved_speedup"], speedup_columns(settings["threads"])
+                ),
+            ]
     if payload["notes"]:
         parts += ["", "## Notes", ""] + [f"- {note}" for note in payload["notes"]]
     return "\n".join(parts) + "\n"
@@ -527,6 +607,15 @@ def parse_args(argv):
         help="also warm up on the full large pair (default: on a strip only)",
     )
     parser.add_argument("--skip-large", action="store_true", help="leave out the large pair")
+    parser.add_argument(
+        "--interleave",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also time the methods of each Middlebury scene in one process, their calls "
+        "alternating, best of N rounds (a table whose ratios hold on a loaded machine; "
+        "default: off)",
+    )
     parser.add_argument(
         "--large",
         type=parse_size,
@@ -588,6 +677,8 @@ def main(argv=None):
     methods.sort(key=lambda m: m != SGBM)
     if args.repeat < 1 or args.repeat_large < 1:
         return fail("--repeat and --repeat-large must be at least 1")
+    if args.interleave < 0:
+        return fail("--interleave must be 0 (off) or a number of rounds")
     limit = numba.config.NUMBA_NUM_THREADS
     try:
         threads = [int(t) for t in comma_list(args.threads)] if args.threads else [1, limit]
@@ -663,6 +754,30 @@ def measure(args, cases, methods, threads, notes, workdir, cv2):
                 add_ratios(rows)
                 print(text_table([row], COLUMNS).splitlines()[-1], flush=True)
 
+    interleaved = []
+    if args.interleave > 0:
+        print(f"\nInterleaved in one process per scene, best of {args.interleave} rounds\n")
+        print(text_table([], INTERLEAVED_COLUMNS), flush=True)
+        for case in cases:
+            if case["kind"] != "middlebury":
+                continue  # the large pair's calls are seconds long: the fresh-process rows
+            spec = {
+                "case": case,
+                "mode": "interleave",
+                "methods": methods,
+                "threads": threads,
+                "repeat": args.interleave,
+            }
+            result = run_child(spec, timeout=args.timeout)
+            if "error" in result:
+                notes.append(f"interleaved {case['name']}: {result['error']}")
+                print(notes[-1])
+                continue
+            interleaved += result["rows"]
+            add_ratios(interleaved)
+            for row in result["rows"]:
+                print(text_table([row], INTERLEAVED_COLUMNS).splitlines()[-1], flush=True)
+
     speedup = speedups(rows, threads)
     if speedup:
         print("\nSpeed-up from", threads[0], "to", threads[-1], "threads\n")
@@ -680,6 +795,7 @@ def measure(args, cases, methods, threads, notes, workdir, cv2):
         "repeat_large": args.repeat_large,
         "large_warmup": args.large_warmup,
         "large": None if args.skip_large else list(args.large),
+        "interleave": args.interleave,
     }
     payload = {
         "machine": machine,
@@ -687,6 +803,8 @@ def measure(args, cases, methods, threads, notes, workdir, cv2):
         "results": rows,
         "speedup": speedup,
         "compile": compile_rows,
+        "interleaved": interleaved,
+        "interleaved_speedup": speedups(interleaved, threads),
         "notes": notes,
     }
     if args.json:

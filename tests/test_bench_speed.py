@@ -118,3 +118,63 @@ def test_bad_arguments_fail_cleanly(bench, capsys):
     assert bench.main(["--methods", "nosuch", "--skip-large"]) == 2
     assert bench.main(["--threads", "0", "--skip-large"]) == 2
     assert "error:" in capsys.readouterr().err
+
+
+def test_interleaved_child_times_every_pair(bench, tmp_path):
+    left, right, truth = bench.synthetic_pair(60, 40, 8, seed=2)
+    path = tmp_path / "pair.npz"
+    np.savez(path, left=left, right=right, truth=truth)
+    case = {"kind": "synthetic", "name": "tiny", "path": str(path), "disparities": 8}
+    spec = {
+        "case": case,
+        "mode": "interleave",
+        "methods": ["block", "dsi5"],
+        "threads": [1],
+        "repeat": 2,
+    }
+    rows = bench.run_one(spec)["rows"]
+    assert [(r["method"], r["threads"]) for r in rows] == [("block", 1), ("dsi5", 1)]
+    for row in rows:
+        assert (row["scene"], row["height"], row["width"], row["disparities"]) == (
+            "tiny",
+            40,
+            60,
+            8,
+        )
+        assert is_number(row["ms"]) and row["ms"] > 0
+        assert row["mde_per_s"] == pytest.approx(40 * 60 * 8 / 1e3 / row["ms"])
+
+
+def test_interleaved_table_in_the_markdown(bench):
+    rows = [
+        {"scene": "s", "disparities": 16, "method": "opencv-sgbm", "threads": 1, "ms": 10.0},
+        {"scene": "s", "disparities": 16, "method": "dc", "threads": 1, "ms": 9.0},
+    ]
+    bench.add_ratios(rows)
+    payload = {
+        "machine": bench.machine_info(None),
+        "settings": {
+            "command": "",
+            "threads": [1],
+            "repeat": 1,
+            "repeat_large": 1,
+            "large_warmup": False,
+            "interleave": 5,
+        },
+        "results": [],
+        "speedup": [],
+        "compile": [],
+        "interleaved": rows,
+        "interleaved_speedup": [],
+        "notes": [],
+    }
+    markdown = bench.markdown_report(payload)
+    assert "## Interleaved in one process" in markdown
+    assert "best of 5 rounds" in markdown
+    assert "| s | 16 | dc | 1 | 9.0 |" in markdown
+    assert "0.90" in markdown  # dc over SGBM
+
+
+def test_bad_interleave_fails_cleanly(bench, capsys):
+    assert bench.main(["--interleave", "-1", "--scenes", "none"]) == 2
+    assert "--interleave" in capsys.readouterr().err
