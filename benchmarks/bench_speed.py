@@ -34,10 +34,10 @@ dcstereo methods run with their defaults (``window=5``); OpenCV runs through
 speckle filter 100 px / 2): both sides include the conversion to gray and the conversion
 of the result to float32 with NaN holes.
 
-With ``--interleave N``, each Middlebury scene is also timed in one process per scene, all
-methods and thread counts alternating call by call, best of ``N`` rounds: on a shared
-machine a loaded minute shifts whole fresh-process rows, but it slows interleaved calls
-alike, so that table's ratios to SGBM and speed-ups hold.
+With ``--interleave N``, each Middlebury scene is also timed in one process per thread
+count, all methods alternating call by call, best of ``N`` rounds: on a shared machine a
+loaded minute shifts whole fresh-process rows, but it slows interleaved calls alike, so
+that table's ratios to SGBM hold.
 
 The first-call cost of each dcstereo method is measured on one scene: the first call in a
 child whose ``NUMBA_CACHE_DIR`` is a fresh empty folder (compile), then in a second child
@@ -559,10 +559,10 @@ def markdown_report(payload):
             "",
             "## Interleaved in one process",
             "",
-            f"Each scene's methods and thread counts in one process, their calls alternating, "
+            f"Each scene's methods in one process per thread count, their calls alternating, "
             f"best of {settings['interleave']} rounds after a warm-up call each: a loaded "
-            "period slows them all alike, so these ratios hold where a fresh-process row "
-            "above may have met other tenants' load.",
+            "period slows them all alike, so these ratios to SGBM hold where a fresh-process "
+            "row above may have met other tenants' load.",
             "",
             markdown_table(payload["interleaved"], INTERLEAVED_COLUMNS),
         ]
@@ -612,9 +612,9 @@ def parse_args(argv):
         type=int,
         default=0,
         metavar="N",
-        help="also time the methods of each Middlebury scene in one process, their calls "
-        "alternating, best of N rounds (a table whose ratios hold on a loaded machine; "
-        "default: off)",
+        help="also time the methods of each Middlebury scene in one process per thread count, "
+        "their calls alternating, best of N rounds (a table whose ratios hold on a loaded "
+        "machine; default: off)",
     )
     parser.add_argument(
         "--large",
@@ -761,22 +761,25 @@ def measure(args, cases, methods, threads, notes, workdir, cv2):
         for case in cases:
             if case["kind"] != "middlebury":
                 continue  # the large pair's calls are seconds long: the fresh-process rows
-            spec = {
-                "case": case,
-                "mode": "interleave",
-                "methods": methods,
-                "threads": threads,
-                "repeat": args.interleave,
-            }
-            result = run_child(spec, timeout=args.timeout)
-            if "error" in result:
-                notes.append(f"interleaved {case['name']}: {result['error']}")
-                print(notes[-1])
-                continue
-            interleaved += result["rows"]
-            add_ratios(interleaved)
-            for row in result["rows"]:
-                print(text_table([row], INTERLEAVED_COLUMNS).splitlines()[-1], flush=True)
+            # one process per thread count: the thread pools of a 2-thread call (numba's
+            # OpenMP workers, OpenCV's) still spin after it and would slow 1-thread calls
+            for count in threads:
+                spec = {
+                    "case": case,
+                    "mode": "interleave",
+                    "methods": methods,
+                    "threads": [count],
+                    "repeat": args.interleave,
+                }
+                result = run_child(spec, timeout=args.timeout)
+                if "error" in result:
+                    notes.append(f"interleaved {case['name']}, {count} thr: {result['error']}")
+                    print(notes[-1])
+                    continue
+                interleaved += result["rows"]
+                add_ratios(interleaved)
+                for row in result["rows"]:
+                    print(text_table([row], INTERLEAVED_COLUMNS).splitlines()[-1], flush=True)
 
     speedup = speedups(rows, threads)
     if speedup:
