@@ -412,14 +412,10 @@ COLUMNS = (
 )
 
 
-INTERLEAVED_COLUMNS = (
-    ("scene", "scene", "s", 9),
-    ("D", "disparities", "d", 4),
-    ("method", "method", "s", 11),
-    ("thr", "threads", "d", 3),
-    ("ms", "ms", ".1f", 9),
-    ("Mde/s", "mde_per_s", ".1f", 8),
-    ("x SGBM", "time_vs_sgbm", ".2f", 6),
+#: The interleaved table: the timing columns of ``COLUMNS`` (no memory: one process runs
+#: every method there).
+INTERLEAVED_COLUMNS = tuple(
+    column for column in COLUMNS if column[1] not in ("size", "base_mb", "peak_mb", "method_mb")
 )
 
 
