@@ -178,3 +178,64 @@ def test_interleaved_table_in_the_markdown(bench):
 def test_bad_interleave_fails_cleanly(bench, capsys):
     assert bench.main(["--interleave", "-1", "--scenes", "none"]) == 2
     assert "--interleave" in capsys.readouterr().err
+
+
+def test_fastest_rows_takes_each_rows_quickest_round(bench):
+    def row(method, threads, ms, **extra):
+        return {"scene": "s", "method": method, "threads": threads, "ms": ms, **extra}
+
+    first = [
+        row("opencv-sgbm", 1, 10.0, peak_mb=5.0),
+        row("dsi5", 1, 9.0, peak_mb=1.0),
+        row("dsi5", 2, 7.0),  # a loaded 2-thread row
+        {"scene": "s", "method": "dc", "threads": 1, "error": "boom"},
+        {"scene": "s", "method": "block", "threads": 1, "error": "first"},
+    ]
+    second = [
+        row("opencv-sgbm", 1, 12.0, peak_mb=6.0),
+        row("dsi5", 1, 5.0, peak_mb=2.0),
+        row("dsi5", 2, 3.0),
+        row("dc", 1, 15.0),
+        {"scene": "s", "method": "block", "threads": 1, "error": "second"},
+    ]
+    merged = bench.fastest_rows([first, second])
+    # the first round's order; each row its fastest round, memory from that process
+    assert [(r["method"], r["threads"], r.get("ms")) for r in merged] == [
+        ("opencv-sgbm", 1, 10.0),
+        ("dsi5", 1, 5.0),
+        ("dsi5", 2, 3.0),
+        ("dc", 1, 15.0),
+        ("block", 1, None),
+    ]
+    assert merged[0]["peak_mb"] == 5.0 and merged[1]["peak_mb"] == 2.0
+    assert [r["rounds"] for r in merged] == [2, 2, 2, 1, 0]
+    assert merged[4]["error"] == "first"  # failed in every round: the first error
+    assert "error" not in merged[3]  # failed once, timed once
+    # ratios from the merged rows, not from either round
+    assert merged[1]["time_vs_sgbm"] == pytest.approx(0.5)
+    assert merged[3]["time_vs_sgbm"] == pytest.approx(1.5)
+    assert first[1]["ms"] == 9.0  # the inputs are left alone
+    assert bench.speedups(merged, [1, 2])[1]["speedup"] == pytest.approx(5.0 / 3.0)
+
+
+def test_rounds_in_the_run_and_the_markdown(bench, tmp_path):
+    out_json = tmp_path / "speed.json"
+    code = bench.main(
+        [
+            "--scenes", "none", "--large", "40x24x8", "--methods", "block",
+            "--threads", "1", "--repeat", "1", "--compile-scene", "none",
+            "--rounds", "2", "--json", str(out_json),
+        ]
+    )  # fmt: skip
+    assert code == 0
+    payload = json.loads(out_json.read_text())
+    (only,) = payload["results"]
+    assert only["rounds"] == 2 and is_number(only["ms"])
+    assert payload["settings"]["rounds"] == 2
+    markdown = bench.markdown_report(payload)
+    assert "the fastest of 2 (the whole sweep ran 2 times" in markdown
+
+
+def test_bad_rounds_fail_cleanly(bench, capsys):
+    assert bench.main(["--rounds", "0", "--scenes", "none"]) == 2
+    assert "--rounds" in capsys.readouterr().err
