@@ -200,6 +200,22 @@ def set_threads(method, threads):
         cv2.setNumThreads(threads)
 
 
+def timing_row(scene, shape, disparities, method, threads, seconds, repeat):
+    """The columns every timing row has: the input, the method, its best call."""
+    height, width = shape
+    return {
+        "scene": scene,
+        "height": height,
+        "width": width,
+        "disparities": int(disparities),
+        "method": method,
+        "threads": threads,
+        "ms": 1e3 * seconds,
+        "mde_per_s": height * width * disparities / 1e6 / seconds,
+        "repeat": repeat,
+    }
+
+
 def run_interleaved(spec):
     """Time ``spec["methods"]`` at ``spec["threads"]`` in this one process, calls alternating.
 
@@ -227,17 +243,15 @@ def run_interleaved(spec):
     for method, threads in pairs:
         disparities = calls[method][1]
         rows.append(
-            {
-                "scene": case["name"],
-                "height": height,
-                "width": width,
-                "disparities": int(disparities),
-                "method": method,
-                "threads": threads,
-                "ms": 1e3 * best[method, threads],
-                "mde_per_s": height * width * disparities / 1e6 / best[method, threads],
-                "repeat": spec["repeat"],
-            }
+            timing_row(
+                case["name"],
+                (height, width),
+                disparities,
+                method,
+                threads,
+                best[method, threads],
+                spec["repeat"],
+            )  # fmt: skip
         )
     return {"rows": rows}
 
@@ -281,23 +295,19 @@ def run_one(spec):
     else:
         method_bytes = max_rss_bytes() - base_maxrss
         peak = max_rss_bytes()
-    row = {
-        "scene": case["name"],
-        "height": height,
-        "width": width,
-        "disparities": int(disparities),
-        "method": method,
-        "threads": threads,
-        "ms": 1e3 * best,
-        "mde_per_s": height * width * disparities / 1e6 / best,
-        "base_mb": base / 2**20,
-        "peak_mb": peak / 2**20,
-        "method_mb": max(method_bytes, 0) / 2**20,
-        "ru_maxrss_mb": max_rss_bytes() / 2**20,
-        "memory_source": "VmHWM" if use_proc else "ru_maxrss",
-        "repeat": spec["repeat"],
-        "warmup": "full" if spec["warmup"] else f"{STRIP_ROWS}-row strip",
-    }
+    row = timing_row(
+        case["name"], (height, width), disparities, method, threads, best, spec["repeat"]
+    )
+    row.update(
+        {
+            "base_mb": base / 2**20,
+            "peak_mb": peak / 2**20,
+            "method_mb": max(method_bytes, 0) / 2**20,
+            "ru_maxrss_mb": max_rss_bytes() / 2**20,
+            "memory_source": "VmHWM" if use_proc else "ru_maxrss",
+            "warmup": "full" if spec["warmup"] else f"{STRIP_ROWS}-row strip",
+        }
+    )
     if truth is not None:
         disparity = result.disparity
         known = np.isfinite(disparity)
