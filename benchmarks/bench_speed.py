@@ -251,7 +251,7 @@ def run_interleaved(spec):
                 threads,
                 best[method, threads],
                 spec["repeat"],
-            )  # fmt: skip
+            )
         )
     return {"rows": rows}
 
@@ -403,7 +403,7 @@ def fastest_rows(rounds):
             if "ms" in row:
                 timed.setdefault(key(row), []).append(row)
     merged = []
-    for row in rounds[0] if rounds else []:
+    for row in rounds[0]:
         candidates = timed.get(key(row))
         best = dict(min(candidates, key=lambda r: r["ms"]) if candidates else row)
         best["rounds"] = len(candidates or [])
@@ -779,6 +779,31 @@ def main(argv=None):
         shutil.rmtree(workdir, ignore_errors=True)
 
 
+def sweep(args, cases, methods, threads):
+    """One fresh process per (input, thread count, method), printed as they come; the rows."""
+    rows = []
+    print(text_table([], COLUMNS), flush=True)
+    for case in cases:
+        large = case["kind"] == "synthetic"
+        for count in threads:
+            for method in methods:
+                spec = {
+                    "case": case,
+                    "method": method,
+                    "threads": count,
+                    "mode": "measure",
+                    "repeat": args.repeat_large if large else args.repeat,
+                    "warmup": args.large_warmup or not large,
+                }
+                row = run_child(spec, timeout=args.timeout)
+                if "error" in row:
+                    row.update(scene=case["name"], method=method, threads=count)
+                rows.append(row)
+                add_ratios(rows)
+                print(text_table([row], COLUMNS).splitlines()[-1], flush=True)
+    return rows
+
+
 def measure(args, cases, methods, threads, notes, workdir, cv2):
     machine = machine_info(cv2)
     print(machine_line(machine))
@@ -791,27 +816,7 @@ def measure(args, cases, methods, threads, notes, workdir, cv2):
     for number in range(args.rounds):
         if args.rounds > 1:
             print(f"round {number + 1} of {args.rounds}")
-        rows = []
-        print(text_table([], COLUMNS), flush=True)
-        for case in cases:
-            large = case["kind"] == "synthetic"
-            for count in threads:
-                for method in methods:
-                    spec = {
-                        "case": case,
-                        "method": method,
-                        "threads": count,
-                        "mode": "measure",
-                        "repeat": args.repeat_large if large else args.repeat,
-                        "warmup": args.large_warmup or not large,
-                    }
-                    row = run_child(spec, timeout=args.timeout)
-                    if "error" in row:
-                        row.update(scene=case["name"], method=method, threads=count)
-                    rows.append(row)
-                    add_ratios(rows)
-                    print(text_table([row], COLUMNS).splitlines()[-1], flush=True)
-        rounds.append(rows)
+        rounds.append(sweep(args, cases, methods, threads))
     rows = fastest_rows(rounds)
     if args.rounds > 1:
         print(f"\nFastest of {args.rounds} rounds\n")

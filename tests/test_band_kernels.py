@@ -455,6 +455,18 @@ def naive_block_match(column):
     return ks, ratios
 
 
+def check_block_match(values, cost, x_int_lo, x_int_hi, scratch, wta_k, wta_ratio):
+    """``band_block_match`` on ``values`` (width, ndisp, R) in the padded ``cost`` vs the twin."""
+    width, ndisp, nr = values.shape
+    cost[:, 1:-1] = values
+    _band_kernels.band_block_match(cost.ravel(), width, ndisp, x_int_lo, x_int_hi, scratch[0],
+                                   scratch[1], wta_k, wta_ratio)  # fmt: skip
+    for x in range(width):
+        ks, ratios = naive_block_match(values[x])
+        assert list(wta_k[x * nr : (x + 1) * nr]) == ks
+        np.testing.assert_array_equal(wta_ratio[x * nr : (x + 1) * nr], ratios)
+
+
 @pytest.mark.parametrize("seed", range(6))
 def test_band_block_match_equals_the_naive_one(seed):
     rng = np.random.default_rng(300 + seed)
@@ -466,8 +478,7 @@ def test_band_block_match_equals_the_naive_one(seed):
         cells = rng.integers(0, 4, (width, ndisp, nr)).astype(np.float64)
         cells[rng.random(cells.shape) < 0.2] = np.inf
         cells[:, :, 0] = np.inf if rng.random() < 0.3 else cells[:, :, 0]
-        cost = np.full((width, ndisp + 2, nr), np.inf)
-        cost[:, 1:-1] = cells
+        cost = np.full((width, ndisp + 2, nr), np.inf)  # the padding cells stay inf
         if rng.random() < 0.5:  # large integers: the keys' range
             cells = np.where(np.isinf(cells), cells, 2.0**31 - 1 - cells)
         wta_k = np.empty(width * nr, dtype=np.int64)
@@ -476,21 +487,10 @@ def test_band_block_match_equals_the_naive_one(seed):
         # integer costs: keyed columns, binary-searched ones, and a mix
         cut = int(rng.integers(0, width + 1))
         for x_int_lo, x_int_hi in ((0, width), (width, 0), (cut, width), (0, cut)):
-            cost[:, 1:-1] = cells
-            _band_kernels.band_block_match(cost.ravel(), width, ndisp, x_int_lo, x_int_hi,
-                                           scratch[0], scratch[1], wta_k, wta_ratio)  # fmt: skip
-            for x in range(width):
-                ks, ratios = naive_block_match(cells[x])
-                assert list(wta_k[x * nr : (x + 1) * nr]) == ks
-                np.testing.assert_array_equal(wta_ratio[x * nr : (x + 1) * nr], ratios)
+            check_block_match(cells, cost, x_int_lo, x_int_hi, scratch, wta_k, wta_ratio)
         # fractional costs (the truncated windows): the binary search
-        cost[:, 1:-1] = cells + rng.integers(0, 4, cells.shape) / 3.0
-        _band_kernels.band_block_match(cost.ravel(), width, ndisp, width, 0, scratch[0],
-                                       scratch[1], wta_k, wta_ratio)  # fmt: skip
-        for x in range(width):
-            ks, ratios = naive_block_match(cost[x, 1:-1])
-            assert list(wta_k[x * nr : (x + 1) * nr]) == ks
-            np.testing.assert_array_equal(wta_ratio[x * nr : (x + 1) * nr], ratios)
+        fractional = cells + rng.integers(0, 4, cells.shape) / 3.0
+        check_block_match(fractional, cost, width, 0, scratch, wta_k, wta_ratio)
 
 
 def naive_feature_mask(var_l, wta_k, wta_ratio, width, dmin, radius, var_floor, uniq, guard):
