@@ -553,9 +553,9 @@ def assert_same_dc(expected, got):
 
 DC_OPTIONS = [
     {},
-    {"lr_check": False},
-    {"edge_guard": 0},
-    {"vs_relative": False, "vs_max": 80.0, "ser_min": 2.0},
+    {"lr_check": True},
+    {"edge_guard": 0, "lr_check": True},
+    {"vs_relative": False, "vs_max": 80.0, "ser_min": 2.0, "lr_check": True},
     {"feature_floor": 0.0, "uniqueness": 1.2, "edge_guard": 1},
 ]
 

@@ -202,10 +202,10 @@ def test_features_carry_the_ser_and_vs_of_eq_2_and_3(seed):
 SEARCH_OPTIONS = [
     {},
     PAPER_TESTS_ONLY,
-    {"max_candidates": 2},
+    {"max_candidates": 2, "lr_check": True},
     {"max_candidates": 1, "uniqueness": 0.0},
-    {"uniqueness": 0.0},
-    {"lr_check": False},
+    {"uniqueness": 0.0, "lr_check": True},
+    {"lr_check": True},
     {"vs_relative": False, "vs_max": 400.0, "ser_min": 2.0},
     {"edge_guard": 0, "uniqueness": 1.2, "feature_floor": 20.0},
 ]
@@ -333,7 +333,11 @@ def scenes_for_properties():
 
 
 @pytest.mark.parametrize("method", ["dc", "dc-linear"])
-@pytest.mark.parametrize("options", [{}, PAPER_TESTS_ONLY], ids=["defaults", "paper-tests"])
+@pytest.mark.parametrize(
+    "options",
+    [{}, PAPER_TESTS_ONLY, {"lr_check": True}],
+    ids=["defaults", "paper-tests", "lr-check"],
+)
 def test_accepted_pairs_are_strictly_ordered_and_the_path_passes_through_them(method, options):
     for name, left, right, max_disparity in scenes_for_properties():
         result = dcstereo.match(
