@@ -4,28 +4,31 @@ The per-row kernels of ``_kernels.py`` loop over the disparity axis ``k`` (16..2
 cells); the compiler's vector loops step 32 or more cells at a time, so most of a row
 runs in their scalar remainder, and the b-step chain down a column is one sequential
 chain per row. Here ``BAND_ROWS`` rows run together with the row as the innermost,
-contiguous axis: the costs and the DP table of a band are ``[x, (k + 1) * BAND_ROWS + r]``
-(cell ``k`` of row ``r`` of the band; one padding cell on each side of the band, inf),
-and every per-cell operation, the b-chain included (it is independent across rows), is
-one vector operation over the rows. Backtracking stays per row.
+contiguous axis: the costs of a band and the steps its DP takes are
+``[x, (k + 1) * BAND_ROWS + r]`` (cell ``k`` of row ``r`` of the band; one padding cell on
+each side of the band, inf), and every per-cell operation, the b-chain included (it is
+independent across rows), is one vector operation over the rows. The forward pass keeps
+the values of the last three columns only and records, per cell, which steps reach its
+value; backtracking stays per row and follows those records.
 
 The results are *bitwise* those of ``_kernels.match_dsi_rows`` (SAD cost): every cell is
 computed by the same float64 expression, in the same order of operations, as in
-``_kernels.scanline_dp``; the backtrack tests the steps in the same order of preference
-(c, d, e, a, b). The padding cells replace ``scanline_dp``'s bounds-checked slow cells: a
-step that would read outside the band reads inf, and ``min`` with inf changes nothing.
+``_kernels.scanline_dp``, and the step recorded for it is the first of c, d, e, a, b
+(``scanline_dp``'s backtrack's order of preference) whose value equals the cell's. The
+padding cells replace ``scanline_dp``'s bounds-checked slow cells: a step that would read
+outside the band reads inf, and ``min`` with inf changes nothing.
 
 Anchors: a row may be pinned at pairs ``x <-> j`` (``partner``), and then its result is
 that of running ``scanline_dp`` segment by segment, free start -> first anchor -> ... ->
 last anchor -> free end, as ``_kernels.gcp_row`` does, in one pass over the row: at an
 anchor column the match-step value of the anchor cell is kept as that segment's total,
 the column is cleared and the anchor cell set to 0 (the anchored start of the next
-segment; the b-chain then fills the cells below it), the e step from the column before
-the anchor to the column after it reads inf, and the virtual start cells (``j = -1``)
-are off after the first anchor. Cells outside the next segment's rectangle then hold
-either inf (``j`` below the anchor's) or values that no cell of the segment reads (``j``
-beyond the segment's end: steps never decrease ``j``, and the next anchor column clears
-them).
+segment; the b-chain then fills the cells below it, and their recorded step is b), the
+e step from the column before the anchor to the column after it reads inf, and the
+virtual start cells (``j = -1``) are off after the first anchor. Cells outside the next
+segment's rectangle then hold either inf (``j`` below the anchor's) or values that no cell
+of the segment reads (``j`` beyond the segment's end: steps never decrease ``j``, and the
+next anchor column clears them).
 
 The rows of a band are not consecutive: in each parallel chunk, band row ``r`` runs down
 its own run of consecutive rows (``match_band_rows``), so that the integer vertical window
@@ -340,45 +343,97 @@ def band_lane_variance(sig_t, width, radius, steps, incremental, colsum, colsq, 
 
 # --------------------------------------------------------------------------- DP
 #
-# The table and the costs are flat: cell ``k`` of band row ``r`` in column ``x`` is
-# ``table[(x + 2) * nk + (k + 1) * R + r]`` and ``cost[x * nk + (k + 1) * R + r]``; the
-# column functions get the offsets of their columns (unsigned, see above) and loop over
-# ``p = (k + 1) * R + r``, so that a step to ``k + 1`` is ``p + R``.
+# The costs are flat: cell ``k`` of band row ``r`` in column ``x`` is
+# ``cost[x * nk + (k + 1) * R + r]``; the column functions get the offsets of their columns
+# (unsigned, see above) and loop over ``p = (k + 1) * R + r``, so that a step to ``k + 1``
+# is ``p + R``. The forward pass keeps the DP values of only three columns (``x``, ``x - 1``
+# and ``x - 2``: all a step reads), and records for every cell, in ``steps`` (the layout of
+# ``cost``), which steps reach its value: bits ``STEP_BIT_*``, the least-cost steps in the
+# order of preference of ``_kernels.scanline_dp``'s backtrack (c, d, e, a, then b). The
+# backtrack reads the step of each cell from them (``STEP_OF_BITS``) instead of recomputing
+# the five candidates from the costs and the table: the same comparisons of the same
+# values, made once in vector loops.
+
+#: Bits of ``steps`` (bit 4 down to bit 0): the cell's value is reached by that step. Bit 0
+#: is always set: it stands for b, taken when none of the others reaches the value (the
+#: value is the least of the five, so then b does).
+STEP_BIT_C = 16
+STEP_BIT_D = 8
+STEP_BIT_E = 4
+STEP_BIT_A = 2
+STEP_BIT_B = 1
+
+
+def _step_of_bits():
+    table = np.full(32, STEP_NONE, dtype=np.int64)
+    for bits in range(32):
+        for bit, step in (
+            (STEP_BIT_C, STEP_C),
+            (STEP_BIT_D, STEP_D),
+            (STEP_BIT_E, STEP_E),
+            (STEP_BIT_A, STEP_A),
+            (STEP_BIT_B, STEP_B),
+        ):
+            if bits & bit:
+                table[bits] = step
+                break
+    return table
+
+
+#: The step of a cell from its ``steps`` bits: the first one set, in the order of preference
+#: (``STEP_NONE`` for 0: an anchor no match step reaches, as ``_kernels.scanline_dp``).
+STEP_OF_BITS = _step_of_bits()
 
 
 @nb.njit(cache=True, inline="always")
-def _cells5_chain(
-    tab, o_row, o_prev, prev2, o_prev2, cost, o_here, o_left, k_lo, k_hi, occ2, slant2
-):
+def _cells5_chain(cur, prev, prev2, cost, o_here, o_left, steps, k_lo, k_hi, occ2, slant2):
     """Five-step cells ``k_lo..k_hi`` of one column, in one descending loop.
 
+    ``cur``, ``prev`` and ``prev2``: the values of columns ``x``, ``x - 1`` and ``x - 2``.
     The steps from earlier columns (c, d, e, a: ``_earlier_steps5``, the same expressions
     in the same order), then the b step from the cell above: ``min`` with its value plus
-    ``occ2`` (the value of ``scanline_dp``'s branch).
+    ``occ2`` (the value of ``scanline_dp``'s branch). The cell's step bits go to
+    ``steps[o_here + p]``.
     """
     nr = np.uint64(BAND_ROWS)
     top = np.uint64((k_hi + 2) * BAND_ROWS - 1)
     for i in range(np.uint64((k_hi - k_lo + 1) * BAND_ROWS)):
         p = top - i
         h2 = 2.0 * cost[o_here + p]
-        c = tab[o_prev + p] + h2
+        c = prev[p] + h2
         u = h2 + cost[o_left + p] + slant2
-        d = tab[o_prev + p + nr] + cost[o_here + p + nr] + u
-        e = prev2[o_prev2 + p - nr] + cost[o_left + p - nr] + u
-        a = tab[o_prev + p - nr] + occ2
+        d = prev[p + nr] + cost[o_here + p + nr] + u
+        e = prev2[p - nr] + cost[o_left + p - nr] + u
+        a = prev[p - nr] + occ2
         cell = min(min(c, d), min(e, a))
-        tab[o_row + p] = min(cell, tab[o_row + p + nr] + occ2)
+        v = min(cell, cur[p + nr] + occ2)
+        cur[p] = v
+        # shifts, not selects of the STEP_BIT_* constants: fewer vector operations
+        steps[o_here + p] = (
+            (np.int64(c == v) << np.int64(4))
+            | (np.int64(d == v) << np.int64(3))
+            | (np.int64(e == v) << np.int64(2))
+            | (np.int64(a == v) << np.int64(1))
+            | np.int64(STEP_BIT_B)
+        )
 
 
 @nb.njit(cache=True, inline="always")
-def _cells3_chain(tab, o_row, o_prev, cost, o_here, k_lo, k_hi, occ2):
+def _cells3_chain(cur, prev, cost, o_here, steps, k_lo, k_hi, occ2):
     """Three-step cells: steps c and a (``_earlier_steps3``), then b (see ``_cells5_chain``)."""
     nr = np.uint64(BAND_ROWS)
     top = np.uint64((k_hi + 2) * BAND_ROWS - 1)
     for i in range(np.uint64((k_hi - k_lo + 1) * BAND_ROWS)):
         p = top - i
-        cell = min(tab[o_prev + p] + 2.0 * cost[o_here + p], tab[o_prev + p - nr] + occ2)
-        tab[o_row + p] = min(cell, tab[o_row + p + nr] + occ2)
+        c = prev[p] + 2.0 * cost[o_here + p]
+        a = prev[p - nr] + occ2
+        v = min(min(c, a), cur[p + nr] + occ2)
+        cur[p] = v
+        steps[o_here + p] = (
+            (np.int64(c == v) << np.int64(4))
+            | (np.int64(a == v) << np.int64(1))
+            | np.int64(STEP_BIT_B)
+        )
 
 
 @nb.njit(cache=True)
@@ -394,21 +449,30 @@ def band_forward(
     pins,
     pinned,
     anchor_total,
-    prev2_work,
-    table,
+    anchor_steps,
+    ring,
+    steps,
+    ends,
 ):
     """Forward pass of the whole-scanline DP (eq. 5) of the ``BAND_ROWS`` rows of a band.
 
-    ``cost`` comes from ``band_lane_costs``; ``table`` (float64, at least
-    ``(width + 2) * nk``) gets node ``(x, dmin + k)`` of band row ``r`` at
-    ``(x + 2) * nk + (k + 1) * R + r``; columns -2 and -1 (the virtual start) come first,
-    as in ``scanline_dp`` with ``x_lo = j_lo = 0``, ``x_hi = j_hi = width - 1``.
+    ``cost`` comes from ``band_lane_costs``. Node ``(x, dmin + k)`` of band row ``r`` gets
+    the value of ``scanline_dp``'s table (with ``x_lo = j_lo = 0``, ``x_hi = j_hi = width
+    - 1``) and its step bits go to ``steps[x * nk + (k + 1) * R + r]`` (int64, ``width *
+    nk``). ``ring`` (float64, ``(3, nk)``) holds the values of the last three columns;
+    ``ends`` (float64, ``2 * ndisp * R``) gets the values of the free end's nodes: at
+    ``k * R + r`` the node with ``j = width - 1`` and ``x < width - 1`` of disparity index
+    ``k`` (inf where there is none), at ``(ndisp + k) * R + r`` the node of the last column.
 
     With ``anchored``, ``pins[x * R + r]`` (int64) is the right pixel band row ``r`` is
     pinned to at ``x`` (-1: none; increasing in ``x`` along a row, every pair inside the
     disparity range), ``pinned[x]`` whether any row of the band is pinned at ``x``; the
     match-step value of each anchor cell (the total of the segment it ends) goes to
-    ``anchor_total[x * R + r]``. ``prev2_work`` (``nk``) is scratch.
+    ``anchor_total[x * R + r]`` and the bits of the match steps that reach it to
+    ``anchor_steps[x * R + r]``. The column of an anchor then holds only the anchor (0) and
+    the b steps below it; the e step over an anchor, from column ``x - 2`` to ``x``, reads
+    inf (the values of column ``x - 2`` are not needed after column ``x``, so the pinned
+    rows' cells are set to inf in place).
     """
     nr = BAND_ROWS
     nk = (ndisp + 2) * nr
@@ -420,165 +484,124 @@ def band_forward(
     b_run[0] = 0.0
     for m in range(1, ndisp + 1):
         b_run[m] = b_run[m - 1] + occ2
-    for i in range(np.uint64(2 * nk)):
-        table[i] = inf
+    cur = ring[0]
+    prev = ring[1]  # column -1, the virtual start
+    prev2 = ring[2]  # column -2
+    for i in range(unk):
+        prev[i] = inf
+        prev2[i] = inf
     for k in range(min(ndisp, -dmin + 1)):  # j = -1 - dmin - k >= -1
         for r in range(nr):
-            table[nk + (k + 1) * nr + r] = 0.0
+            prev[(k + 1) * nr + r] = 0.0
+    for i in range(np.uint64(2 * ndisp * nr)):
+        ends[i] = inf
     for x in range(width):
-        o_row = np.uint64((x + 2) * nk)
-        o_prev = o_row - unk
-        prev2 = table
-        o_prev2 = o_prev - unk
         o_here = np.uint64(x * nk)
         k_lo = max(0, x - (width - 1) - dmin)
         k_hi = min(ndisp - 1, x - dmin)
         pin_here = anchored and pinned[x]
         if anchored and x >= 1 and pinned[x - 1]:
             # rows pinned at x - 1: no e step from x - 2 over the anchor
-            for i in range(unk):
-                prev2_work[i] = table[o_prev2 + i]
             for r in range(nr):
                 if pins[(x - 1) * nr + r] >= 0:
                     for k in range(ndisp + 2):
-                        prev2_work[k * nr + r] = inf
-            prev2 = prev2_work
-            o_prev2 = np.uint64(0)
+                        prev2[k * nr + r] = inf
         if pin_here:
             for r in range(nr):
                 if pins[x * nr + r] >= 0:
                     free[r] = False
         if k_lo > k_hi:
             for i in range(unk):
-                table[o_row + i] = inf
+                cur[i] = inf
         else:
             for i in range(np.uint64((k_lo + 1) * nr)):
-                table[o_row + i] = inf
+                cur[i] = inf
             for i in range(np.uint64((k_hi + 2) * nr), unk):
-                table[o_row + i] = inf
+                cur[i] = inf
         k_virtual = x - dmin + 1  # j = -1
         if 0 <= k_virtual < ndisp:
             for r in range(nr):
-                table[o_row + (k_virtual + 1) * nr + r] = 0.0 if free[r] else inf
-        if k_lo > k_hi:
-            continue
-        slant_ok = five and x >= 1
-        o_left = o_here - unk if x >= 1 else o_here
-        if slant_ok:
-            _cells5_chain(
-                table, o_row, o_prev, prev2, o_prev2, cost, o_here, o_left, k_lo, k_hi, occ2, slant2
-            )
-        else:
-            _cells3_chain(table, o_row, o_prev, cost, o_here, k_lo, k_hi, occ2)
-        if not pin_here:
-            continue
-        for r in range(nr):
-            j = pins[x * nr + r]
-            if j < 0:
-                continue
-            # the anchor ends a segment: its value by a match step (no a, no b), from the
-            # columns before ...
-            k_a = x - j - dmin
-            p = int((k_a + 1) * nr + r)  # an int: np.uint64 + np.int64 is float
-            h2 = 2.0 * cost[o_here + p]
-            best = table[o_prev + p] + h2
+                cur[(k_virtual + 1) * nr + r] = 0.0 if free[r] else inf
+        if k_lo <= k_hi:
+            slant_ok = five and x >= 1
+            o_left = o_here - unk if x >= 1 else o_here
             if slant_ok:
-                u = h2 + cost[o_left + p] + slant2
-                best = min(best, table[o_prev + p + nr] + cost[o_here + p + nr] + u)
-                best = min(best, prev2[o_prev2 + p - nr] + cost[o_left + p - nr] + u)
-            anchor_total[x * nr + r] = best
-            # ... and starts the next one: the column holds only the anchor (0) and the
-            # b steps below it (the values of clearing it and running the b-chain)
-            for k in range(k_lo, k_a + 1):
-                table[o_row + (k + 1) * nr + r] = b_run[k_a - k]
-            for k in range(k_a + 1, k_hi + 1):
-                table[o_row + (k + 1) * nr + r] = inf
-
-
-@nb.njit(cache=True, inline="always")
-def _band_step(cost, table, nk, x, k, r, best, occ2, slant2, slant_ok, e_ok, from_left, allow_ab):
-    """Find the step the forward pass took into cell ``(x, k)`` of band row ``r``.
-
-    As ``_step_into``, the same expressions in the same order of preference.
-    ``from_left`` False: only the b step (the first column of a segment after an anchor);
-    ``e_ok`` False: no e step (the column after an anchor). Inf padding cells stand in for
-    the bounds checks.
-    """
-    nr = BAND_ROWS
-    p = (k + 1) * nr + r
-    o_row = (x + 2) * nk + p  # this cell; the column before is ``nk`` lower
-    o_cost = x * nk + p
-    if from_left:
-        h2 = 2.0 * cost[o_cost]
-        if table[o_row - nk] + h2 == best:
-            return STEP_C
-        if slant_ok:
-            left = cost[o_cost - nk]
-            u = h2 + left + slant2
-            if table[o_row - nk + nr] + cost[o_cost + nr] + u == best:
-                return STEP_D
-            if e_ok:
-                if table[o_row - 2 * nk - nr] + cost[o_cost - nk - nr] + u == best:
-                    return STEP_E
-    if allow_ab:
-        if from_left and table[o_row - nk - nr] + occ2 == best:
-            return STEP_A
-        if table[o_row + nr] + occ2 == best:
-            return STEP_B
-    return STEP_NONE
+                _cells5_chain(
+                    cur, prev, prev2, cost, o_here, o_left, steps, k_lo, k_hi, occ2, slant2
+                )
+            else:
+                _cells3_chain(cur, prev, cost, o_here, steps, k_lo, k_hi, occ2)
+            if pin_here:
+                for r in range(nr):
+                    j = pins[x * nr + r]
+                    if j < 0:
+                        continue
+                    # the anchor ends a segment: its value by a match step (no a, no b),
+                    # from the columns before ...
+                    k_a = x - j - dmin
+                    p = int((k_a + 1) * nr + r)  # an int: np.uint64 + np.int64 is float
+                    h2 = 2.0 * cost[o_here + p]
+                    c = prev[p] + h2
+                    best = c
+                    bits = 0
+                    if slant_ok:
+                        u = h2 + cost[o_left + p] + slant2
+                        d = prev[p + nr] + cost[o_here + p + nr] + u
+                        e = prev2[p - nr] + cost[o_left + p - nr] + u
+                        best = min(min(best, d), e)
+                        bits = (STEP_BIT_D if d == best else 0) | (STEP_BIT_E if e == best else 0)
+                    anchor_total[x * nr + r] = best
+                    anchor_steps[x * nr + r] = bits | (STEP_BIT_C if c == best else 0)
+                    # ... and starts the next one: the column holds only the anchor (0)
+                    # and the b steps below it (the values of clearing it and running the
+                    # b-chain), which the backtrack of that segment takes
+                    for k in range(k_lo, k_a + 1):
+                        cur[(k + 1) * nr + r] = b_run[k_a - k]
+                        steps[o_here + (k + 1) * nr + r] = STEP_BIT_B
+                    for k in range(k_a + 1, k_hi + 1):
+                        cur[(k + 1) * nr + r] = inf
+        # the free end's nodes: j == width - 1 before the last column, then the last column
+        k_end = x - (width - 1) - dmin
+        if x < width - 1 and 0 <= k_end < ndisp:
+            for r in range(nr):
+                ends[k_end * nr + r] = cur[(k_end + 1) * nr + r]
+        if x == width - 1:
+            for k in range(ndisp):
+                for r in range(nr):
+                    ends[(ndisp + k) * nr + r] = cur[(k + 1) * nr + r]
+        prev2, prev, cur = prev, cur, prev2
 
 
 @nb.njit(cache=True)
 def _trace_segment(
-    cost,
-    table,
+    steps,
     nk,
     r,
     dmin,
-    occ2,
-    five,
-    slant2,
     x_lo,
     j_lo,
     anchor_start,
     end_x,
     end_k,
-    end_best,
-    anchor_end,
+    end_step,
     disp_row,
     flag_row,
 ):
     """Backtrack one segment of band row ``r`` from its end node and write its pixels.
 
     The segment starts at the anchor ``(x_lo, j_lo)`` (``anchor_start``) or at the free
-    start (then ``x_lo = j_lo = 0``); ``end_best`` is the end node's value (the anchor's
-    match-step value for an anchored end). The writes are those of ``apply_path``, in its
-    order.
+    start (then ``x_lo = j_lo = 0``); ``end_step`` is the step into the end node (from
+    ``anchor_steps`` for an anchored end), the others come from ``steps``. The writes are
+    those of ``apply_path``, in its order.
     """
     nr = BAND_ROWS
     x = end_x
     k = end_k
-    best = end_best
-    at_end = anchor_end
+    s = end_step
     k_start = x_lo - j_lo - dmin
     while True:
         if anchor_start and x == x_lo and k == k_start:
             break
-        s = _band_step(
-            cost,
-            table,
-            nk,
-            x,
-            k,
-            r,
-            best,
-            occ2,
-            slant2,
-            five and x >= 1,
-            not (anchor_start and x == x_lo + 1),
-            not (anchor_start and x == x_lo),
-            not at_end,
-        )
         d = dmin + k
         if s == STEP_C or s == STEP_D:
             disp_row[x] = d
@@ -604,26 +627,23 @@ def _trace_segment(
         else:  # STEP_E (and, as in scanline_dp, STEP_NONE)
             x -= 2
             k -= 1
-        at_end = False
         if not anchor_start and (x == -1 or x - dmin - k == -1):
             break
-        best = table[(x + 2) * nk + (k + 1) * nr + r]
+        s = STEP_OF_BITS[steps[x * nk + (k + 1) * nr + r]]
 
 
 @nb.njit(cache=True)
 def band_backtrack_row(
-    cost,
-    table,
+    steps,
+    ends,
     width,
     dmin,
     ndisp,
     r,
-    occ2,
-    five,
-    slant2,
     anchored,
     pins,
     anchor_total,
+    anchor_steps,
     disp_row,
     flag_row,
 ):
@@ -651,21 +671,16 @@ def band_backtrack_row(
             value = anchor_total[x * nr + r]
             if value < inf:
                 _trace_segment(
-                    cost,
-                    table,
+                    steps,
                     nk,
                     r,
                     dmin,
-                    occ2,
-                    five,
-                    slant2,
                     x_lo,
                     j_lo,
                     anchor_start,
                     x,
                     x - j - dmin,
-                    value,
-                    True,
+                    STEP_OF_BITS[anchor_steps[x * nr + r]],
                     disp_row,
                     flag_row,
                 )
@@ -684,7 +699,7 @@ def band_backtrack_row(
     for k in range(ndisp):
         j = width - 1 - dmin - k
         if j_lo <= j <= width - 1:
-            v = table[(width + 1) * nk + (k + 1) * nr + r]
+            v = ends[(ndisp + k) * nr + r]
             if v < value:
                 value = v
                 end_x = width - 1
@@ -692,28 +707,23 @@ def band_backtrack_row(
     for k in range(ndisp):
         x = width - 1 + dmin + k
         if x_lo <= x < width - 1:
-            v = table[(x + 2) * nk + (k + 1) * nr + r]
+            v = ends[k * nr + r]
             if v < value:
                 value = v
                 end_x = x
                 end_k = k
     if value < inf:
         _trace_segment(
-            cost,
-            table,
+            steps,
             nk,
             r,
             dmin,
-            occ2,
-            five,
-            slant2,
             x_lo,
             j_lo,
             anchor_start,
             end_x,
             end_k,
-            value,
-            False,
+            STEP_OF_BITS[steps[end_x * nk + (end_k + 1) * nr + r]],
             disp_row,
             flag_row,
         )
@@ -1183,11 +1193,13 @@ def match_band_rows(
         vs = np.empty(width * ndisp * nr, dtype=np.int32)
         hsum = np.empty(ndisp * nr, dtype=np.int32)
         cost = np.empty(width * nk, dtype=np.float64)
-        table = np.empty((width + 2) * nk, dtype=np.float64)
-        prev2_work = np.empty(nk, dtype=np.float64)
+        step_bits = np.empty(width * nk, dtype=np.int64)
+        ring = np.empty((3, nk), dtype=np.float64)
+        ends = np.empty(2 * ndisp * nr, dtype=np.float64)
         pins = np.full(width * nr, -1, dtype=np.int64)
         pinned = np.zeros(width, dtype=np.bool_)
         anchor_total = np.empty(width * nr, dtype=np.float64)
+        anchor_steps = np.empty(width * nr, dtype=np.int64)
         anchored = pin_mode > 0
         search = pin_mode == 2
         nwork = width if search else 1
@@ -1292,8 +1304,10 @@ def match_band_rows(
                 pins,
                 pinned,
                 anchor_total,
-                prev2_work,
-                table,
+                anchor_steps,
+                ring,
+                step_bits,
+                ends,
             )
             for r in range(nr):
                 if r * run + t >= n:
@@ -1303,18 +1317,16 @@ def match_band_rows(
                     disp[y, x] = np.nan
                     flags[y, x] = FLAG_BORDER
                 total[y] = band_backtrack_row(
-                    cost,
-                    table,
+                    step_bits,
+                    ends,
                     width,
                     dmin,
                     ndisp,
                     r,
-                    occ2,
-                    five,
-                    slant2,
                     anchored,
                     pins,
                     anchor_total,
+                    anchor_steps,
                     disp[y],
                     flags[y],
                 )
