@@ -283,6 +283,84 @@ def band_lane_costs(
                     out[i] = out[i] * win / used
 
 
+@nb.njit(cache=True, inline="always")
+def _cost_column(
+    left_t, right_t, x, width, dmin, ndisp, radius, spread, vs, incremental, hsum, out, o_col
+):
+    """Column ``x`` of ``band_lane_costs`` into ``out[o_col:o_col + nk]``.
+
+    The values of ``band_lane_costs``, one column at a time for ``band_forward``'s fused
+    pass. Columns are made in order, ``x = 0`` first: ``hsum`` carries the horizontal
+    window sums from one column to the next (and ``vs`` the vertical sums,
+    ``_column_sums``). The columns with no inf cell and no truncated window (the keyed
+    columns of ``match_band_rows``) skip the per-disparity checks.
+    """
+    nr = BAND_ROWS
+    win = 2 * radius + 1
+    width_p = width + 2 * radius
+    nkc = np.uint64(ndisp * nr)
+    nk = (ndisp + 2) * nr
+    inf = np.inf
+    o_out = o_col + np.uint64(nr)
+    if x == 0:
+        for i in range(nkc):
+            hsum[i] = 0
+        for c in range(min(radius, width - 1) + 1):
+            o_c = _column_sums(
+                left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, vs, incremental
+            )
+            for i in range(nkc):
+                hsum[i] += vs[o_c + i]
+        for i in range(nkc):
+            out[o_out + i] = hsum[i]
+    else:
+        add = x + radius
+        sub = x - radius - 1
+        o_sub = np.uint64(max(sub, 0) * nkc)
+        if add < width and sub >= 0:  # the bulk of the row: one pass
+            o_add = _column_sums(
+                left_t, right_t, add, width, width_p, dmin, ndisp, radius, spread, vs, incremental
+            )
+            for i in range(nkc):
+                h = np.int32(hsum[i] + (vs[o_add + i] - vs[o_sub + i]))
+                hsum[i] = h
+                out[o_out + i] = h
+        else:
+            if add < width:
+                o_add = _column_sums(
+                    left_t, right_t, add, width, width_p, dmin, ndisp, radius, spread, vs,
+                    incremental,
+                )  # fmt: skip
+                for i in range(nkc):
+                    hsum[i] += vs[o_add + i]
+            elif sub >= 0:
+                for i in range(nkc):
+                    hsum[i] -= vs[o_sub + i]
+            for i in range(nkc):
+                out[o_out + i] = hsum[i]
+    for r in range(nr):
+        out[o_col + r] = inf
+        out[o_col + nk - nr + r] = inf
+    if radius + max(0, dmin + ndisp - 1) <= x < width - radius + min(0, dmin):
+        return
+    for k in range(ndisp):
+        d = dmin + k
+        x0 = max(0, d)
+        x1 = min(width, width + d)  # exclusive; 0 <= x - d < width
+        o = o_col + np.uint64((k + 1) * nr)
+        if x < x0 or x >= x1:
+            for r in range(nr):
+                out[o + r] = inf
+            continue
+        lo_end = min(x0 + radius, x1)
+        hi_start = max(x1 - radius, lo_end)
+        if x < lo_end or x >= hi_start:
+            used = min(x + radius, x1 - 1) - max(x - radius, x0) + 1
+            if used != win:
+                for r in range(nr):
+                    out[o + r] = out[o + r] * win / used
+
+
 @nb.njit(cache=True)
 def band_lane_variance(sig_t, width, radius, steps, incremental, colsum, colsq, hsum, hsq, out):
     """Window variance of every pixel of the band's rows, in one view's band layout.
@@ -386,7 +464,7 @@ STEP_OF_BITS = _step_of_bits()
 
 
 @nb.njit(cache=True, inline="always")
-def _cells5_chain(cur, prev, prev2, cost, o_here, o_left, steps, k_lo, k_hi, occ2, slant2):
+def _cells5_chain(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2, slant2):
     """Five-step cells ``k_lo..k_hi`` of one column, in one descending loop.
 
     ``cur``, ``prev`` and ``prev2``: the values of columns ``x``, ``x - 1`` and ``x - 2``.
@@ -409,7 +487,7 @@ def _cells5_chain(cur, prev, prev2, cost, o_here, o_left, steps, k_lo, k_hi, occ
         v = min(cell, cur[p + nr] + occ2)
         cur[p] = v
         # shifts, not selects of the STEP_BIT_* constants: fewer vector operations
-        steps[o_here + p] = (
+        steps[o_steps + p] = (
             (np.int64(c == v) << np.int64(4))
             | (np.int64(d == v) << np.int64(3))
             | (np.int64(e == v) << np.int64(2))
@@ -419,7 +497,7 @@ def _cells5_chain(cur, prev, prev2, cost, o_here, o_left, steps, k_lo, k_hi, occ
 
 
 @nb.njit(cache=True, inline="always")
-def _cells3_chain(cur, prev, cost, o_here, steps, k_lo, k_hi, occ2):
+def _cells3_chain(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2):
     """Three-step cells: steps c and a (``_earlier_steps3``), then b (see ``_cells5_chain``)."""
     nr = np.uint64(BAND_ROWS)
     top = np.uint64((k_hi + 2) * BAND_ROWS - 1)
@@ -429,7 +507,7 @@ def _cells3_chain(cur, prev, cost, o_here, steps, k_lo, k_hi, occ2):
         a = prev[p - nr] + occ2
         v = min(min(c, a), cur[p + nr] + occ2)
         cur[p] = v
-        steps[o_here + p] = (
+        steps[o_steps + p] = (
             (np.int64(c == v) << np.int64(4))
             | (np.int64(a == v) << np.int64(1))
             | np.int64(STEP_BIT_B)
@@ -453,10 +531,23 @@ def band_forward(
     ring,
     steps,
     ends,
+    fused,
+    left_t,
+    right_t,
+    radius,
+    spread,
+    vs,
+    incremental,
+    hsum,
 ):
     """Forward pass of the whole-scanline DP (eq. 5) of the ``BAND_ROWS`` rows of a band.
 
-    ``cost`` comes from ``band_lane_costs``. Node ``(x, dmin + k)`` of band row ``r`` gets
+    ``cost`` comes from ``band_lane_costs``; with ``fused`` it is scratch of two columns
+    (``2 * nk``) and the pass makes each column's costs itself, just before the column's
+    cells (``_cost_column``, from ``left_t``, ``right_t``, ``spread``, ``vs``, ``hsum`` and
+    ``incremental`` as ``band_lane_costs`` takes them): the same values, without the
+    band's cost array, which on wide images and disparity ranges leaves the caches. Node
+    ``(x, dmin + k)`` of band row ``r`` gets
     the value of ``scanline_dp``'s table (with ``x_lo = j_lo = 0``, ``x_hi = j_hi = width
     - 1``) and its step bits go to ``steps[x * nk + (k + 1) * R + r]`` (int64, ``width *
     nk``). ``ring`` (float64, ``(3, nk)``) holds the values of the last three columns;
@@ -496,7 +587,26 @@ def band_forward(
     for i in range(np.uint64(2 * ndisp * nr)):
         ends[i] = inf
     for x in range(width):
-        o_here = np.uint64(x * nk)
+        o_steps = np.uint64(x * nk)
+        if fused:
+            o_here = np.uint64((x % 2) * nk)
+            _cost_column(
+                left_t,
+                right_t,
+                x,
+                width,
+                dmin,
+                ndisp,
+                radius,
+                spread,
+                vs,
+                incremental,
+                hsum,
+                cost,
+                o_here,
+            )
+        else:
+            o_here = o_steps
         k_lo = max(0, x - (width - 1) - dmin)
         k_hi = min(ndisp - 1, x - dmin)
         pin_here = anchored and pinned[x]
@@ -524,13 +634,27 @@ def band_forward(
                 cur[(k_virtual + 1) * nr + r] = 0.0 if free[r] else inf
         if k_lo <= k_hi:
             slant_ok = five and x >= 1
-            o_left = o_here - unk if x >= 1 else o_here
+            if fused:
+                o_left = np.uint64(((x + 1) % 2) * nk) if x >= 1 else o_here
+            else:
+                o_left = o_here - unk if x >= 1 else o_here
             if slant_ok:
                 _cells5_chain(
-                    cur, prev, prev2, cost, o_here, o_left, steps, k_lo, k_hi, occ2, slant2
+                    cur,
+                    prev,
+                    prev2,
+                    cost,
+                    o_here,
+                    o_left,
+                    steps,
+                    o_steps,
+                    k_lo,
+                    k_hi,
+                    occ2,
+                    slant2,
                 )
             else:
-                _cells3_chain(cur, prev, cost, o_here, steps, k_lo, k_hi, occ2)
+                _cells3_chain(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2)
             if pin_here:
                 for r in range(nr):
                     j = pins[x * nr + r]
@@ -557,7 +681,7 @@ def band_forward(
                     # b-chain), which the backtrack of that segment takes
                     for k in range(k_lo, k_a + 1):
                         cur[(k + 1) * nr + r] = b_run[k_a - k]
-                        steps[o_here + (k + 1) * nr + r] = STEP_BIT_B
+                        steps[o_steps + (k + 1) * nr + r] = STEP_BIT_B
                     for k in range(k_a + 1, k_hi + 1):
                         cur[(k + 1) * nr + r] = inf
         # the free end's nodes: j == width - 1 before the last column, then the last column
@@ -1192,7 +1316,9 @@ def match_band_rows(
         spread = np.empty(2 * ndisp * nr, dtype=np.int32)
         vs = np.empty(width * ndisp * nr, dtype=np.int32)
         hsum = np.empty(ndisp * nr, dtype=np.int32)
-        cost = np.empty(width * nk, dtype=np.float64)
+        anchored = pin_mode > 0
+        # free mode makes each column's costs inside the DP: two columns, not the band's
+        cost = np.empty((width if anchored else 2) * nk, dtype=np.float64)
         step_bits = np.empty(width * nk, dtype=np.int64)
         ring = np.empty((3, nk), dtype=np.float64)
         ends = np.empty(2 * ndisp * nr, dtype=np.float64)
@@ -1200,7 +1326,6 @@ def match_band_rows(
         pinned = np.zeros(width, dtype=np.bool_)
         anchor_total = np.empty(width * nr, dtype=np.float64)
         anchor_steps = np.empty(width * nr, dtype=np.int64)
-        anchored = pin_mode > 0
         search = pin_mode == 2
         nwork = width if search else 1
         pre = np.empty(nk if search else 1, dtype=np.float64)
@@ -1235,9 +1360,10 @@ def match_band_rows(
                         rows[r] = 0
                         rows[nr + r] = 0
                 band_lane_signals(left_p, right_p, rows, 2, left_t, right_t)
-            band_lane_costs(
-                left_t, right_t, width, dmin, ndisp, radius, spread, vs, t > 0, hsum, cost
-            )
+            if anchored:  # the search and the pins read the band's costs before the DP
+                band_lane_costs(
+                    left_t, right_t, width, dmin, ndisp, radius, spread, vs, t > 0, hsum, cost
+                )
             if search:
                 band_lane_variance(
                     left_t, width, radius, steps, t > 0, colsum[0], colsq[0], hwork[0], hwork[1],
@@ -1308,6 +1434,14 @@ def match_band_rows(
                 ring,
                 step_bits,
                 ends,
+                not anchored,
+                left_t,
+                right_t,
+                radius,
+                spread,
+                vs,
+                t > 0,
+                hsum,
             )
             for r in range(nr):
                 if r * run + t >= n:
