@@ -537,29 +537,25 @@ def band_forward(
     ring,
     steps,
     ends,
-    fused,
-    left_t,
-    right_t,
-    radius,
-    spread,
-    vs,
-    incremental,
-    hsum,
+    make_costs,
 ):
     """Forward pass of the whole-scanline DP (eq. 5) of the ``BAND_ROWS`` rows of a band.
 
-    ``cost`` comes from ``band_lane_costs``; with ``fused`` it is scratch of two columns
-    (``2 * nk``) and the pass makes each column's costs itself, just before the column's
-    cells (``_cost_column``, from ``left_t``, ``right_t``, ``spread``, ``vs``, ``hsum`` and
-    ``incremental`` as ``band_lane_costs`` takes them): the same values, without the
-    band's cost array, which on wide images and disparity ranges leaves the caches. Node
-    ``(x, dmin + k)`` of band row ``r`` gets
-    the value of ``scanline_dp``'s table (with ``x_lo = j_lo = 0``, ``x_hi = j_hi = width
-    - 1``) and its step bits go to ``steps[x * nk + (k + 1) * R + r]`` (int64, ``width *
-    nk``). ``ring`` (float64, ``(3, nk)``) holds the values of the last three columns;
-    ``ends`` (float64, ``2 * ndisp * R``) gets the values of the free end's nodes: at
-    ``k * R + r`` the node with ``j = width - 1`` and ``x < width - 1`` of disparity index
-    ``k`` (inf where there is none), at ``(ndisp + k) * R + r`` the node of the last column.
+    ``make_costs`` None: ``cost`` comes from ``band_lane_costs``. Otherwise it is
+    ``(left_t, right_t, radius, spread, vs, incremental, hsum)`` as ``band_lane_costs``
+    takes them, ``cost`` is scratch of two columns (``2 * nk``), and the pass makes each
+    column's costs itself, just before the column's cells (``_cost_column``): the same
+    values, without the band's cost array, which on wide images and disparity ranges
+    leaves the caches. (None is a type of its own to the compiler: the two uses are two
+    compiled functions, and the one with the array has no trace of the other.)
+
+    Node ``(x, dmin + k)`` of band row ``r`` gets the value of ``scanline_dp``'s table
+    (with ``x_lo = j_lo = 0``, ``x_hi = j_hi = width - 1``) and its step bits go to
+    ``steps[x * nk + (k + 1) * R + r]`` (int64, ``width * nk``). ``ring`` (float64,
+    ``(3, nk)``) holds the values of the last three columns; ``ends`` (float64,
+    ``2 * ndisp * R``) gets the values of the free end's nodes: at ``k * R + r`` the node
+    with ``j = width - 1`` and ``x < width - 1`` of disparity index ``k`` (inf where there
+    is none), at ``(ndisp + k) * R + r`` the node of the last column.
 
     With ``anchored``, ``pins[x * R + r]`` (int64) is the right pixel band row ``r`` is
     pinned to at ``x`` (-1: none; increasing in ``x`` along a row, every pair inside the
@@ -594,8 +590,13 @@ def band_forward(
         ends[i] = inf
     for x in range(width):
         o_steps = np.uint64(x * nk)
-        if fused:
+        if make_costs is None:
+            o_here = o_steps
+            o_left = o_here - unk if x >= 1 else o_here
+        else:
             o_here = np.uint64((x % 2) * nk)
+            o_left = np.uint64(((x + 1) % 2) * nk) if x >= 1 else o_here
+            left_t, right_t, radius, spread, vs, incremental, hsum = make_costs
             _cost_column(
                 left_t,
                 right_t,
@@ -611,8 +612,6 @@ def band_forward(
                 cost,
                 o_here,
             )
-        else:
-            o_here = o_steps
         k_lo = max(0, x - (width - 1) - dmin)
         k_hi = min(ndisp - 1, x - dmin)
         pin_here = anchored and pinned[x]
@@ -640,10 +639,6 @@ def band_forward(
                 cur[(k_virtual + 1) * nr + r] = 0.0 if free[r] else inf
         if k_lo <= k_hi:
             slant_ok = five and x >= 1
-            if fused:
-                o_left = np.uint64(((x + 1) % 2) * nk) if x >= 1 else o_here
-            else:
-                o_left = o_here - unk if x >= 1 else o_here
             if slant_ok:
                 _cells5_chain(
                     cur,
@@ -1424,31 +1419,19 @@ def match_band_rows(
                     for r in range(nr):
                         if pins[x * nr + r] >= 0:
                             pinned[x] = True
-            band_forward(
-                cost,
-                width,
-                dmin,
-                ndisp,
-                occ2,
-                five,
-                slant2,
-                anchored,
-                pins,
-                pinned,
-                anchor_total,
-                anchor_steps,
-                ring,
-                step_bits,
-                ends,
-                not anchored,
-                left_t,
-                right_t,
-                radius,
-                spread,
-                vs,
-                t > 0,
-                hsum,
-            )
+            # two call sites: the forward pass with the band's costs, and the one that
+            # makes them (a None or a tuple argument: two compiled versions)
+            if anchored:
+                band_forward(
+                    cost, width, dmin, ndisp, occ2, five, slant2, True, pins, pinned,
+                    anchor_total, anchor_steps, ring, step_bits, ends, None,
+                )  # fmt: skip
+            else:
+                band_forward(
+                    cost, width, dmin, ndisp, occ2, five, slant2, False, pins, pinned,
+                    anchor_total, anchor_steps, ring, step_bits, ends,
+                    (left_t, right_t, radius, spread, vs, t > 0, hsum),
+                )  # fmt: skip
             for r in range(nr):
                 if r * run + t >= n:
                     continue
