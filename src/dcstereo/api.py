@@ -283,7 +283,10 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
 #: Largest band cost array (bytes) with which ``dc`` runs on the band kernels: beyond it the
 #: band's costs leave the caches, and the search's reads (the block match, the left-right
 #: test's diagonals) cost more than the band DP saves (3000 x 2000 x 256: 50 MB per band,
-#: ``dc`` 14.4 s on bands against 8.3 s row by row, one thread; docs/SPEED.md).
+#: ``dc`` 14.4 s on bands against 8.3 s row by row, one thread; docs/SPEED.md). Since the
+#: backtrack follows recorded steps the bands won on a 3000 x 256 x 256 noise strip (1.0 s
+#: against 1.6) but still lost on that pair, where half the pixels become pins (8.5 s
+#: against 7.8); the limit stays.
 DC_BAND_BYTES = 16 * 2**20
 
 
