@@ -290,6 +290,15 @@ def band_lane_costs(
 
 
 @nb.njit(cache=True, inline="always")
+def _integer_columns(width, dmin, ndisp, radius):
+    """Return ``(lo, hi)``: the columns ``lo <= x < hi`` whose costs are integers or inf.
+
+    No truncated window at any disparity, on either side (``band_lane_costs``).
+    """
+    return radius + max(0, dmin + ndisp - 1), width - radius + min(0, dmin)
+
+
+@nb.njit(cache=True, inline="always")
 def _cost_column(
     left_t, right_t, x, width, dmin, ndisp, radius, spread, vs, incremental, hsum, out, o_col
 ):
@@ -298,8 +307,8 @@ def _cost_column(
     The values of ``band_lane_costs``, one column at a time for ``band_forward``'s fused
     pass. Columns are made in order, ``x = 0`` first: ``hsum`` carries the horizontal
     window sums from one column to the next (and ``vs`` the vertical sums,
-    ``_column_sums``). The columns with no inf cell and no truncated window (the keyed
-    columns of ``match_band_rows``) skip the per-disparity checks.
+    ``_column_sums``). The columns of ``_integer_columns`` have no inf cell and no
+    truncated window: they skip the per-disparity checks.
     """
     nr = BAND_ROWS
     win = 2 * radius + 1
@@ -347,7 +356,8 @@ def _cost_column(
     for r in range(nr):
         out[o_col + r] = inf
         out[o_col + nk - nr + r] = inf
-    if radius + max(0, dmin + ndisp - 1) <= x < width - radius + min(0, dmin):
+    x_lo, x_hi = _integer_columns(width, dmin, ndisp, radius)
+    if x_lo <= x < x_hi:
         return
     for k in range(ndisp):
         d = dmin + k
@@ -477,7 +487,7 @@ def _cells5_chain(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, 
     The steps from earlier columns (c, d, e, a: ``_earlier_steps5``, the same expressions
     in the same order), then the b step from the cell above: ``min`` with its value plus
     ``occ2`` (the value of ``scanline_dp``'s branch). The cell's step bits go to
-    ``steps[o_here + p]``.
+    ``steps[o_steps + p]``.
     """
     nr = np.uint64(BAND_ROWS)
     top = np.uint64((k_hi + 2) * BAND_ROWS - 1)
@@ -492,12 +502,13 @@ def _cells5_chain(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, 
         cell = min(min(c, d), min(e, a))
         v = min(cell, cur[p + nr] + occ2)
         cur[p] = v
-        # shifts, not selects of the STEP_BIT_* constants: fewer vector operations
+        # products of 0/1 and the bits (shifts once compiled), not selects of the
+        # STEP_BIT_* constants: fewer vector operations
         steps[o_steps + p] = (
-            (np.int64(c == v) << np.int64(4))
-            | (np.int64(d == v) << np.int64(3))
-            | (np.int64(e == v) << np.int64(2))
-            | (np.int64(a == v) << np.int64(1))
+            np.int64(c == v) * np.int64(STEP_BIT_C)
+            | np.int64(d == v) * np.int64(STEP_BIT_D)
+            | np.int64(e == v) * np.int64(STEP_BIT_E)
+            | np.int64(a == v) * np.int64(STEP_BIT_A)
             | np.int64(STEP_BIT_B)
         )
 
@@ -514,8 +525,8 @@ def _cells3_chain(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2):
         v = min(min(c, a), cur[p + nr] + occ2)
         cur[p] = v
         steps[o_steps + p] = (
-            (np.int64(c == v) << np.int64(4))
-            | (np.int64(a == v) << np.int64(1))
+            np.int64(c == v) * np.int64(STEP_BIT_C)
+            | np.int64(a == v) * np.int64(STEP_BIT_A)
             | np.int64(STEP_BIT_B)
         )
 
@@ -1301,10 +1312,8 @@ def match_band_rows(
     nbands = (height + nr - 1) // nr
     win = 2 * radius + 1
     nk = (ndisp + 2) * nr
-    # the columns whose costs are all integers (or inf): no truncated window, at any
-    # disparity, on either side (band_block_match's keyed search)
-    x_int_lo = radius + max(0, dmin + ndisp - 1)
-    x_int_hi = width - radius + min(0, dmin)
+    # the columns band_block_match's keyed search may take
+    x_int_lo, x_int_hi = _integer_columns(width, dmin, ndisp, radius)
     for ch in nb.prange(nchunks):
         b0, b1 = _chunk_bounds(nbands, nchunks, ch)
         # the chunk's rows; lane r takes rows y_a + r * run + t at band step t
