@@ -442,11 +442,11 @@ def band_lane_variance(sig_t, width, radius, steps, incremental, colsum, colsq, 
 # (unsigned, see above) and loop over ``p = (k + 1) * R + r``, so that a step to ``k + 1``
 # is ``p + R``. The forward pass keeps the DP values of only three columns (``x``, ``x - 1``
 # and ``x - 2``: all a step reads), and records for every cell, in ``steps`` (the layout of
-# ``cost``), which steps reach its value: bits ``STEP_BIT_*``, the least-cost steps in the
-# order of preference of ``_kernels.scanline_dp``'s backtrack (c, d, e, a, then b). The
-# backtrack reads the step of each cell from them (``STEP_OF_BITS``) instead of recomputing
-# the five candidates from the costs and the table: the same comparisons of the same
-# values, made once in vector loops.
+# ``cost``, one byte a cell), which steps reach its value: bits ``STEP_BIT_*``, the
+# least-cost steps in the order of preference of ``_kernels.scanline_dp``'s backtrack (c,
+# d, e, a, then b). The backtrack reads the step of each cell from them (``STEP_OF_BITS``)
+# instead of recomputing the five candidates from the costs and the table: the same
+# comparisons of the same values, made once in vector loops.
 
 #: Bits of ``steps`` (bit 4 down to bit 0): the cell's value is reached by that step. Bit 0
 #: is always set: it stands for b, taken when none of the others reaches the value (the
@@ -546,6 +546,7 @@ def band_forward(
     anchor_total,
     anchor_steps,
     ring,
+    col_bits,
     steps,
     ends,
     make_costs,
@@ -562,8 +563,12 @@ def band_forward(
 
     Node ``(x, dmin + k)`` of band row ``r`` gets the value of ``scanline_dp``'s table
     (with ``x_lo = j_lo = 0``, ``x_hi = j_hi = width - 1``) and its step bits go to
-    ``steps[x * nk + (k + 1) * R + r]`` (int64, ``width * nk``). ``ring`` (float64,
-    ``(3, nk)``) holds the values of the last three columns; ``ends`` (float64,
+    ``steps[x * nk + (k + 1) * R + r]`` (uint8, ``width * nk``). ``ring`` (float64,
+    ``(3, nk)``) holds the values of the last three columns and ``col_bits`` (int64,
+    ``nk``) the step bits of the column being made: the vector loop computes them at its
+    own width, and one conversion loop per column stores them as bytes (a uint8 store in
+    the cell loop stops it from being vectorized; int64 records were 8 bytes a cell, which
+    on wide images and disparity ranges streamed to memory). ``ends`` (float64,
     ``2 * ndisp * R``) gets the values of the free end's nodes: at ``k * R + r`` the node
     with ``j = width - 1`` and ``x < width - 1`` of disparity index ``k`` (inf where there
     is none), at ``(ndisp + k) * R + r`` the node of the last column.
@@ -658,15 +663,15 @@ def band_forward(
                     cost,
                     o_here,
                     o_left,
-                    steps,
-                    o_steps,
+                    col_bits,
+                    np.uint64(0),
                     k_lo,
                     k_hi,
                     occ2,
                     slant2,
                 )
             else:
-                _cells3_chain(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2)
+                _cells3_chain(cur, prev, cost, o_here, col_bits, np.uint64(0), k_lo, k_hi, occ2)
             if pin_here:
                 for r in range(nr):
                     j = pins[x * nr + r]
@@ -693,9 +698,11 @@ def band_forward(
                     # b-chain), which the backtrack of that segment takes
                     for k in range(k_lo, k_a + 1):
                         cur[(k + 1) * nr + r] = b_run[k_a - k]
-                        steps[o_steps + (k + 1) * nr + r] = STEP_BIT_B
+                        col_bits[(k + 1) * nr + r] = STEP_BIT_B
                     for k in range(k_a + 1, k_hi + 1):
                         cur[(k + 1) * nr + r] = inf
+            for i in range(np.uint64((k_lo + 1) * nr), np.uint64((k_hi + 2) * nr)):
+                steps[o_steps + i] = np.uint8(col_bits[i])
         # the free end's nodes: j == width - 1 before the last column, then the last column
         k_end = x - (width - 1) - dmin
         if x < width - 1 and 0 <= k_end < ndisp:
@@ -1329,7 +1336,8 @@ def match_band_rows(
         anchored = pin_mode > 0
         # free mode makes each column's costs inside the DP: two columns, not the band's
         cost = np.empty((width if anchored else 2) * nk, dtype=np.float64)
-        step_bits = np.empty(width * nk, dtype=np.int64)
+        step_bits = np.empty(width * nk, dtype=np.uint8)
+        col_bits = np.empty(nk, dtype=np.int64)
         ring = np.empty((3, nk), dtype=np.float64)
         ends = np.empty(2 * ndisp * nr, dtype=np.float64)
         pins = np.full(width * nr, -1, dtype=np.int64)
@@ -1433,12 +1441,12 @@ def match_band_rows(
             if anchored:
                 band_forward(
                     cost, width, dmin, ndisp, occ2, five, slant2, True, pins, pinned,
-                    anchor_total, anchor_steps, ring, step_bits, ends, None,
+                    anchor_total, anchor_steps, ring, col_bits, step_bits, ends, None,
                 )  # fmt: skip
             else:
                 band_forward(
                     cost, width, dmin, ndisp, occ2, five, slant2, False, pins, pinned,
-                    anchor_total, anchor_steps, ring, step_bits, ends,
+                    anchor_total, anchor_steps, ring, col_bits, step_bits, ends,
                     (left_t, right_t, radius, spread, vs, t > 0, hsum),
                 )  # fmt: skip
             for r in range(nr):
