@@ -363,6 +363,66 @@ def test_incremental_lane_costs_equal_row_costs(dtype):
                     assert lane.tobytes() == var_row.tobytes()
 
 
+def test_block_match_on_made_costs_equals_the_one_on_the_band_array():
+    # band_block_match making each column's costs (make_costs), then matching them, gives
+    # band_block_match on band_lane_costs' array, bit for bit, band after band, and leaves
+    # the vertical sums of band_lane_costs, from which band_lane_costs with SUMS_READY
+    # makes the same array
+    rng = np.random.default_rng(13)
+    nr = _band_kernels.BAND_ROWS
+    for dmin, ndisp, radius, width, height in (
+        (-3, 7, 2, 13, 19), (4, 6, 1, 9, 8), (0, 12, 3, 25, 3), (-9, 4, 0, 6, 17), (2, 5, 1, 1, 9),
+        (0, 30, 2, 40, 20),
+    ):  # fmt: skip
+        # few levels: ties between disparities
+        left = (rng.integers(0, 6, (height, width)) * 800).astype(np.int32)
+        right = (rng.integers(0, 6, (height, width)) * 800).astype(np.int32)
+        left_p, right_p = padded(left, radius), padded(right, radius)
+        win = 2 * radius + 1
+        nk = (ndisp + 2) * nr
+        x_int_lo, x_int_hi = _band_kernels._integer_columns(width, dmin, ndisp, radius)
+        left_t = np.empty(max(win, 2) * (width + 2 * radius) * nr, dtype=np.int32)
+        right_t = np.empty_like(left_t)
+        rows = np.empty(max(win, 2) * nr, dtype=np.int64)
+        spread = np.empty(2 * ndisp * nr, dtype=np.int32)
+        vs_array, vs_made = (np.empty(width * ndisp * nr, dtype=np.int32) for _ in range(2))
+        hsum = np.empty(ndisp * nr, dtype=np.int32)
+        out, again = np.empty(width * nk), np.empty(width * nk)
+        col = np.empty(nk)
+        pre, suf = np.empty(nk), np.empty(nk)
+        k_array, k_made = (np.empty(width * nr, dtype=np.int64) for _ in range(2))
+        r_array, r_made = np.empty(width * nr), np.empty(width * nr)
+        run = -(-height // nr)
+        for t in range(run):
+            if t == 0:
+                for tt in range(win):
+                    rows[tt * nr : (tt + 1) * nr] = np.minimum(
+                        np.arange(nr) * run + tt, left_p.shape[0] - 1
+                    )
+            else:
+                y = np.arange(nr) * run + t
+                rows[:nr] = np.where(y < height, y - 1, 0)
+                rows[nr : 2 * nr] = np.where(y < height, y + 2 * radius, 0)
+            _band_kernels.band_lane_signals(left_p, right_p, rows, win if t == 0 else 2, left_t,
+                                            right_t)  # fmt: skip
+            _band_kernels.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread,
+                                          vs_array, int(t > 0), hsum, out)  # fmt: skip
+            _band_kernels.band_block_match(out, width, ndisp, x_int_lo, x_int_hi, pre, suf,
+                                           k_array, r_array)  # fmt: skip
+            _band_kernels.band_block_match(
+                col, width, ndisp, x_int_lo, x_int_hi, pre, suf, k_made, r_made,
+                (left_t, right_t, dmin, radius, spread, vs_made, int(t > 0), hsum),
+            )  # fmt: skip
+            np.testing.assert_array_equal(k_made, k_array)
+            assert r_made.tobytes() == r_array.tobytes()
+            assert vs_made.tobytes() == vs_array.tobytes()
+            ready = _band_kernels.SUMS_READY
+            _band_kernels.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread,
+                                          vs_made, ready, hsum, again)  # fmt: skip
+            assert again.tobytes() == out.tobytes()
+            assert vs_made.tobytes() == vs_array.tobytes()
+
+
 def test_largest_window_sums_fit_the_int32_buffers():
     # MAX_WINDOW with the largest absolute difference everywhere (4080, a white left view
     # and a black right one), in match_band_rows' int32 buffers, moved down a row too: every
@@ -541,7 +601,12 @@ def test_band_feature_mask_equals_the_naive_one(seed):
 
 def dc_by_rows(left, right, **options):
     """``dc`` through the row-by-row kernel (``_kernels.match_dc_rows``): the reference."""
-    with mock.patch.object(api, "_dc_on_bands", lambda params, width: False):
+    return dc_in_mode(0, left, right, **options)
+
+
+def dc_in_mode(mode, left, right, **options):
+    """``dc`` row by row (0), on bands with the band's cost array (2) or without it (3)."""
+    with mock.patch.object(api, "_dc_band_mode", lambda params, width: mode):
         return dcstereo.match(left, right, **options)
 
 
@@ -563,7 +628,8 @@ DC_OPTIONS = [
 @pytest.mark.parametrize("seed", range(8))
 def test_dc_on_bands_equals_the_row_kernel(seed):
     # the band path (features on the band's costs, then the pinned band DP) gives the
-    # pairs, disparities and flags of the row-by-row path, which fills each interval
+    # pairs, disparities and flags of the row-by-row path, which fills each interval, with
+    # the band's cost array (mode 2) and without it (mode 3: no left-right check)
     rng = np.random.default_rng(700 + seed)
     accepted = 0
     for options in DC_OPTIONS:
@@ -582,8 +648,9 @@ def test_dc_on_bands_equals_the_row_kernel(seed):
             **options,
         )
         expected = dc_by_rows(left, right, **kw)
-        got = dcstereo.match(left, right, **kw)
-        assert_same_dc(expected, got)
+        for mode in (2,) if options.get("lr_check") else (2, 3):
+            got = dc_in_mode(mode, left, right, **kw)
+            assert_same_dc(expected, got)
         accepted += len(got.features)
     assert accepted > 0
 
@@ -599,16 +666,21 @@ def test_dc_on_bands_equals_the_row_kernel_on_middlebury(middlebury_root, scene)
         got = dcstereo.match(data.left, data.right, **kw)
         assert len(got.features) > 1000
         assert_same_dc(expected, got)
+        if not options.get("lr_check"):
+            assert_same_dc(expected, dc_in_mode(3, data.left, data.right, **kw))
 
 
-def test_dc_takes_the_bands_while_a_band_fits_the_caches():
-    # a band's costs are width x (D + 2) x 8 float64: 450 x 66 x 64 bytes (1.8 MiB) runs on
-    # bands, 4000 x 66 x 64 (16.1 MiB) and 3000 x 258 x 64 (47 MiB) row by row, as do the
-    # options the band search does not implement
+def test_dc_keeps_the_band_cost_array_while_it_fits_the_caches():
+    # a band's costs are width x (D + 2) x 8 float64: 450 x 66 x 64 bytes (1.8 MiB) are kept
+    # (mode 2); 4000 x 66 x 64 (16.1 MiB) and 3000 x 258 x 64 (47 MiB) are made twice
+    # instead (mode 3), or, with the left-right check, which reads the array, row by row
+    # (0), as are the options the band search does not implement
     params = dcstereo.MatchParams(max_disparity=63)
-    assert api._dc_on_bands(params, 450)
-    assert not api._dc_on_bands(params, 4000)
-    assert not api._dc_on_bands(dcstereo.MatchParams(max_disparity=255), 3000)
+    assert api._dc_band_mode(params, 450) == 2
+    assert api._dc_band_mode(params, 4000) == 3
+    assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=255), 3000) == 3
+    assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=255, lr_check=True), 3000) == 0
+    assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=63, lr_check=True), 450) == 2
     for options in ({"cost": "bt"}, {"max_candidates": 5}, {"uniqueness": 0.0},
                     {"method": "dc-linear"}):  # fmt: skip
-        assert not api._dc_on_bands(dcstereo.MatchParams(max_disparity=63, **options), 450)
+        assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=63, **options), 450) == 0

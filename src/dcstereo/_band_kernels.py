@@ -178,10 +178,17 @@ def _vertical_update(left_t, right_t, c, width, width_p, dmin, ndisp, radius, sp
         )
 
 
+#: ``incremental`` of the cost passes when an earlier pass over the same band has already
+#: made the vertical sums (False: afresh; True: moved down a row; see ``band_lane_costs``).
+SUMS_READY = 2
+
+
 @nb.njit(cache=True, inline="always")
 def _column_sums(left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, vs, incremental):
-    """Vertical window sums of column ``c`` (afresh, or moved down a row); their offset."""
+    """Vertical window sums of column ``c`` (afresh, moved down a row, or ready); their offset."""
     offset = np.uint64(c * ndisp * BAND_ROWS)
+    if incremental == SUMS_READY:
+        return offset
     if incremental:
         _vertical_update(
             left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, vs, offset
@@ -208,7 +215,8 @@ def band_lane_costs(
     ``incremental`` False: ``left_t``/``right_t`` hold the ``2 radius + 1`` window rows of
     each lane (``band_lane_signals``) and the sums are computed afresh; True: ``vs`` holds
     the sums of the rows just above each lane's row, and ``left_t``/``right_t`` the
-    leaving and entering rows (see ``_vertical_update``). The window sums are exact
+    leaving and entering rows (see ``_vertical_update``); ``SUMS_READY``: ``vs`` already
+    holds this band's sums (``band_block_match`` made its costs). The window sums are exact
     integers, so the order of summation is free. Then, as in ``row_costs``: inf where the
     right pixel is outside the image, the truncated windows near the ends of each
     disparity's range rescaled to the full window (``* W / columns used``, the same
@@ -555,7 +563,8 @@ def band_forward(
 
     ``make_costs`` None: ``cost`` comes from ``band_lane_costs``. Otherwise it is
     ``(left_t, right_t, radius, spread, vs, incremental, hsum)`` as ``band_lane_costs``
-    takes them, ``cost`` is scratch of two columns (``2 * nk``), and the pass makes each
+    takes them (``incremental``: ``SUMS_READY`` after ``band_block_match`` made the costs),
+    ``cost`` is scratch of two columns (``2 * nk``), and the pass makes each
     column's costs itself, just before the column's cells (``_cost_column``): the same
     values, without the band's cost array, which on wide images and disparity ranges
     leaves the caches. (None is a type of its own to the compiler: the two uses are two
@@ -882,7 +891,9 @@ def band_backtrack_row(
 
 
 @nb.njit(cache=True)
-def band_block_match(cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio):
+def band_block_match(
+    cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio, make_costs=None
+):
     """Whole-band block match of every left pixel of the ``R`` rows of a band.
 
     ``wta_k[x * R + r]`` is the least-cost index ``k`` of column ``x`` of band row ``r``
@@ -903,6 +914,15 @@ def band_block_match(cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wt
     key carries the first index of the least cost. Elsewhere a binary search finds the
     first cell where the prefix minimum reaches the least cost (the prefix minima do not
     increase).
+
+    ``make_costs`` None: ``cost`` is the band's array (``band_lane_costs``). Otherwise it
+    is ``(left_t, right_t, dmin, radius, spread, vs, incremental, hsum)`` as
+    ``band_lane_costs`` takes them, ``cost`` is scratch of one column (``nk``), and each
+    column's costs are made into it (``_cost_column``) and matched while they are in the
+    cache: ``dc`` without the band's cost array, which on wide images and disparity ranges
+    leaves the caches (the same values). The band's vertical sums are left in ``vs``, so
+    that the DP pass after it makes the costs again from them (``SUMS_READY``). (As in
+    ``band_forward``, None and a tuple compile to two functions.)
     """
     nr = BAND_ROWS
     unr = np.uint64(nr)
@@ -918,7 +938,15 @@ def band_block_match(cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wt
     for i in range(unk):  # costs less than the index arithmetic
         blocks[i] = np.float64(i // unr)
     for x in range(width):
-        o = np.uint64(x) * unk
+        if make_costs is None:
+            o = np.uint64(x) * unk
+        else:
+            o = np.uint64(0)
+            left_t, right_t, dmin, radius, spread, vs, incremental, hsum = make_costs
+            _cost_column(
+                left_t, right_t, x, width, dmin, ndisp, radius, spread, vs, incremental, hsum,
+                cost, o,
+            )  # fmt: skip
         keyed = x_int_lo <= x < x_int_hi
         for i in range(unr):
             pre[i] = cost[o + i]  # the padding cells: inf (and inf is their key)
@@ -1212,9 +1240,9 @@ def band_row_features(
             best_k = cand_k[i]
             if not k_lo <= best_k <= k_hi:
                 continue  # the sub-problems' ranges nest: retired
-            best = cost[p * nk + (best_k + 1) * nr + r]
             j = p - dmin - best_k
             if lr_check:
+                best = cost[p * nk + (best_k + 1) * nr + r]
                 if lr_j[i] != j:
                     # the other left pixels x of the interval whose cost with j is at most
                     # best: the nearest on each side of p, or the interval's ends, a and c
@@ -1311,7 +1339,11 @@ def match_band_rows(
     2: ``dc``: the pins are the reliable feature pairs of ``band_row_features`` (``tests``;
     the window variances of the two views from ``band_lane_variance``), written to
     ``partner`` (-1 elsewhere) with their SER and VS (``ser_out``, ``vs_out``, NaN
-    elsewhere), and then as 1.
+    elsewhere), and then as 1. 3: as 2, without the band's cost array (for wide images
+    and disparity ranges, whose band costs leave the caches): the block match makes the
+    costs a column at a time (``band_block_match``'s ``make_costs``) and the DP pass
+    makes them again from the vertical sums it left. The search then has no costs to
+    read: the left-right check (``tests[4]``) must be off.
     """
     height, width = disp.shape
     height_p, width_p = left_p.shape
@@ -1334,8 +1366,10 @@ def match_band_rows(
         vs = np.empty(width * ndisp * nr, dtype=np.int32)
         hsum = np.empty(ndisp * nr, dtype=np.int32)
         anchored = pin_mode > 0
-        # free mode makes each column's costs inside the DP: two columns, not the band's
-        cost = np.empty((width if anchored else 2) * nk, dtype=np.float64)
+        search = pin_mode >= 2
+        made = pin_mode != 1 and pin_mode != 2  # no band cost array
+        # free mode and mode 3 make each column's costs inside the passes: two columns
+        cost = np.empty((2 if made else width) * nk, dtype=np.float64)
         step_bits = np.empty(width * nk, dtype=np.uint8)
         col_bits = np.empty(nk, dtype=np.int64)
         ring = np.empty((3, nk), dtype=np.float64)
@@ -1344,7 +1378,6 @@ def match_band_rows(
         pinned = np.zeros(width, dtype=np.bool_)
         anchor_total = np.empty(width * nr, dtype=np.float64)
         anchor_steps = np.empty(width * nr, dtype=np.int64)
-        search = pin_mode == 2
         nwork = width if search else 1
         pre = np.empty(nk if search else 1, dtype=np.float64)
         suf = np.empty(nk if search else 1, dtype=np.float64)
@@ -1378,10 +1411,11 @@ def match_band_rows(
                         rows[r] = 0
                         rows[nr + r] = 0
                 band_lane_signals(left_p, right_p, rows, 2, left_t, right_t)
-            if anchored:  # the search and the pins read the band's costs before the DP
+            if not made:  # the search and the pins read the band's costs before the DP
                 band_lane_costs(
-                    left_t, right_t, width, dmin, ndisp, radius, spread, vs, t > 0, hsum, cost
-                )
+                    left_t, right_t, width, dmin, ndisp, radius, spread, vs, int(t > 0), hsum,
+                    cost,
+                )  # fmt: skip
             if search:
                 band_lane_variance(
                     left_t, width, radius, steps, t > 0, colsum[0], colsq[0], hwork[0], hwork[1],
@@ -1391,7 +1425,15 @@ def match_band_rows(
                     right_t, width, radius, steps, t > 0, colsum[1], colsq[1], hwork[0], hwork[1],
                     var_band[1],
                 )  # fmt: skip
-                band_block_match(cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio)
+                if made:
+                    band_block_match(
+                        cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio,
+                        (left_t, right_t, dmin, radius, spread, vs, int(t > 0), hsum),
+                    )  # fmt: skip
+                else:
+                    band_block_match(
+                        cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio, None
+                    )
                 band_feature_mask(var_band[0], wta_k, wta_ratio, width, dmin, radius, tests, keep)
                 for i in range(width * nr):
                     pins[i] = -1
@@ -1437,17 +1479,19 @@ def match_band_rows(
                         if pins[x * nr + r] >= 0:
                             pinned[x] = True
             # two call sites: the forward pass with the band's costs, and the one that
-            # makes them (a None or a tuple argument: two compiled versions)
-            if anchored:
+            # makes them (a None or a tuple argument: two compiled versions); after the
+            # block match of mode 3 the band's vertical sums are ready
+            if not made:
                 band_forward(
                     cost, width, dmin, ndisp, occ2, five, slant2, True, pins, pinned,
                     anchor_total, anchor_steps, ring, col_bits, step_bits, ends, None,
                 )  # fmt: skip
             else:
                 band_forward(
-                    cost, width, dmin, ndisp, occ2, five, slant2, False, pins, pinned,
+                    cost, width, dmin, ndisp, occ2, five, slant2, anchored, pins, pinned,
                     anchor_total, anchor_steps, ring, col_bits, step_bits, ends,
-                    (left_t, right_t, radius, spread, vs, t > 0, hsum),
+                    (left_t, right_t, radius, spread, vs, SUMS_READY if search else int(t > 0),
+                     hsum),
                 )  # fmt: skip
             for r in range(nr):
                 if r * run + t >= n:

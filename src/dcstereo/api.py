@@ -214,7 +214,8 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
     vs = np.empty(disparity.shape, dtype=np.float32)
     scale = cost_scale(params.window)
     occ2 = _doubled(params.occlusion_cost, scale)
-    if _dc_on_bands(params, left.shape[1]):
+    band_mode = _dc_band_mode(params, left.shape[1])
+    if band_mode:
         tests = (
             float(params.ser_min),
             float(params.vs_max),
@@ -234,7 +235,7 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
             occ2,
             True,
             _doubled(params.effective_slant_cost, scale),
-            2,
+            band_mode,
             partner,
             tests,
             _band_chunks(left.shape[0]),
@@ -280,26 +281,29 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
     return DisparityResult(disparity, flags, params, path_cost, features)
 
 
-#: Largest band cost array (bytes) with which ``dc`` runs on the band kernels: beyond it the
-#: band's costs leave the caches, and the search's reads (the block match, the left-right
-#: test's diagonals) cost more than the band DP saves (3000 x 2000 x 256: 50 MB per band,
-#: ``dc`` 14.4 s on bands against 8.3 s row by row, one thread; docs/SPEED.md). Since the
-#: backtrack follows recorded steps the bands won on a 3000 x 256 x 256 noise strip (1.0 s
-#: against 1.6) but still lost on that pair, where half the pixels become pins (8.5 s
-#: against 7.8); the limit stays.
+#: Largest band cost array (bytes) that ``dc`` keeps (``match_band_rows`` mode 2: the
+#: costs made once, read by the block match, the search and the DP). Beyond it the array
+#: leaves the caches and streams through memory three times (3000 x 2000 x 256: 50 MB per
+#: band), so ``dc`` makes the costs twice instead, a column at a time (mode 3: once for the
+#: block match, once inside the DP, from the vertical sums the first pass left; on that
+#: pair, one thread, docs/SPEED.md). Mode 3 needs no costs in the search, so with the
+#: left-right check (which walks the array's diagonals) wide images run row by row.
 DC_BAND_BYTES = 16 * 2**20
 
 
-def _dc_on_bands(params: MatchParams, width: int) -> bool:
-    """Whether ``dc`` runs on the band kernels (see ``_match_dc``)."""
-    band_bytes = width * (params.num_disparities + 2) * _band_kernels.BAND_ROWS * 8
-    return (
+def _dc_band_mode(params: MatchParams, width: int) -> int:
+    """How ``dc`` runs: 0 row by row, else the ``pin_mode`` of ``match_band_rows`` (2, 3)."""
+    if not (
         params.method == "dc"
         and params.cost == "sad"
         and params.uniqueness > 0
         and params.max_candidates == 0
-        and band_bytes <= DC_BAND_BYTES
-    )
+    ):
+        return 0
+    band_bytes = width * (params.num_disparities + 2) * _band_kernels.BAND_ROWS * 8
+    if band_bytes <= DC_BAND_BYTES:
+        return 2
+    return 0 if params.lr_check else 3
 
 
 def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
