@@ -671,13 +671,14 @@ def test_dc_on_bands_equals_the_row_kernel_on_middlebury(middlebury_root, scene)
 
 
 def test_dc_keeps_the_band_cost_array_while_it_fits_the_caches():
-    # a band's costs are width x (D + 2) x 8 float64: 450 x 66 x 64 bytes (1.8 MiB) are kept
-    # (mode 2); 4000 x 66 x 64 (16.1 MiB) and 3000 x 258 x 64 (47 MiB) are made twice
-    # instead (mode 3), or, with the left-right check, which reads the array, row by row
-    # (0), as are the options the band search does not implement
+    # a band's costs are width x (D + 2) x 8 float64: 450 x 66 x 64 bytes (1.8 MiB) and
+    # 1900 x 66 x 64 (7.7 MiB) are kept (mode 2); 2100 x 66 x 64 (8.5 MiB) and 3000 x 258 x
+    # 64 (47 MiB) are made twice instead (mode 3), or, with the left-right check, which
+    # reads the array, row by row (0), as are the options the band search does not implement
     params = dcstereo.MatchParams(max_disparity=63)
     assert api._dc_band_mode(params, 450) == 2
-    assert api._dc_band_mode(params, 4000) == 3
+    assert api._dc_band_mode(params, 1900) == 2
+    assert api._dc_band_mode(params, 2100) == 3
     assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=255), 3000) == 3
     assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=255, lr_check=True), 3000) == 0
     assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=63, lr_check=True), 450) == 2

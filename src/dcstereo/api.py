@@ -198,10 +198,12 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
     """``dc`` / ``dc-linear``: reliable feature pairs pin the path; the DP fills between.
 
     ``dc`` with the SAD cost, the uniqueness test on and no limit on the tries (the
-    defaults), on images whose band costs fit ``DC_BAND_BYTES``, runs on the band
-    kernels: the feature search of each row on its band's costs, then the band DP through
-    the pairs (``_band_kernels.match_band_rows``). The other settings run row by row
-    (``_kernels.match_dc_rows``), which fills each interval between pairs separately.
+    defaults) runs on the band kernels: the feature search of each row on its band's
+    costs, then the band DP through the pairs (``_band_kernels.match_band_rows``; the
+    band's cost array is kept while it fits ``DC_BAND_BYTES``, else the costs are made
+    twice, see ``_dc_band_mode``). The other settings, and the left-right check on images
+    too wide for the array, run row by row (``_kernels.match_dc_rows``), which fills each
+    interval between pairs separately.
     Both give the same pairs and maps; the band path's ``path_cost`` is that of the whole
     path through the pairs (the row-by-row one leaves
     out intervals with no left pixel inside).
@@ -285,10 +287,13 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
 #: costs made once, read by the block match, the search and the DP). Beyond it the array
 #: leaves the caches and streams through memory three times (3000 x 2000 x 256: 50 MB per
 #: band), so ``dc`` makes the costs twice instead, a column at a time (mode 3: once for the
-#: block match, once inside the DP, from the vertical sums the first pass left; on that
-#: pair, one thread, docs/SPEED.md). Mode 3 needs no costs in the search, so with the
-#: left-right check (which walks the array's diagonals) wide images run row by row.
-DC_BAND_BYTES = 16 * 2**20
+#: block match, once inside the DP, from the vertical sums the first pass left). On noise
+#: strips of 256 rows, one thread: 4 MiB arrays (1000 x 64) 67 ms kept against 83 made,
+#: 7.9 MiB 128 against 133, 15.9 MiB (2000 x 128) 324 against 260, 23.6 MiB 436 against
+#: 345; on the 3000 x 2000 x 256 pair mode 3 beats the row kernel (6.0 s against 7.8).
+#: Mode 3 needs no costs in the search, so with the left-right check (which walks the
+#: array's diagonals) wide images run row by row.
+DC_BAND_BYTES = 8 * 2**20
 
 
 def _dc_band_mode(params: MatchParams, width: int) -> int:
