@@ -298,6 +298,23 @@ def test_lanes_of_any_height_and_more_chunks_than_bands(height):
             assert_same(expected, got)
 
 
+def load_band_signals(left_p, right_p, t, run, height, radius, rows, left_t, right_t):
+    """``band_lane_signals`` at band step ``t`` as ``match_band_rows`` loads them (lane ``r``
+    on row ``r * run + t``): the window rows at ``t == 0``, then the leaving and entering."""
+    nr = _band_kernels.BAND_ROWS
+    win = 2 * radius + 1
+    if t == 0:
+        for tt in range(win):
+            rows[tt * nr : (tt + 1) * nr] = np.minimum(
+                np.arange(nr) * run + tt, left_p.shape[0] - 1
+            )
+    else:
+        y = np.arange(nr) * run + t
+        rows[:nr] = np.where(y < height, y - 1, 0)
+        rows[nr : 2 * nr] = np.where(y < height, y + 2 * radius, 0)
+    _band_kernels.band_lane_signals(left_p, right_p, rows, win if t == 0 else 2, left_t, right_t)
+
+
 @pytest.mark.parametrize("dtype", [np.int64, np.int32])
 def test_incremental_lane_costs_equal_row_costs(dtype):
     # band_lane_costs moved down row by row (lane r on rows r * run + t) gives row_costs,
@@ -330,17 +347,7 @@ def test_incremental_lane_costs_equal_row_costs(dtype):
         col_row = np.empty((2, width + 2 * radius), dtype=np.int64)
         run = -(-height // nr)
         for t in range(run):
-            if t == 0:
-                for tt in range(win):
-                    rows[tt * nr : (tt + 1) * nr] = np.minimum(
-                        np.arange(nr) * run + tt, left_p.shape[0] - 1
-                    )
-            else:
-                y = np.arange(nr) * run + t
-                rows[:nr] = np.where(y < height, y - 1, 0)
-                rows[nr : 2 * nr] = np.where(y < height, y + 2 * radius, 0)
-            _band_kernels.band_lane_signals(left_p, right_p, rows, win if t == 0 else 2, left_t,
-                                            right_t)  # fmt: skip
+            load_band_signals(left_p, right_p, t, run, height, radius, rows, left_t, right_t)
             _band_kernels.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread,
                                           vs, t > 0, hsum, out)  # fmt: skip
             for v, sig_t in enumerate((left_t, right_t)):
@@ -394,17 +401,7 @@ def test_block_match_on_made_costs_equals_the_one_on_the_band_array():
         r_array, r_made = np.empty(width * nr), np.empty(width * nr)
         run = -(-height // nr)
         for t in range(run):
-            if t == 0:
-                for tt in range(win):
-                    rows[tt * nr : (tt + 1) * nr] = np.minimum(
-                        np.arange(nr) * run + tt, left_p.shape[0] - 1
-                    )
-            else:
-                y = np.arange(nr) * run + t
-                rows[:nr] = np.where(y < height, y - 1, 0)
-                rows[nr : 2 * nr] = np.where(y < height, y + 2 * radius, 0)
-            _band_kernels.band_lane_signals(left_p, right_p, rows, win if t == 0 else 2, left_t,
-                                            right_t)  # fmt: skip
+            load_band_signals(left_p, right_p, t, run, height, radius, rows, left_t, right_t)
             _band_kernels.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread,
                                           vs_array, int(t > 0), hsum, out)  # fmt: skip
             _band_kernels.band_block_match(out, width, ndisp, x_int_lo, x_int_hi, pre, suf,
