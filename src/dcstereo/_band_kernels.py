@@ -1389,7 +1389,7 @@ def match_band_rows(
         colsq = np.empty((2, nvar), dtype=np.int64)
         hwork = np.empty((2, nwork * nr), dtype=np.int64)  # band_lane_variance's scratch
         var_band = np.empty((2, nwork * nr), dtype=np.float64)
-        steps = tests[7]
+        steps = 1 if tests is None else tests[7]
         levels = 1
         while (1 << (levels - 1)) < width:
             levels += 1
@@ -1411,12 +1411,12 @@ def match_band_rows(
                         rows[r] = 0
                         rows[nr + r] = 0
                 band_lane_signals(left_p, right_p, rows, 2, left_t, right_t)
-            if not made:  # the search and the pins read the band's costs before the DP
+            if tests is not None and not made:  # the search and pins read them before the DP
                 band_lane_costs(
                     left_t, right_t, width, dmin, ndisp, radius, spread, vs, int(t > 0), hsum,
                     cost,
                 )  # fmt: skip
-            if search:
+            if tests is not None and search:
                 band_lane_variance(
                     left_t, width, radius, steps, t > 0, colsum[0], colsq[0], hwork[0], hwork[1],
                     var_band[0],
@@ -1481,7 +1481,7 @@ def match_band_rows(
             # two call sites: the forward pass with the band's costs, and the one that
             # makes them (a None or a tuple argument: two compiled versions); after the
             # block match of mode 3 the band's vertical sums are ready
-            if not made:
+            if tests is not None and not made:
                 band_forward(
                     cost, width, dmin, ndisp, occ2, five, slant2, True, pins, pinned,
                     anchor_total, anchor_steps, ring, col_bits, step_bits, ends, None,

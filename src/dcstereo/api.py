@@ -174,7 +174,7 @@ def _match_dsi(left, right, params: MatchParams) -> DisparityResult:
             slant2,
             0,
             np.empty((0, 0), dtype=np.int64),
-            _NO_TESTS,
+            None,  # no search: the free-mode version compiles without it
             _band_chunks(left.shape[0]),
             disparity,
             flags,
