@@ -488,14 +488,14 @@ STEP_OF_BITS = _step_of_bits()
 
 
 @nb.njit(cache=True, inline="always")
-def _cells5_chain(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2, slant2):
+def _cells5_chain(cur, prev, prev2, cost, o_here, o_left, bits, k_lo, k_hi, occ2, slant2):
     """Five-step cells ``k_lo..k_hi`` of one column, in one descending loop.
 
     ``cur``, ``prev`` and ``prev2``: the values of columns ``x``, ``x - 1`` and ``x - 2``.
     The steps from earlier columns (c, d, e, a: ``_earlier_steps5``, the same expressions
     in the same order), then the b step from the cell above: ``min`` with its value plus
     ``occ2`` (the value of ``scanline_dp``'s branch). The cell's step bits go to
-    ``steps[o_steps + p]``.
+    ``bits[p]`` (the column's int64 scratch).
     """
     nr = np.uint64(BAND_ROWS)
     top = np.uint64((k_hi + 2) * BAND_ROWS - 1)
@@ -512,7 +512,7 @@ def _cells5_chain(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, 
         cur[p] = v
         # products of 0/1 and the bits (shifts once compiled), not selects of the
         # STEP_BIT_* constants: fewer vector operations
-        steps[o_steps + p] = (
+        bits[p] = (
             np.int64(c == v) * np.int64(STEP_BIT_C)
             | np.int64(d == v) * np.int64(STEP_BIT_D)
             | np.int64(e == v) * np.int64(STEP_BIT_E)
@@ -522,7 +522,7 @@ def _cells5_chain(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, 
 
 
 @nb.njit(cache=True, inline="always")
-def _cells3_chain(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2):
+def _cells3_chain(cur, prev, cost, o_here, bits, k_lo, k_hi, occ2):
     """Three-step cells: steps c and a (``_earlier_steps3``), then b (see ``_cells5_chain``)."""
     nr = np.uint64(BAND_ROWS)
     top = np.uint64((k_hi + 2) * BAND_ROWS - 1)
@@ -532,7 +532,7 @@ def _cells3_chain(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2):
         a = prev[p - nr] + occ2
         v = min(min(c, a), cur[p + nr] + occ2)
         cur[p] = v
-        steps[o_steps + p] = (
+        bits[p] = (
             np.int64(c == v) * np.int64(STEP_BIT_C)
             | np.int64(a == v) * np.int64(STEP_BIT_A)
             | np.int64(STEP_BIT_B)
@@ -673,14 +673,13 @@ def band_forward(
                     o_here,
                     o_left,
                     col_bits,
-                    np.uint64(0),
                     k_lo,
                     k_hi,
                     occ2,
                     slant2,
                 )
             else:
-                _cells3_chain(cur, prev, cost, o_here, col_bits, np.uint64(0), k_lo, k_hi, occ2)
+                _cells3_chain(cur, prev, cost, o_here, col_bits, k_lo, k_hi, occ2)
             if pin_here:
                 for r in range(nr):
                     j = pins[x * nr + r]
@@ -1344,6 +1343,10 @@ def match_band_rows(
     costs a column at a time (``band_block_match``'s ``make_costs``) and the DP pass
     makes them again from the vertical sums it left. The search then has no costs to
     read: the left-right check (``tests[4]``) must be off.
+
+    ``tests`` None (with ``pin_mode`` 0 only): the search and the band cost array are
+    left out of the compiled function (numba prunes the ``tests is not None`` branches),
+    so that ``dsi3`` and ``dsi5`` do not compile ``dc``'s code on their first call.
     """
     height, width = disp.shape
     height_p, width_p = left_p.shape
