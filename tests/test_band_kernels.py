@@ -447,6 +447,21 @@ def test_largest_window_sums_fit_the_int32_buffers():
         assert (finite == 4080.0 * win * win).all()
 
 
+@pytest.mark.parametrize("dtype", [np.uint8, np.bool_, np.int32, np.int64, np.float64])
+def test_scratch_starts_at_its_slot_of_the_page(dtype):
+    page, step = 4096, _band_kernels.PLACE_STEP
+    offsets = set()
+    for slot in (0, 1, 2, 26, 63, 64, 65):
+        for n in (1, 17, 5000):
+            arr = _band_kernels._placed(n, dtype, slot)
+            assert arr.shape == (n,) and arr.dtype == dtype
+            assert arr.flags.c_contiguous and arr.flags.writeable
+            assert arr.ctypes.data % page == slot * step % page
+            arr[:] = 1  # the whole view is usable
+        offsets.add(slot * step % page)
+    assert len(offsets) == 5  # slots 64 apart share an offset (0 and 64, 1 and 65)
+
+
 def test_band_kernels_run_as_plain_python():
     # NUMBA_DISABLE_JIT=1: the kernels are plain Python (coverage sees them)
     code = textwrap.dedent(
@@ -465,6 +480,8 @@ def test_band_kernels_run_as_plain_python():
         left, right = texture[:, :-2], texture[:, 2:]
         t.assert_same_dc(t.dc_by_rows(left, right, max_disparity=4, window=3),
                          t.dcstereo.match(left, right, max_disparity=4, window=3))
+        placed = t._band_kernels._placed(17, np.float64, 3)
+        assert placed.shape == (17,) and placed.ctypes.data % 4096 == 3 * 448 % 4096
         print("ok")
         """
     )

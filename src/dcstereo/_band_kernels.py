@@ -41,6 +41,8 @@ made in other files); nothing here is imported from ``_kernels.py``.
 
 import numba as nb
 import numpy as np
+from numba.core import types
+from numba.extending import intrinsic, overload
 
 #: Rows of a band: eight float64 values fill one AVX-512 vector. A module constant, not an
 #: argument, on purpose: the compiler must see the trip count of the innermost loops to
@@ -56,6 +58,60 @@ STEP_D = 4
 STEP_E = 5
 FLAG_OCCLUDED = 1
 FLAG_BORDER = 2
+
+
+# --------------------------------------------------------------------------- scratch
+#
+# Where each scratch array of ``match_band_rows`` starts within a 4 KiB page is chosen,
+# not left to the allocator. The core guesses whether a load depends on an earlier store
+# from the low 12 bits of the two addresses, so arrays that start at the same offset in a
+# page and are read and written with the same index in one loop (the DP's column ring,
+# the cost column, the vertical sums, the spread signal) stall on false dependencies. The
+# allocator's offsets depend on what was allocated before, so the same call ran at
+# different speeds in different processes and threads. On the 6-megapixel pair (dsi5,
+# 2 threads) the worker thread's ring rows fell on the offsets of the spread signal, the
+# vertical sums and their running sum: its half of the work took 1.7 s against the main
+# thread's 1.3 s. Every array on one offset made a strip 3000 x 256 x 256 16 % slower and
+# tsukuba 17 % (A/B in one process).
+
+#: Bytes between the page offsets of consecutive scratch arrays (7 cache lines: 7 and 64
+#: are coprime, so 64 arrays get 64 different lines).
+PLACE_STEP = 448
+_PAGE = 4096
+
+
+def _address(arr):
+    """Return the address of ``arr``'s first element, an unsigned integer."""
+    return np.uint64(arr.ctypes.data)
+
+
+@intrinsic
+def _data_pointer(typingctx, arr):
+    def codegen(context, builder, signature, args):
+        ary = context.make_array(signature.args[0])(context, builder, args[0])
+        return builder.ptrtoint(ary.data, context.get_value_type(types.uintp))
+
+    return types.uintp(arr), codegen
+
+
+@overload(_address)
+def _address_compiled(arr):
+    # ``arr.ctypes`` would keep the calling functions out of numba's cache
+    return lambda arr: _data_pointer(arr)
+
+
+@nb.njit(cache=True, inline="always")
+def _placed(n, dtype, slot):
+    """Return an uninitialised 1-d array of ``n`` values at ``slot * PLACE_STEP`` in a page.
+
+    ``slot * PLACE_STEP % 4096`` bytes past the start of a page; ``n + 4096`` values are
+    allocated for it.
+    """
+    buf = np.empty(n + _PAGE, dtype=dtype)
+    page = np.uint64(_PAGE)
+    shift = (np.uint64(slot * PLACE_STEP % _PAGE) + page - _address(buf) % page) % page
+    start = shift // np.uint64(buf.itemsize)
+    return buf[start : start + n]
 
 
 # --------------------------------------------------------------------------- costs
@@ -1362,43 +1418,46 @@ def match_band_rows(
         y_a = b0 * nr
         n = max(0, min(height, b1 * nr) - y_a)
         run = (n + nr - 1) // nr
-        left_t = np.empty(max(win, 2) * width_p * nr, dtype=np.int32)
-        right_t = np.empty(max(win, 2) * width_p * nr, dtype=np.int32)
-        rows = np.empty(max(win, 2) * nr, dtype=np.int64)
-        spread = np.empty(2 * ndisp * nr, dtype=np.int32)
-        vs = np.empty(width * ndisp * nr, dtype=np.int32)
-        hsum = np.empty(ndisp * nr, dtype=np.int32)
+        # scratch at chosen offsets within a page (see _placed), one slot per array
+        left_t = _placed(max(win, 2) * width_p * nr, np.int32, 0)
+        right_t = _placed(max(win, 2) * width_p * nr, np.int32, 1)
+        rows = _placed(max(win, 2) * nr, np.int64, 2)
+        spread = _placed(2 * ndisp * nr, np.int32, 3)
+        vs = _placed(width * ndisp * nr, np.int32, 4)
+        hsum = _placed(ndisp * nr, np.int32, 5)
         anchored = pin_mode > 0
         search = pin_mode >= 2
         made = pin_mode != 1 and pin_mode != 2  # no band cost array
         # free mode and mode 3 make each column's costs inside the passes: two columns
-        cost = np.empty((2 if made else width) * nk, dtype=np.float64)
-        step_bits = np.empty(width * nk, dtype=np.uint8)
-        col_bits = np.empty(nk, dtype=np.int64)
-        ring = np.empty((3, nk), dtype=np.float64)
-        ends = np.empty(2 * ndisp * nr, dtype=np.float64)
-        pins = np.full(width * nr, -1, dtype=np.int64)
-        pinned = np.zeros(width, dtype=np.bool_)
-        anchor_total = np.empty(width * nr, dtype=np.float64)
-        anchor_steps = np.empty(width * nr, dtype=np.int64)
+        cost = _placed((2 if made else width) * nk, np.float64, 6)
+        step_bits = _placed(width * nk, np.uint8, 7)
+        col_bits = _placed(nk, np.int64, 8)
+        ring = _placed(3 * nk, np.float64, 9).reshape((3, nk))
+        ends = _placed(2 * ndisp * nr, np.float64, 10)
+        pins = _placed(width * nr, np.int64, 11)
+        pins[:] = -1
+        pinned = _placed(width, np.bool_, 12)
+        pinned[:] = False
+        anchor_total = _placed(width * nr, np.float64, 13)
+        anchor_steps = _placed(width * nr, np.int64, 14)
         nwork = width if search else 1
-        pre = np.empty(nk if search else 1, dtype=np.float64)
-        suf = np.empty(nk if search else 1, dtype=np.float64)
-        wta_k = np.empty(nwork * nr, dtype=np.int64)
-        wta_ratio = np.empty(nwork * nr, dtype=np.float64)
-        keep = np.empty(nwork * nr, dtype=np.uint8)
+        pre = _placed(nk if search else 1, np.float64, 15)
+        suf = _placed(nk if search else 1, np.float64, 16)
+        wta_k = _placed(nwork * nr, np.int64, 17)
+        wta_ratio = _placed(nwork * nr, np.float64, 18)
+        keep = _placed(nwork * nr, np.uint8, 19)
         nvar = width_p * nr if search else 1
-        colsum = np.empty((2, nvar), dtype=np.int64)
-        colsq = np.empty((2, nvar), dtype=np.int64)
-        hwork = np.empty((2, nwork * nr), dtype=np.int64)  # band_lane_variance's scratch
-        var_band = np.empty((2, nwork * nr), dtype=np.float64)
+        colsum = _placed(2 * nvar, np.int64, 20).reshape((2, nvar))
+        colsq = _placed(2 * nvar, np.int64, 21).reshape((2, nvar))
+        hwork = _placed(2 * nwork * nr, np.int64, 22).reshape((2, nwork * nr))
+        var_band = _placed(2 * nwork * nr, np.float64, 23).reshape((2, nwork * nr))
         steps = 1 if tests is None else tests[7]
         levels = 1
         while (1 << (levels - 1)) < width:
             levels += 1
-        iwork = np.empty((6 + levels, nwork), dtype=np.int64)
-        fwork = np.empty((4, nwork), dtype=np.float64)
-        stack = np.empty((nwork + 2, 6), dtype=np.int64)
+        iwork = _placed((6 + levels) * nwork, np.int64, 24).reshape((6 + levels, nwork))
+        fwork = _placed(4 * nwork, np.float64, 25).reshape((4, nwork))
+        stack = _placed((nwork + 2) * 6, np.int64, 26).reshape((nwork + 2, 6))
         for t in range(run):
             if t == 0:  # the window rows of each lane's first row (past the image: any rows)
                 for tt in range(win):
