@@ -152,6 +152,75 @@ def test_band_equals_per_row_on_random_inputs(five, seed):
         assert_same(expected, got)
 
 
+def block_per_row(left, right, dmin, ndisp, radius):
+    """``match_block_rows`` (SAD): the per-row kernel."""
+    disp, flags, total = outputs(*left.shape)
+    _kernels.match_block_rows(
+        padded(left, radius), padded(right, radius), dmin, ndisp, radius, False, 3, disp, flags,
+        total,
+    )  # fmt: skip
+    return disp, flags, total
+
+
+def block_banded(left, right, dmin, ndisp, radius, nchunks=2):
+    disp, flags, total = outputs(*left.shape)
+    _band_kernels.match_block_bands(
+        padded(left, radius), padded(right, radius), dmin, ndisp, radius, nchunks, disp, flags,
+        total,
+    )  # fmt: skip
+    return disp, flags, total
+
+
+def block_naive(left, right, dmin, ndisp, radius):
+    """Winner-take-all in plain numpy on ``row_costs``: the first least cost of each pixel."""
+    height, width = left.shape
+    disp, flags, total = outputs(height, width)
+    left_p, right_p = padded(left, radius), padded(right, radius)
+    cost = np.empty((width, ndisp))
+    vcol = np.empty((width, ndisp), dtype=np.int32)
+    for y in range(height):
+        _kernels.row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, False)
+        row_total = 0.0
+        for x in range(width):
+            k = int(np.argmin(cost[x]))  # the first of equal least costs
+            if np.isinf(cost[x, k]):
+                disp[y, x], flags[y, x] = np.nan, _kernels.FLAG_BORDER
+            else:
+                disp[y, x], flags[y, x] = dmin + k, 0
+                row_total += cost[x, k]
+        total[y] = row_total
+    return disp, flags, total
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_band_block_equals_per_row_and_naive_on_random_inputs(seed):
+    rng = np.random.default_rng(9000 + seed)
+    left, right, dmin, ndisp, radius, _, _ = random_case(rng)
+    expected = block_naive(left, right, dmin, ndisp, radius)
+    assert_same(expected, block_per_row(left, right, dmin, ndisp, radius))
+    for nchunks in (1, 3):
+        assert_same(expected, block_banded(left, right, dmin, ndisp, radius, nchunks))
+
+
+def test_band_block_breaks_ties_at_the_first_disparity_in_every_kind_of_column():
+    # a flat pair: every cell of a column costs the same, so each pixel takes its first
+    # finite cell; columns near the ends have truncated windows (rescaled costs, the
+    # binary search) and the middle ones integer costs (the keyed minima)
+    left = np.full((11, 40), 2000, dtype=np.int32)
+    right = left.copy()
+    right[3, 17] = 0  # one tie broken
+    expected = block_naive(left, right, -3, 9, 2)
+    got = block_banded(left, right, -3, 9, 2)
+    assert_same(expected, got)
+    x_lo, x_hi = _band_kernels._integer_columns(40, -3, 9, 2)
+    assert 0 < x_lo < x_hi < 40  # both kinds of column occur
+    # rows 6.. do not see the changed pixel: all their costs are 0, the first finite cell
+    # (right pixel x - d inside the image) wins
+    first = np.maximum(-3, np.arange(40) - 39).astype(np.float32)
+    np.testing.assert_array_equal(got[0][6:], np.broadcast_to(first, (5, 40)))
+    assert (got[0][:6] != first).any()  # and the changed pixel moves some matches
+
+
 @pytest.mark.parametrize("five", [False, True], ids=["dsi3", "dsi5"])
 @pytest.mark.parametrize("seed", range(40))
 def test_band_with_pins_equals_the_segmented_dp(five, seed):
@@ -480,6 +549,8 @@ def test_band_kernels_run_as_plain_python():
         left, right = texture[:, :-2], texture[:, 2:]
         t.assert_same_dc(t.dc_by_rows(left, right, max_disparity=4, window=3),
                          t.dcstereo.match(left, right, max_disparity=4, window=3))
+        t.assert_same(t.block_per_row(left.astype(np.int32), right.astype(np.int32), -1, 4, 1),
+                      t.block_banded(left.astype(np.int32), right.astype(np.int32), -1, 4, 1))
         placed = t._band_kernels._placed(17, np.float64, 3)
         assert placed.shape == (17,) and placed.ctypes.data % 4096 == 3 * 448 % 4096
         print("ok")
@@ -505,6 +576,7 @@ def test_band_equals_per_row_on_middlebury(middlebury_root, scene):
     for five in (False, True):
         expected = per_row(left, right, 0, ndisp, 2, 8000.0, five, 4000.0)
         assert_same(expected, banded(left, right, 0, ndisp, 2, 8000.0, five, 4000.0))
+    assert_same(block_per_row(left, right, 0, ndisp, 2), block_banded(left, right, 0, ndisp, 2))
 
 
 # --------------------------------------------------------------------------- dc on bands

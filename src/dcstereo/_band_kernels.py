@@ -945,6 +945,23 @@ def band_backtrack_row(
 # the band DP with its pairs as pins. Its results are those of ``divide_row``, bit for bit.
 
 
+@nb.njit(cache=True, inline="always")
+def _first_reaching(pre, ndisp, r, best):
+    """Return the first block ``b = k + 1`` (``1..ndisp``) where lane ``r``'s ``pre`` is ``best``.
+
+    ``pre`` holds prefix minima along ``k`` (they do not increase) and ``best`` is lane
+    ``r``'s least, ``pre[ndisp]`` (the last block is inf): a binary search without branches,
+    the answer in ``b .. b + n - 1``.
+    """
+    b = 1
+    n = ndisp
+    while n > 1:
+        half = n // 2
+        b += half * (pre[(b + half - 1) * BAND_ROWS + r] > best)
+        n -= half
+    return b
+
+
 @nb.njit(cache=True)
 def band_block_match(
     cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio, make_costs=None
@@ -1034,15 +1051,7 @@ def band_block_match(
                 best = np.floor(key * unscale)
                 b = int(key - best * scale)
             else:
-                # the first block b (= k + 1) with pre[b] == best, in 1..ndisp (pre[ndisp]
-                # is the least: the last block is inf): a binary search without branches,
-                # the answer in b .. b + n - 1
-                b = 1
-                n = ndisp
-                while n > 1:
-                    half = n // 2
-                    b += half * (pre[(b + half - 1) * nr + r] > best)
-                    n -= half
+                b = _first_reaching(pre, ndisp, r, best)
             wta_k[i] = b - 1
             second = min(pre[max(b - 2, 0) * nr + r], suf[min(b + 2, nblocks - 1) * nr + r])
             if keyed:
@@ -1347,6 +1356,109 @@ def band_row_features(
 # --------------------------------------------------------------------------- drivers
 
 
+@nb.njit(cache=True, inline="always")
+def _chunk_lanes(height, nchunks, ch):
+    """Return ``(y_a, n, run)``: chunk ``ch`` has ``n`` rows from ``y_a``.
+
+    The ``ceil(height / R)`` bands are split as evenly as they go; lane ``r`` takes row
+    ``y_a + r * run + t`` at band step ``t``.
+    """
+    nr = BAND_ROWS
+    b0, b1 = _chunk_bounds((height + nr - 1) // nr, nchunks, ch)
+    y_a = b0 * nr
+    n = max(0, min(height, b1 * nr) - y_a)
+    return y_a, n, (n + nr - 1) // nr
+
+
+@nb.njit(cache=True, inline="always")
+def _cost_scratch(width, ndisp, radius):
+    """Return a chunk's scratch for the cost passes, in slots 0-5 of ``_placed``.
+
+    ``(left_t, right_t, rows, spread, vs, hsum)``: ``band_lane_signals``' rows of the two
+    views and their row numbers, and ``band_lane_costs``' scratch.
+    """
+    nr = BAND_ROWS
+    width_p = width + 2 * radius
+    nt = max(2 * radius + 1, 2)
+    return (
+        _placed(nt * width_p * nr, np.int32, 0),
+        _placed(nt * width_p * nr, np.int32, 1),
+        _placed(nt * nr, np.int64, 2),
+        _placed(2 * ndisp * nr, np.int32, 3),
+        _placed(width * ndisp * nr, np.int32, 4),
+        _placed(ndisp * nr, np.int32, 5),
+    )
+
+
+@nb.njit(cache=True, inline="always")
+def _lane_rows(t, y_a, run, n, radius, height_p, rows):
+    """Write the padded rows ``band_lane_signals`` loads at band step ``t``; return how many.
+
+    Lane ``r`` of a chunk of ``n`` rows from ``y_a`` takes row ``y_a + r * run + t`` (see
+    ``match_band_rows``). At ``t = 0`` the ``2 radius + 1`` window rows of each lane's first
+    row (past the image: any rows), then the row leaving and the row entering each lane's
+    window (idle lanes: row 0).
+    """
+    nr = BAND_ROWS
+    if t == 0:
+        win = 2 * radius + 1
+        for tt in range(win):
+            for r in range(nr):
+                rows[tt * nr + r] = min(y_a + r * run + tt, height_p - 1)
+        return win
+    for r in range(nr):
+        if r * run + t < n:
+            rows[r] = y_a + r * run + t - 1
+            rows[nr + r] = y_a + r * run + t + 2 * radius
+        else:
+            rows[r] = 0
+            rows[nr + r] = 0
+    return 2
+
+
+@nb.njit(cache=True, inline="always")
+def _column_wta(cost, ndisp, keyed, scale, blocks, pre, low, first):
+    """Find the least cost of each lane of one cost column and its first ``k`` (-1: all inf).
+
+    ``cost`` is a column of ``_cost_column`` (``nk`` cells, the inf padding included);
+    ``low[r]``/``first[r]`` get lane ``r``'s least cost and the first ``k`` that has it
+    (``_kernels.match_block_rows``' strict ``<``). As in ``band_block_match``: the prefix
+    minima along ``k`` in ``pre`` (one vector chain), over the keys ``cost * scale + (k +
+    1)`` in the columns whose costs are all integers or inf (``keyed``; ``blocks[i]`` is
+    ``k + 1`` of flat cell ``i``, ``scale`` a power of two above ``ndisp + 2``), where the
+    least key carries the first index, and elsewhere over the costs, the first index then
+    found by a binary search.
+    """
+    nr = BAND_ROWS
+    unr = np.uint64(nr)
+    nblocks = ndisp + 2
+    top = np.uint64(nblocks * nr) - unr
+    for i in range(unr):
+        pre[i] = cost[i]  # the padding cells: inf (and inf is their key)
+    if keyed:
+        for i in range(top):
+            p = unr + i
+            pre[p] = min(pre[p - unr], cost[p] * scale + blocks[p])
+    else:
+        for i in range(top):
+            p = unr + i
+            pre[p] = min(pre[p - unr], cost[p])
+    for r in range(nr):
+        best = pre[(nblocks - 1) * nr + r]
+        if not best < np.inf:
+            low[r] = np.inf
+            first[r] = -1
+            continue
+        if keyed:
+            key = best
+            best = np.floor(key * (1.0 / scale))
+            b = int(key - best * scale)
+        else:
+            b = _first_reaching(pre, ndisp, r, best)
+        low[r] = best
+        first[r] = b - 1
+
+
 @nb.njit(cache=True)
 def _chunk_bounds(count, nchunks, c):
     # sizes differ by at most one, spread evenly: the parallel loop hands each thread an
@@ -1407,24 +1519,14 @@ def match_band_rows(
     height, width = disp.shape
     height_p, width_p = left_p.shape
     nr = BAND_ROWS
-    nbands = (height + nr - 1) // nr
-    win = 2 * radius + 1
     nk = (ndisp + 2) * nr
     # the columns band_block_match's keyed search may take
     x_int_lo, x_int_hi = _integer_columns(width, dmin, ndisp, radius)
     for ch in nb.prange(nchunks):
-        b0, b1 = _chunk_bounds(nbands, nchunks, ch)
         # the chunk's rows; lane r takes rows y_a + r * run + t at band step t
-        y_a = b0 * nr
-        n = max(0, min(height, b1 * nr) - y_a)
-        run = (n + nr - 1) // nr
+        y_a, n, run = _chunk_lanes(height, nchunks, ch)
         # scratch at chosen offsets within a page (see _placed), one slot per array
-        left_t = _placed(max(win, 2) * width_p * nr, np.int32, 0)
-        right_t = _placed(max(win, 2) * width_p * nr, np.int32, 1)
-        rows = _placed(max(win, 2) * nr, np.int64, 2)
-        spread = _placed(2 * ndisp * nr, np.int32, 3)
-        vs = _placed(width * ndisp * nr, np.int32, 4)
-        hsum = _placed(ndisp * nr, np.int32, 5)
+        left_t, right_t, rows, spread, vs, hsum = _cost_scratch(width, ndisp, radius)
         anchored = pin_mode > 0
         search = pin_mode >= 2
         made = pin_mode != 1 and pin_mode != 2  # no band cost array
@@ -1459,20 +1561,8 @@ def match_band_rows(
         fwork = _placed(4 * nwork, np.float64, 25).reshape((4, nwork))
         stack = _placed((nwork + 2) * 6, np.int64, 26).reshape((nwork + 2, 6))
         for t in range(run):
-            if t == 0:  # the window rows of each lane's first row (past the image: any rows)
-                for tt in range(win):
-                    for r in range(nr):
-                        rows[tt * nr + r] = min(y_a + r * run + tt, height_p - 1)
-                band_lane_signals(left_p, right_p, rows, win, left_t, right_t)
-            else:  # the rows leaving and entering each lane's window; idle lanes: none
-                for r in range(nr):
-                    if r * run + t < n:
-                        rows[r] = y_a + r * run + t - 1
-                        rows[nr + r] = y_a + r * run + t + 2 * radius
-                    else:
-                        rows[r] = 0
-                        rows[nr + r] = 0
-                band_lane_signals(left_p, right_p, rows, 2, left_t, right_t)
+            nt = _lane_rows(t, y_a, run, n, radius, height_p, rows)
+            band_lane_signals(left_p, right_p, rows, nt, left_t, right_t)
             if tests is not None and not made:  # the search and pins read them before the DP
                 band_lane_costs(
                     left_t, right_t, width, dmin, ndisp, radius, spread, vs, int(t > 0), hsum,
@@ -1576,3 +1666,61 @@ def match_band_rows(
                     disp[y],
                     flags[y],
                 )
+
+
+@nb.njit(parallel=True, cache=True)
+def match_block_bands(left_p, right_p, dmin, ndisp, radius, nchunks, disp, flags, total):
+    """Winner-take-all SAD block matching, ``BAND_ROWS`` rows at a time.
+
+    The results of ``_kernels.match_block_rows`` with ``bt=False``, bit for bit: per pixel
+    the first disparity of least window cost (NaN and ``FLAG_BORDER`` where every cell is
+    inf), and per row the sum of the least costs in ``x`` order. The chunks and lanes are
+    those of ``match_band_rows``; each column's costs are made as in its free mode
+    (``_cost_column``) and matched at once (``_column_wta``, the prefix minima of
+    ``band_block_match``), so no band cost array is kept.
+    """
+    height, width = disp.shape
+    height_p = left_p.shape[0]
+    nr = BAND_ROWS
+    nk = (ndisp + 2) * nr
+    x_int_lo, x_int_hi = _integer_columns(width, dmin, ndisp, radius)  # keyed columns
+    scale = 1.0
+    while scale <= ndisp + 2:
+        scale *= 2.0
+    for ch in nb.prange(nchunks):
+        y_a, n, run = _chunk_lanes(height, nchunks, ch)
+        left_t, right_t, rows, spread, vs, hsum = _cost_scratch(width, ndisp, radius)
+        cost = _placed(nk, np.float64, 6)
+        pre = _placed(nk, np.float64, 7)
+        blocks = _placed(nk, np.float64, 8)
+        for i in range(nk):
+            blocks[i] = np.float64(i // nr)
+        low = _placed(nr, np.float64, 9)
+        first = _placed(nr, np.int64, 10)
+        sums = _placed(nr, np.float64, 11)
+        for t in range(run):
+            nt = _lane_rows(t, y_a, run, n, radius, height_p, rows)
+            band_lane_signals(left_p, right_p, rows, nt, left_t, right_t)
+            for r in range(nr):
+                sums[r] = 0.0
+            for x in range(width):
+                _cost_column(
+                    left_t, right_t, x, width, dmin, ndisp, radius, spread, vs, int(t > 0), hsum,
+                    cost, np.uint64(0),
+                )  # fmt: skip
+                keyed = x_int_lo <= x < x_int_hi
+                _column_wta(cost, ndisp, keyed, scale, blocks, pre, low, first)
+                for r in range(nr):
+                    if r * run + t >= n:
+                        continue
+                    y = y_a + r * run + t
+                    if first[r] < 0:
+                        disp[y, x] = np.nan
+                        flags[y, x] = FLAG_BORDER
+                    else:
+                        disp[y, x] = dmin + first[r]
+                        flags[y, x] = 0
+                        sums[r] += low[r]
+            for r in range(nr):
+                if r * run + t < n:
+                    total[y_a + r * run + t] = sums[r]
