@@ -962,6 +962,24 @@ def _first_reaching(pre, ndisp, r, best):
     return b
 
 
+@nb.njit(cache=True, inline="always")
+def _key_blocks(ndisp, blocks):
+    """Fill ``blocks[i]`` with block ``k + 1`` of flat cell ``i``; return the keys' scale.
+
+    The keyed minima take ``cost * scale + (k + 1)`` (``band_block_match``): ``scale`` is
+    the least power of two above the ``ndisp + 2`` blocks, so the keys are exact and
+    ordered as ``(cost, k)``. The blocks are a load in the key loops, which costs less
+    than the index arithmetic.
+    """
+    unr = np.uint64(BAND_ROWS)
+    for i in range(np.uint64(blocks.shape[0])):
+        blocks[i] = np.float64(i // unr)
+    scale = 1.0
+    while scale <= ndisp + 2:
+        scale *= 2.0
+    return scale
+
+
 @nb.njit(cache=True)
 def band_block_match(
     cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio, make_costs=None
@@ -1002,13 +1020,9 @@ def band_block_match(
     unk = np.uint64(nblocks * nr)
     top = unk - unr
     inf = np.inf
-    scale = 1.0
-    while scale <= nblocks:
-        scale *= 2.0
+    blocks = np.empty(unk)
+    scale = _key_blocks(ndisp, blocks)
     unscale = 1.0 / scale  # exact: a power of two
-    blocks = np.empty(unk)  # block (k + 1) of each flat cell: a load in the loop below
-    for i in range(unk):  # costs less than the index arithmetic
-        blocks[i] = np.float64(i // unr)
     for x in range(width):
         if make_costs is None:
             o = np.uint64(x) * unk
@@ -1684,17 +1698,13 @@ def match_block_bands(left_p, right_p, dmin, ndisp, radius, nchunks, disp, flags
     nr = BAND_ROWS
     nk = (ndisp + 2) * nr
     x_int_lo, x_int_hi = _integer_columns(width, dmin, ndisp, radius)  # keyed columns
-    scale = 1.0
-    while scale <= ndisp + 2:
-        scale *= 2.0
     for ch in nb.prange(nchunks):
         y_a, n, run = _chunk_lanes(height, nchunks, ch)
         left_t, right_t, rows, spread, vs, hsum = _cost_scratch(width, ndisp, radius)
         cost = _placed(nk, np.float64, 6)
         pre = _placed(nk, np.float64, 7)
         blocks = _placed(nk, np.float64, 8)
-        for i in range(nk):
-            blocks[i] = np.float64(i // nr)
+        scale = _key_blocks(ndisp, blocks)
         low = _placed(nr, np.float64, 9)
         first = _placed(nr, np.int64, 10)
         sums = _placed(nr, np.float64, 11)
