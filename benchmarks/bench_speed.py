@@ -39,6 +39,12 @@ the other, and each row is the fastest of its ``N`` processes (the memory column
 process's): a row that met another tenant's load in one round gets another chance minutes
 later. Two-thread rows need it most: one busy vCPU of two stalls every parallel region.
 
+With ``--same-range``, every method searches OpenCV's disparity range: each input's range
+with its count rounded up to a multiple of 16 (OpenCV requires it). By default each input
+keeps its own range, and OpenCV, which then searches more disparities than the others, is
+credited with them in ``Mde/s``; the per-pixel work that does not grow with ``D`` (the
+signal, ``dc``'s feature tests, the backtrack) then weighs more on the others' side.
+
 With ``--interleave N``, each Middlebury scene is also timed in one process per thread
 count, all methods alternating call by call, best of ``N`` rounds: on a shared machine a
 loaded minute shifts whole fresh-process rows, but it slows interleaved calls alike, so
@@ -53,6 +59,7 @@ with that folder filled (load from the cache), and the steady-state call.
     python benchmarks/bench_speed.py --skip-large --json speed.json --markdown speed.md
     python benchmarks/bench_speed.py --interleave 21 --json speed.json --markdown SPEED.md
     python benchmarks/bench_speed.py --rounds 3 --interleave 21 --markdown SPEED.md
+    python benchmarks/bench_speed.py --same-range --skip-large --threads 1 --interleave 21
 """
 
 import argparse
@@ -126,15 +133,30 @@ def parse_size(text):
     return width, height, disparities
 
 
+def opencv_disparities(min_disparity, max_disparity):
+    """How many disparities OpenCV searches for a range: its count rounded up to 16's multiple."""
+    return 16 * -(-(max_disparity - min_disparity + 1) // 16)
+
+
 def load_case(case):
-    """``(left, right, min_disparity, max_disparity, truth)`` of a case description."""
+    """``(left, right, min_disparity, max_disparity, truth)`` of a case description.
+
+    With ``case["same_range"]`` the range is widened to OpenCV's (``opencv_disparities``
+    from the same least disparity), so that every method searches the same disparities.
+    """
     if case["kind"] == "middlebury":
         from dcstereo.datasets import load_middlebury
 
         scene = load_middlebury(case["name"])
-        return scene.left, scene.right, scene.min_disparity, scene.max_disparity, None
-    with np.load(case["path"]) as data:
-        return data["left"], data["right"], 0, case["disparities"] - 1, data["truth"]
+        left, right, truth = scene.left, scene.right, None
+        low, high = scene.min_disparity, scene.max_disparity
+    else:
+        with np.load(case["path"]) as data:
+            left, right, truth = data["left"], data["right"], data["truth"]
+        low, high = 0, case["disparities"] - 1
+    if case.get("same_range"):
+        high = low + opencv_disparities(low, high) - 1
+    return left, right, low, high, truth
 
 
 # --------------------------------------------------------------------------- child side
@@ -178,7 +200,7 @@ def make_call(method, left, right, min_disparity, max_disparity):
                 left, right, max_disparity=max_disparity, min_disparity=min_disparity, method=kind
             )
 
-        return call, 16 * -(-(max_disparity - min_disparity + 1) // 16)
+        return call, opencv_disparities(min_disparity, max_disparity)
     import dcstereo
 
     def call():
@@ -568,6 +590,15 @@ def markdown_report(payload):
             else "."
         ),
         "",
+        (
+            "Disparity ranges: every method searches OpenCV's, each input's range with its "
+            "count rounded up to a multiple of 16 (`--same-range`), so every method of a scene "
+            "does the same H x W x D evaluations."
+            if settings.get("same_range")
+            else "Disparity ranges: each input's own; OpenCV rounds the count up to a multiple "
+            "of 16, and is credited with what it searched."
+        ),
+        "",
         "`Mde/s`: million disparity evaluations per second, H x W x D / s, D the disparities "
         "searched (OpenCV: rounded up to a multiple of 16). `base MB`: resident memory "
         "before the measured calls (interpreter, libraries, inputs, compiled code). "
@@ -652,6 +683,12 @@ def parse_args(argv):
         help="also warm up on the full large pair (default: on a strip only)",
     )
     parser.add_argument("--skip-large", action="store_true", help="leave out the large pair")
+    parser.add_argument(
+        "--same-range",
+        action="store_true",
+        help="every method searches OpenCV's disparity range (the input's, its count rounded "
+        "up to a multiple of 16); default: each input's own range, which OpenCV rounds up",
+    )
     parser.add_argument(
         "--rounds",
         type=int,
@@ -754,7 +791,7 @@ def main(argv=None):
         missing = [n for n in names if n not in list_middlebury()]
         if missing:
             return fail(f"unknown scene(s) {', '.join(missing)}; found {list_middlebury()}")
-    cases = [{"kind": "middlebury", "name": name} for name in names]
+    cases = [{"kind": "middlebury", "name": name, "same_range": args.same_range} for name in names]
 
     workdir = Path(tempfile.mkdtemp(prefix="bench_speed_"))
     try:
@@ -770,6 +807,7 @@ def main(argv=None):
                     "name": LARGE_NAME,
                     "path": str(path),
                     "disparities": disparities,
+                    "same_range": args.same_range,
                 }
             )
         if not cases:
@@ -868,6 +906,7 @@ def measure(args, cases, methods, threads, notes, workdir, cv2):
         "large": None if args.skip_large else list(args.large),
         "interleave": args.interleave,
         "rounds": args.rounds,
+        "same_range": args.same_range,
     }
     payload = {
         "machine": machine,

@@ -239,3 +239,25 @@ def test_rounds_in_the_run_and_the_markdown(bench, tmp_path):
 def test_bad_rounds_fail_cleanly(bench, capsys):
     assert bench.main(["--rounds", "0", "--scenes", "none"]) == 2
     assert "--rounds" in capsys.readouterr().err
+
+
+def test_same_range_gives_every_method_opencvs_disparities(bench, tmp_path):
+    left, right, truth = bench.synthetic_pair(60, 40, 8, seed=3)
+    path = tmp_path / "pair.npz"
+    np.savez(path, left=left, right=right, truth=truth)
+    case = {"kind": "synthetic", "name": "tiny", "path": str(path), "disparities": 20}
+    assert bench.load_case(case)[2:4] == (0, 19)
+    assert bench.load_case({**case, "same_range": True})[2:4] == (0, 31)
+    assert bench.load_case({**case, "disparities": 32, "same_range": True})[2:4] == (0, 31)
+    assert bench.opencv_disparities(-3, 12) == 16
+    assert bench.opencv_disparities(-3, 13) == 32
+    out_json = tmp_path / "speed.json"
+    out_md = tmp_path / "speed.md"
+    args = ["--scenes", "none", "--large", "60x40x8", "--methods", "dsi5", "--threads", "1"]
+    args += ["--repeat", "1", "--compile-scene", "none", "--same-range"]
+    assert bench.main(args + ["--json", str(out_json), "--markdown", str(out_md)]) == 0
+    payload = json.loads(out_json.read_text())
+    assert payload["settings"]["same_range"] is True
+    (row,) = payload["results"]
+    assert row["disparities"] == 16
+    assert "every method searches OpenCV's" in out_md.read_text()
