@@ -133,16 +133,12 @@ def parse_size(text):
     return width, height, disparities
 
 
-def opencv_disparities(min_disparity, max_disparity):
-    """How many disparities OpenCV searches for a range: its count rounded up to 16's multiple."""
-    return 16 * -(-(max_disparity - min_disparity + 1) // 16)
-
-
 def load_case(case):
     """``(left, right, min_disparity, max_disparity, truth)`` of a case description.
 
-    With ``case["same_range"]`` the range is widened to OpenCV's (``opencv_disparities``
-    from the same least disparity), so that every method searches the same disparities.
+    With ``case["same_range"]`` the range is widened to OpenCV's
+    (``dcstereo.opencv.opencv_num_disparities`` from the same least disparity), so that
+    every method searches the same disparities.
     """
     if case["kind"] == "middlebury":
         from dcstereo.datasets import load_middlebury
@@ -155,7 +151,9 @@ def load_case(case):
             left, right, truth = data["left"], data["right"], data["truth"]
         low, high = 0, case["disparities"] - 1
     if case.get("same_range"):
-        high = low + opencv_disparities(low, high) - 1
+        from dcstereo.opencv import opencv_num_disparities
+
+        high = low + opencv_num_disparities(low, high) - 1
     return left, right, low, high, truth
 
 
@@ -191,7 +189,7 @@ def max_rss_bytes():
 def make_call(method, left, right, min_disparity, max_disparity):
     """A no-argument matcher call for ``method``; returns (call, disparities searched)."""
     if method in OPENCV_METHODS:
-        from dcstereo.opencv import match_opencv
+        from dcstereo.opencv import match_opencv, opencv_num_disparities
 
         kind = method.split("-", 1)[1]
 
@@ -200,7 +198,7 @@ def make_call(method, left, right, min_disparity, max_disparity):
                 left, right, max_disparity=max_disparity, min_disparity=min_disparity, method=kind
             )
 
-        return call, opencv_disparities(min_disparity, max_disparity)
+        return call, opencv_num_disparities(min_disparity, max_disparity)
     import dcstereo
 
     def call():

@@ -249,8 +249,10 @@ def test_same_range_gives_every_method_opencvs_disparities(bench, tmp_path):
     assert bench.load_case(case)[2:4] == (0, 19)
     assert bench.load_case({**case, "same_range": True})[2:4] == (0, 31)
     assert bench.load_case({**case, "disparities": 32, "same_range": True})[2:4] == (0, 31)
-    assert bench.opencv_disparities(-3, 12) == 16
-    assert bench.opencv_disparities(-3, 13) == 32
+    from dcstereo.opencv import opencv_num_disparities
+
+    assert opencv_num_disparities(-3, 12) == 16
+    assert opencv_num_disparities(-3, 13) == 32
     out_json = tmp_path / "speed.json"
     out_md = tmp_path / "speed.md"
     args = ["--scenes", "none", "--large", "60x40x8", "--methods", "dsi5", "--threads", "1"]

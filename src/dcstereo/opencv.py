@@ -29,6 +29,14 @@ OPENCV_METHODS = {"opencv-sgbm": "sgbm", "opencv-bm": "bm"}
 _MODES = ("sgbm", "hh", "sgbm3way", "hh4")
 
 
+def opencv_num_disparities(min_disparity: int, max_disparity: int) -> int:
+    """Return how many disparities OpenCV searches for an inclusive range, from ``min_disparity``.
+
+    The range's count rounded up to a multiple of 16: OpenCV's ``numDisparities`` must be one.
+    """
+    return 16 * math.ceil((max_disparity - min_disparity + 1) / 16)
+
+
 @dataclass(frozen=True)
 class OpenCVParams:
     """The settings of one OpenCV run (stands in for ``MatchParams`` in the result).
@@ -178,7 +186,7 @@ def match_opencv(
 
     gray_left = np.clip(np.rint(intensity(left)), 0, 255).astype(np.uint8)
     gray_right = np.clip(np.rint(intensity(right)), 0, 255).astype(np.uint8)
-    num = 16 * math.ceil((max_disparity - min_disparity + 1) / 16)
+    num = opencv_num_disparities(min_disparity, max_disparity)
     if method == "sgbm":
         p1 = 8 * window * window if p1 is None else int(p1)
         p2 = 32 * window * window if p2 is None else int(p2)
