@@ -16,7 +16,6 @@ from hypothesis import strategies as st
 
 import dcstereo
 from dcstereo import _band_kernels, _kernels, api
-from dcstereo.api import _NO_TESTS
 from dcstereo.datasets import load_middlebury
 from dcstereo.params import MAX_WINDOW
 from dcstereo.signal import matching_signal
@@ -44,14 +43,20 @@ def per_row(left, right, dmin, ndisp, radius, occ2, five, slant2):
     return disp, flags, total
 
 
+#: ``tests`` of ``match_band_rows`` for pins given from outside (``pin_mode`` 1): no search.
+PIN_TESTS = (0.0, 0.0, False, 0.0, False, 0.0, 0, 1)
+
+
 def banded(left, right, dmin, ndisp, radius, occ2, five, slant2, partner=None, nchunks=2):
+    """``match_band_rows`` without pins (as ``dsi3``/``dsi5`` call it: ``tests`` None) or
+    through the pins of ``partner`` (``pin_mode`` 1)."""
     disp, flags, total = outputs(*left.shape)
     anchored = partner is not None
     if partner is None:
         partner = np.empty((0, 0), dtype=np.int64)
     _band_kernels.match_band_rows(
         padded(left, radius), padded(right, radius), dmin, ndisp, radius, occ2, five, slant2,
-        int(anchored), partner, _NO_TESTS, nchunks, disp, flags, total,
+        int(anchored), partner, PIN_TESTS if anchored else None, nchunks, disp, flags, total,
         np.empty((0, 0), dtype=np.float32), np.empty((0, 0), dtype=np.float32),
     )  # fmt: skip
     return disp, flags, total

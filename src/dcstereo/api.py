@@ -203,10 +203,6 @@ def _match_dsi(left, right, params: MatchParams) -> DisparityResult:
     return DisparityResult(disparity, flags, params, total / (2.0 * scale))
 
 
-#: ``tests`` of ``_band_kernels.match_band_rows`` when it searches no features.
-_NO_TESTS = (0.0, 0.0, False, 0.0, False, 0.0, 0, 1)
-
-
 def _band_chunks(height: int) -> int:
     bands = -(-height // _band_kernels.BAND_ROWS)
     return max(1, min(bands, 4 * numba.get_num_threads()))
