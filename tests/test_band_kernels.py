@@ -9,6 +9,7 @@ import sys
 import textwrap
 from unittest import mock
 
+import numba
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -642,6 +643,40 @@ def test_band_block_match_equals_the_naive_one(seed):
         # fractional costs (the truncated windows): the binary search
         fractional = cells + rng.integers(0, 4, cells.shape) / 3.0
         check_block_match(fractional, cost, width, 0, scratch, wta_k, wta_ratio)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_keyed_column_vector_code_equals_its_twin_and_the_naive_one(seed):
+    # the keyed column's LLVM vector code (compiled) and its plain-Python twin, on columns
+    # of both parities of block count, at an offset in the band and in the outputs
+    rng = np.random.default_rng(700 + seed)
+    nr = _band_kernels.BAND_ROWS
+    compiled = numba.njit(
+        lambda cost, o, nblocks, scale, wta_k, wta_ratio, i0: _band_kernels._keyed_column(
+            cost, o, nblocks, scale, wta_k, wta_ratio, i0
+        )
+    )
+    for ndisp in list(range(1, 9)) + [int(n) for n in rng.integers(9, 70, 6)]:
+        nblocks = ndisp + 2
+        scale = _band_kernels._key_scale(nblocks)
+        cells = rng.integers(0, 4, (ndisp, nr)).astype(np.float64)  # ties and zeros
+        cells[rng.random(cells.shape) < 0.2] = np.inf
+        cells[:, int(rng.integers(0, nr))] = np.inf  # a lane with no match
+        if rng.random() < 0.5:  # the keys' range: costs up to 2**31 - 1
+            cells = np.where(np.isinf(cells), cells, 2.0**31 - 1 - cells)
+        column = np.full((nblocks, nr), np.inf)
+        column[1:-1] = cells
+        cost = np.concatenate([rng.random(3 * nblocks * nr), column.ravel()])
+        o = np.uint64(3 * nblocks * nr)
+        expected_k, expected_ratio = naive_block_match(cells)
+        for run in (_band_kernels._keyed_column, compiled):
+            wta_k = np.full(3 * nr, 99, dtype=np.int64)
+            wta_ratio = np.full(3 * nr, -5.0)
+            run(cost, o, nblocks, scale, wta_k, wta_ratio, np.uint64(nr))
+            assert list(wta_k[nr : 2 * nr]) == expected_k
+            np.testing.assert_array_equal(wta_ratio[nr : 2 * nr], expected_ratio)
+            assert (wta_k[:nr] == 99).all() and (wta_k[2 * nr :] == 99).all()
+            assert (wta_ratio[:nr] == -5.0).all() and (wta_ratio[2 * nr :] == -5.0).all()
 
 
 def naive_feature_mask(var_l, wta_k, wta_ratio, width, dmin, radius, var_floor, uniq, guard):

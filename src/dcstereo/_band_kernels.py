@@ -41,7 +41,8 @@ made in other files); nothing here is imported from ``_kernels.py``.
 
 import numba as nb
 import numpy as np
-from numba.core import types
+from llvmlite import ir
+from numba.core import cgutils, types
 from numba.extending import intrinsic, overload
 
 #: Rows of a band: eight float64 values fill one AVX-512 vector. A module constant, not an
@@ -966,7 +967,7 @@ def _first_reaching(pre, ndisp, r, best):
 def _key_blocks(ndisp, blocks):
     """Fill ``blocks[i]`` with block ``k + 1`` of flat cell ``i``; return the keys' scale.
 
-    The keyed minima take ``cost * scale + (k + 1)`` (``band_block_match``): ``scale`` is
+    The keyed minima take ``cost * scale + (k + 1)`` (``_column_wta``): ``scale`` is
     the least power of two above the ``ndisp + 2`` blocks, so the keys are exact and
     ordered as ``(cost, k)``. The blocks are a load in the key loops, which costs less
     than the index arithmetic.
@@ -974,10 +975,201 @@ def _key_blocks(ndisp, blocks):
     unr = np.uint64(BAND_ROWS)
     for i in range(np.uint64(blocks.shape[0])):
         blocks[i] = np.float64(i // unr)
+    return _key_scale(ndisp + 2)
+
+
+@nb.njit(cache=True, inline="always")
+def _key_scale(nblocks):
+    """Return the least power of two above ``nblocks``: the keys' scale (``_key_blocks``)."""
     scale = 1.0
-    while scale <= ndisp + 2:
+    while scale <= nblocks:
         scale *= 2.0
     return scale
+
+
+# The keyed columns' least key and second key are one reduction per lane along the
+# disparities. numba's loop vectorizer cannot express that (a flat loop over ``(k, r)``
+# carries it through memory, as the prefix and suffix chains did: two stores per block
+# of 8 cells, and a per-row decode after them), so the keyed column is written as LLVM
+# vector code (``<R x double>``, R = ``BAND_ROWS``): two running minima per pass, held in
+# registers, and the decode of the 8 lanes at once. Plain Python runs the twin below
+# (``NUMBA_DISABLE_JIT``); the tests hold both to the prefix-chain results.
+
+_VEC_F64 = ir.VectorType(ir.DoubleType(), BAND_ROWS)
+_VEC_I64 = ir.VectorType(ir.IntType(64), BAND_ROWS)
+_I64 = ir.IntType(64)
+_FLOOR = f"llvm.floor.v{BAND_ROWS}f64"
+
+
+def _keyed_column(cost, o, nblocks, scale, wta_k, wta_ratio, i0):
+    """Block match of a keyed column: its ``R`` lanes' ``wta_k`` and ``wta_ratio`` at ``i0``.
+
+    ``cost[o + j * R + r]``, blocks ``j = 0 .. nblocks - 1`` (the first and the last are the
+    inf padding), holds integers below ``2**31`` or inf; the key of block ``j`` is
+    ``cost * scale + j`` (``scale`` a power of two above ``nblocks``), exact and ordered as
+    ``(cost, j)``. The least key gives the match (block ``b = k + 1``, the first of the
+    least costs) and the least key over ``|j - b| >= 2`` the second cost of the uniqueness
+    ratio: the values of ``_kernels.block_match``, bit for bit.
+    Compiled code runs ``_keyed_column_vector`` instead (the same operations, the lanes as
+    one vector).
+    """
+    nr = BAND_ROWS
+    unscale = 1.0 / scale
+    for r in range(nr):
+        least = np.inf
+        for j in range(nblocks):
+            least = min(least, cost[o + j * nr + r] * scale + j)
+        i = i0 + r
+        if not least < np.inf:
+            wta_k[i] = -1
+            wta_ratio[i] = 0.0
+            continue
+        best = np.floor(least * unscale)
+        b = int(least - best * scale)
+        second = np.inf
+        for j in range(nblocks):
+            if abs(j - b) >= 2:
+                second = min(second, cost[o + j * nr + r] * scale + j)
+        second = np.floor(second * unscale)
+        wta_k[i] = b - 1
+        if best > 0:
+            wta_ratio[i] = second / best
+        else:
+            wta_ratio[i] = np.inf if second > 0 else 1.0
+
+
+def _vector_of(value, vtype):
+    return ir.Constant(vtype, [value] * BAND_ROWS)
+
+
+def _broadcast(builder, value, vtype):
+    undef = ir.Constant(vtype, ir.Undefined)
+    first = builder.insert_element(undef, value, ir.Constant(ir.IntType(32), 0))
+    lanes = ir.Constant(ir.VectorType(ir.IntType(32), BAND_ROWS), [0] * BAND_ROWS)
+    return builder.shuffle_vector(first, undef, lanes)
+
+
+def _vector_call(builder, name, *values):
+    signature = ir.FunctionType(_VEC_F64, [_VEC_F64] * len(values))
+    return builder.call(cgutils.get_or_insert_function(builder.module, signature, name), values)
+
+
+def _vector_min(builder, a, b):
+    # a < b ? a : b: the value of numba's min for these operands (no NaN), one vminpd
+    return builder.select(builder.fcmp_ordered("<", a, b), a, b)
+
+
+def _contiguous(array, dtype):
+    return (
+        isinstance(array, types.Array)
+        and array.ndim == 1
+        and array.layout == "C"
+        and (array.dtype == dtype)
+    )
+
+
+@intrinsic
+def _keyed_column_vector(typingctx, cost, o, nblocks, scale, wta_k, wta_ratio, i0):
+    if not (
+        _contiguous(cost, types.float64)
+        and _contiguous(wta_k, types.int64)
+        and _contiguous(wta_ratio, types.float64)
+        and scale == types.float64
+    ):
+        return None
+    signature = types.void(cost, o, nblocks, scale, wta_k, wta_ratio, i0)
+
+    def codegen(context, builder, sig, args):
+        cost_v, o_v, nblocks_v, scale_v, k_v, ratio_v, i0_v = args
+        data = context.make_array(sig.args[0])(context, builder, cost_v).data
+        column = builder.bitcast(builder.gep(data, [o_v]), _VEC_F64.as_pointer())
+        inf = _vector_of(float("inf"), _VEC_F64)
+        one = _vector_of(1.0, _VEC_F64)
+        zero = _vector_of(0.0, _VEC_F64)
+        scale_vec = _broadcast(builder, scale_v, _VEC_F64)
+        unscale = builder.fdiv(one, scale_vec)  # exact: a power of two
+        fma = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(_VEC_F64, [_VEC_F64] * 3), f"llvm.fma.v{BAND_ROWS}f64"
+        )
+        # blocks in pairs, two running minima (the chain of one is twice as long); an odd
+        # count takes block 0 (padding) alone first
+        pairs = builder.udiv(nblocks_v, ir.Constant(_I64, 2))
+        odd = builder.trunc(builder.urem(nblocks_v, ir.Constant(_I64, 2)), ir.IntType(1))
+        first = builder.select(odd, ir.Constant(_I64, 1), ir.Constant(_I64, 0))
+        first_vec = builder.select(odd, one, zero)
+        least_a = cgutils.alloca_once_value(builder, inf)
+        least_b = cgutils.alloca_once_value(builder, inf)
+        block_vec = cgutils.alloca_once_value(builder, first_vec)  # j as a vector
+
+        def key(j, j_vec):
+            # cost * scale + j: exact (below 2**53), so the fused multiply-add rounds nothing
+            values = builder.load(builder.gep(column, [j]), align=8)
+            return builder.call(fma, [values, scale_vec, j_vec])
+
+        def pair_keys(index):
+            j = builder.add(first, builder.mul(index, ir.Constant(_I64, 2)))
+            j_vec = builder.load(block_vec)
+            j1_vec = builder.fadd(j_vec, one)
+            builder.store(builder.fadd(j1_vec, one), block_vec)
+            return key(j, j_vec), key(builder.add(j, ir.Constant(_I64, 1)), j1_vec)
+
+        def fold(slot, value):
+            builder.store(_vector_min(builder, builder.load(slot), value), slot)
+
+        with cgutils.for_range(builder, pairs) as loop:  # the least key
+            key_a, key_b = pair_keys(loop.index)
+            fold(least_a, key_a)
+            fold(least_b, key_b)
+        least = _vector_min(builder, builder.load(least_a), builder.load(least_b))
+        valid = builder.fcmp_ordered("<", least, inf)
+        best = _vector_call(builder, _FLOOR, builder.fmul(least, unscale))
+        block = builder.fsub(least, builder.fmul(best, scale_vec))  # b = k + 1
+        block_int = builder.fptosi(builder.select(valid, block, one), _VEC_I64)
+        # the second key: the blocks with |j - b| >= 2, i.e. j - b + 1 > 2 as unsigned,
+        # that difference carried along with j
+        builder.store(inf, least_a)
+        builder.store(inf, least_b)
+        builder.store(first_vec, block_vec)
+        offset = cgutils.alloca_once_value(
+            builder,
+            builder.sub(
+                builder.select(odd, _vector_of(2, _VEC_I64), _vector_of(1, _VEC_I64)), block_int
+            ),
+        )
+        two = _vector_of(2, _VEC_I64)
+        step = _vector_of(1, _VEC_I64)
+        with cgutils.for_range(builder, pairs) as loop:
+            key_a, key_b = pair_keys(loop.index)
+            off_a = builder.load(offset)
+            off_b = builder.add(off_a, step)
+            builder.store(builder.add(off_b, step), offset)
+            fold(least_a, builder.select(builder.icmp_unsigned(">", off_a, two), key_a, inf))
+            fold(least_b, builder.select(builder.icmp_unsigned(">", off_b, two), key_b, inf))
+        second_key = _vector_min(builder, builder.load(least_a), builder.load(least_b))
+        second = _vector_call(builder, _FLOOR, builder.fmul(second_key, unscale))
+        ratio = builder.select(
+            builder.fcmp_ordered(">", best, zero),
+            builder.fdiv(second, best),
+            builder.select(builder.fcmp_ordered(">", second, zero), inf, one),
+        )
+        match = builder.select(valid, builder.sub(block_int, step), _vector_of(-1, _VEC_I64))
+        ratio = builder.select(valid, ratio, zero)
+        k_data = context.make_array(sig.args[4])(context, builder, k_v).data
+        ratio_data = context.make_array(sig.args[5])(context, builder, ratio_v).data
+        k_out = builder.bitcast(builder.gep(k_data, [i0_v]), _VEC_I64.as_pointer())
+        ratio_out = builder.bitcast(builder.gep(ratio_data, [i0_v]), _VEC_F64.as_pointer())
+        builder.store(match, k_out, align=8)
+        builder.store(ratio, ratio_out, align=8)
+        return context.get_dummy_value()
+
+    return signature, codegen
+
+
+@overload(_keyed_column)
+def _keyed_column_compiled(cost, o, nblocks, scale, wta_k, wta_ratio, i0):
+    return lambda cost, o, nblocks, scale, wta_k, wta_ratio, i0: _keyed_column_vector(
+        cost, o, nblocks, scale, wta_k, wta_ratio, i0
+    )
 
 
 @nb.njit(cache=True)
@@ -991,19 +1183,18 @@ def band_block_match(
     uniqueness ratio (0 where the band is empty): the values of ``_kernels.block_match``,
     bit for bit (only comparisons and the same one division).
 
-    Per column, one flat pass over the cells (a vector loop, the lanes independent): the
+    In columns ``x_int_lo <= x < x_int_hi``, whose costs must all be integers below
+    ``2**31`` or inf (``band_lane_costs``: all but the columns of the truncated windows),
+    the minima are taken over keys ``cost * M + (k + 1)``, ``M`` a power of two above the
+    cell count: exact, and ordered as ``(cost, k)``, so the least key carries the first
+    index of the least cost (``_keyed_column``, the 8 lanes as one vector).
+
+    Elsewhere, one flat pass over the cells (a vector loop, the lanes independent): the
     prefix minima ``pre`` and the suffix minima ``suf`` along ``k`` (float64 scratch,
     ``(ndisp + 2) * R``; the inf padding cells are the empty prefix and suffix). The least
-    cost is the last prefix minimum; the second cost, over ``|k - best| > 1``, the least of
-    the prefix minimum two cells below the match and the suffix minimum two cells above.
-
-    The match's first index: in columns ``x_int_lo <= x < x_int_hi``, whose costs must all
-    be integers below ``2**31`` or inf (``band_lane_costs``: all but the columns of the
-    truncated windows), the minima are taken over keys ``cost * M + (k + 1)``, ``M`` a
-    power of two above the cell count: exact, and ordered as ``(cost, k)``, so the least
-    key carries the first index of the least cost. Elsewhere a binary search finds the
-    first cell where the prefix minimum reaches the least cost (the prefix minima do not
-    increase).
+    cost is the last prefix minimum, its first index a binary search of the prefix minima
+    (they do not increase), and the second cost, over ``|k - best| > 1``, the least of the
+    prefix minimum two cells below the match and the suffix minimum two cells above.
 
     ``make_costs`` None: ``cost`` is the band's array (``band_lane_costs``). Otherwise it
     is ``(left_t, right_t, dmin, radius, spread, vs, incremental, hsum)`` as
@@ -1020,9 +1211,7 @@ def band_block_match(
     unk = np.uint64(nblocks * nr)
     top = unk - unr
     inf = np.inf
-    blocks = np.empty(unk)
-    scale = _key_blocks(ndisp, blocks)
-    unscale = 1.0 / scale  # exact: a power of two
+    scale = _key_scale(nblocks)
     for x in range(width):
         if make_costs is None:
             o = np.uint64(x) * unk
@@ -1033,26 +1222,19 @@ def band_block_match(
                 left_t, right_t, x, width, dmin, ndisp, radius, spread, vs, incremental, hsum,
                 cost, o,
             )  # fmt: skip
-        keyed = x_int_lo <= x < x_int_hi
+        if x_int_lo <= x < x_int_hi:
+            _keyed_column(cost, o, nblocks, scale, wta_k, wta_ratio, np.uint64(x) * unr)
+            continue
         for i in range(unr):
-            pre[i] = cost[o + i]  # the padding cells: inf (and inf is their key)
+            pre[i] = cost[o + i]  # the padding cells: inf
             suf[top + i] = cost[o + top + i]
-        if keyed:
-            # two independent chains in one loop, as below, over the keys; block
-            # b = p // R of flat cell p is k + 1
-            for i in range(top):
-                p = unr + i
-                q = top - np.uint64(1) - i
-                pre[p] = min(pre[p - unr], cost[o + p] * scale + blocks[p])
-                suf[q] = min(suf[q + unr], cost[o + q] * scale + blocks[q])
-        else:
-            # one loop, two independent chains: the prefix minima up from the bottom, the
-            # suffix minima down from the top
-            for i in range(top):
-                p = unr + i
-                q = top - np.uint64(1) - i
-                pre[p] = min(pre[p - unr], cost[o + p])
-                suf[q] = min(suf[q + unr], cost[o + q])
+        # one loop, two independent chains: the prefix minima up from the bottom, the
+        # suffix minima down from the top
+        for i in range(top):
+            p = unr + i
+            q = top - np.uint64(1) - i
+            pre[p] = min(pre[p - unr], cost[o + p])
+            suf[q] = min(suf[q + unr], cost[o + q])
         for r in range(nr):
             i = x * nr + r
             best = pre[(nblocks - 1) * nr + r]
@@ -1060,16 +1242,9 @@ def band_block_match(
                 wta_k[i] = -1
                 wta_ratio[i] = 0.0
                 continue
-            if keyed:
-                key = best
-                best = np.floor(key * unscale)
-                b = int(key - best * scale)
-            else:
-                b = _first_reaching(pre, ndisp, r, best)
+            b = _first_reaching(pre, ndisp, r, best)
             wta_k[i] = b - 1
             second = min(pre[max(b - 2, 0) * nr + r], suf[min(b + 2, nblocks - 1) * nr + r])
-            if keyed:
-                second = np.floor(second * unscale)
             if best > 0:
                 wta_ratio[i] = second / best
             else:
