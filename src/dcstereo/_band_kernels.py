@@ -500,6 +500,65 @@ def band_lane_variance(sig_t, width, radius, steps, incremental, colsum, colsq, 
         out[i] = float(n * sq - sm * sm) / norm
 
 
+# --------------------------------------------------------------------------- vector code
+#
+# Where numba's loop vectorizer cannot express a loop well, it is written as LLVM vector
+# code: values of ``BAND_ROWS`` lanes as one ``<R x double>`` (an intrinsic builds the IR;
+# numba compiles and caches it with its callers). Each such function is a plain-Python
+# function, run as such under ``NUMBA_DISABLE_JIT`` and held by the tests to the same
+# results as its vector form, which ``overload`` gives compiled code.
+
+_VEC_F64 = ir.VectorType(ir.DoubleType(), BAND_ROWS)
+_VEC_I64 = ir.VectorType(ir.IntType(64), BAND_ROWS)
+_VEC_I8 = ir.VectorType(ir.IntType(8), BAND_ROWS)
+_I64 = ir.IntType(64)
+_FLOOR = f"llvm.floor.v{BAND_ROWS}f64"
+
+
+def _vector_of(value, vtype):
+    return ir.Constant(vtype, [value] * BAND_ROWS)
+
+
+def _broadcast(builder, value, vtype):
+    undef = ir.Constant(vtype, ir.Undefined)
+    first = builder.insert_element(undef, value, ir.Constant(ir.IntType(32), 0))
+    lanes = ir.Constant(ir.VectorType(ir.IntType(32), BAND_ROWS), [0] * BAND_ROWS)
+    return builder.shuffle_vector(first, undef, lanes)
+
+
+def _vector_call(builder, name, *values):
+    signature = ir.FunctionType(_VEC_F64, [_VEC_F64] * len(values))
+    return builder.call(cgutils.get_or_insert_function(builder.module, signature, name), values)
+
+
+def _vector_min(builder, a, b):
+    # a < b ? a : b: the value of numba's min for these operands (no NaN), one vminpd
+    return builder.select(builder.fcmp_ordered("<", a, b), a, b)
+
+
+def _contiguous(array, dtype):
+    return (
+        isinstance(array, types.Array)
+        and array.ndim == 1
+        and array.layout == "C"
+        and (array.dtype == dtype)
+    )
+
+
+def _load_vector(builder, data, index):
+    """Load the ``R`` values of ``data`` (a ``double*``) at element ``index``."""
+    return builder.load(builder.bitcast(builder.gep(data, [index]), _VEC_F64.as_pointer()), align=8)
+
+
+def _store_vector(builder, value, data, index):
+    """Store the vector ``value`` into ``data`` (a pointer to its elements) at ``index``."""
+    pointer = builder.bitcast(builder.gep(data, [index]), value.type.as_pointer())
+    element = value.type.element
+    builder.store(
+        value, pointer, align=8 if isinstance(element, ir.DoubleType) else element.width // 8
+    )
+
+
 # --------------------------------------------------------------------------- DP
 #
 # The costs are flat: cell ``k`` of band row ``r`` in column ``x`` is
@@ -544,15 +603,15 @@ def _step_of_bits():
 STEP_OF_BITS = _step_of_bits()
 
 
-@nb.njit(cache=True, inline="always")
-def _cells5_chain(cur, prev, prev2, cost, o_here, o_left, bits, k_lo, k_hi, occ2, slant2):
+def _cells5_chain(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2, slant2):
     """Five-step cells ``k_lo..k_hi`` of one column, in one descending loop.
 
     ``cur``, ``prev`` and ``prev2``: the values of columns ``x``, ``x - 1`` and ``x - 2``.
     The steps from earlier columns (c, d, e, a: ``_earlier_steps5``, the same expressions
     in the same order), then the b step from the cell above: ``min`` with its value plus
     ``occ2`` (the value of ``scanline_dp``'s branch). The cell's step bits go to
-    ``bits[p]`` (the column's int64 scratch).
+    ``steps[o_steps + p]``. Compiled code runs ``_cells5_vector`` (the same operations, a
+    block of ``R`` cells at a time).
     """
     nr = np.uint64(BAND_ROWS)
     top = np.uint64((k_hi + 2) * BAND_ROWS - 1)
@@ -567,19 +626,16 @@ def _cells5_chain(cur, prev, prev2, cost, o_here, o_left, bits, k_lo, k_hi, occ2
         cell = min(min(c, d), min(e, a))
         v = min(cell, cur[p + nr] + occ2)
         cur[p] = v
-        # products of 0/1 and the bits (shifts once compiled), not selects of the
-        # STEP_BIT_* constants: fewer vector operations
-        bits[p] = (
-            np.int64(c == v) * np.int64(STEP_BIT_C)
-            | np.int64(d == v) * np.int64(STEP_BIT_D)
-            | np.int64(e == v) * np.int64(STEP_BIT_E)
-            | np.int64(a == v) * np.int64(STEP_BIT_A)
-            | np.int64(STEP_BIT_B)
+        steps[o_steps + p] = (
+            (STEP_BIT_C if c == v else 0)
+            | (STEP_BIT_D if d == v else 0)
+            | (STEP_BIT_E if e == v else 0)
+            | (STEP_BIT_A if a == v else 0)
+            | STEP_BIT_B
         )
 
 
-@nb.njit(cache=True, inline="always")
-def _cells3_chain(cur, prev, cost, o_here, bits, k_lo, k_hi, occ2):
+def _cells3_chain(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2):
     """Three-step cells: steps c and a (``_earlier_steps3``), then b (see ``_cells5_chain``)."""
     nr = np.uint64(BAND_ROWS)
     top = np.uint64((k_hi + 2) * BAND_ROWS - 1)
@@ -589,11 +645,143 @@ def _cells3_chain(cur, prev, cost, o_here, bits, k_lo, k_hi, occ2):
         a = prev[p - nr] + occ2
         v = min(min(c, a), cur[p + nr] + occ2)
         cur[p] = v
-        bits[p] = (
-            np.int64(c == v) * np.int64(STEP_BIT_C)
-            | np.int64(a == v) * np.int64(STEP_BIT_A)
-            | np.int64(STEP_BIT_B)
+        steps[o_steps + p] = (
+            (STEP_BIT_C if c == v else 0) | (STEP_BIT_A if a == v else 0) | STEP_BIT_B
         )
+
+
+# The b step makes each column one chain down the disparities (a cell's value is the
+# least of its earlier steps and the value of the cell above plus ``occ2``). numba's
+# vectorized form of the flat loop over ``(k, r)`` kept that chain in memory: each block
+# of 8 cells stored, loaded back by the next block, and reversed twice (the loop runs
+# down, and the vector lanes up), about 18 cycles of latency per block. Here the chain and
+# the neighbouring blocks (``prev`` at ``k + 1`` and ``k - 1``, the costs at ``k + 1``)
+# stay in registers from one block to the next: the block's new loads are ``prev`` and
+# ``prev2`` below it, its cost here and the left column's cost below it.
+
+
+def _cells_codegen(five):
+    def codegen(context, builder, sig, args):
+        if five:
+            _, _, _, _, o_here, o_left, _, o_steps, k_lo, k_hi, occ2, slant2 = args
+        else:
+            _, _, _, o_here, _, o_steps, k_lo, k_hi, occ2 = args
+
+        def data(i):
+            return context.make_array(sig.args[i])(context, builder, args[i]).data
+
+        if five:
+            cur, prev, prev2, cost, steps_data = data(0), data(1), data(2), data(3), data(6)
+        else:
+            cur, prev, cost, steps_data = data(0), data(1), data(2), data(4)
+        steps_data = builder.gep(steps_data, [o_steps])
+        width = ir.Constant(_I64, BAND_ROWS)
+        occ2_vec = _broadcast(builder, occ2, _VEC_F64)
+        two = _vector_of(2.0, _VEC_F64)
+
+        def bit(mask, value):
+            return builder.select(mask, _vector_of(value, _VEC_I8), _vector_of(0, _VEC_I8))
+
+        top = builder.mul(builder.add(k_hi, ir.Constant(_I64, 1)), width)  # block k_hi + 1
+        above = builder.add(top, width)
+        count = builder.add(builder.sub(k_hi, k_lo), ir.Constant(_I64, 1))
+        # the values carried from the block above (each alloca becomes a register)
+        chain = cgutils.alloca_once_value(builder, _load_vector(builder, cur, above))
+        prev_here = cgutils.alloca_once_value(builder, _load_vector(builder, prev, top))
+        if five:
+            slant2_vec = _broadcast(builder, slant2, _VEC_F64)
+            prev_up = cgutils.alloca_once_value(builder, _load_vector(builder, prev, above))
+            cost_up = cgutils.alloca_once_value(
+                builder, _load_vector(builder, cost, builder.add(o_here, above))
+            )
+            left_here = cgutils.alloca_once_value(
+                builder, _load_vector(builder, cost, builder.add(o_left, top))
+            )
+        with cgutils.for_range(builder, count) as loop:
+            p = builder.sub(top, builder.mul(loop.index, width))
+            below = builder.sub(p, width)
+            prev_below = _load_vector(builder, prev, below)
+            here = _load_vector(builder, cost, builder.add(o_here, p))
+            h2 = builder.fmul(two, here)
+            c = builder.fadd(builder.load(prev_here), h2)
+            a = builder.fadd(prev_below, occ2_vec)
+            if five:
+                left_below = _load_vector(builder, cost, builder.add(o_left, below))
+                u = builder.fadd(builder.fadd(h2, builder.load(left_here)), slant2_vec)
+                d = builder.fadd(builder.fadd(builder.load(prev_up), builder.load(cost_up)), u)
+                e = builder.fadd(builder.fadd(_load_vector(builder, prev2, below), left_below), u)
+                cell = _vector_min(builder, _vector_min(builder, c, d), _vector_min(builder, e, a))
+            else:
+                cell = _vector_min(builder, c, a)
+            v = _vector_min(builder, cell, builder.fadd(builder.load(chain), occ2_vec))
+            _store_vector(builder, v, cur, p)
+            steps = builder.or_(
+                bit(builder.fcmp_ordered("==", c, v), STEP_BIT_C),
+                bit(builder.fcmp_ordered("==", a, v), STEP_BIT_A),
+            )
+            if five:
+                steps = builder.or_(steps, bit(builder.fcmp_ordered("==", d, v), STEP_BIT_D))
+                steps = builder.or_(steps, bit(builder.fcmp_ordered("==", e, v), STEP_BIT_E))
+            steps = builder.or_(steps, _vector_of(STEP_BIT_B, _VEC_I8))
+            _store_vector(builder, steps, steps_data, p)
+            builder.store(v, chain)
+            if five:
+                builder.store(builder.load(prev_here), prev_up)
+                builder.store(here, cost_up)
+                builder.store(left_below, left_here)
+            builder.store(prev_below, prev_here)
+        return context.get_dummy_value()
+
+    return codegen
+
+
+def _cells_arguments_ok(arrays, offsets, floats):
+    return (
+        all(_contiguous(a, types.float64) for a in arrays[:-1])
+        and _contiguous(arrays[-1], types.uint8)
+        and all(isinstance(o, types.Integer) for o in offsets)
+        and all(f == types.float64 for f in floats)
+    )
+
+
+@intrinsic
+def _cells5_vector(typingctx, cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi,
+                   occ2, slant2):  # fmt: skip
+    if not _cells_arguments_ok(
+        (cur, prev, prev2, cost, steps), (o_here, o_left, o_steps, k_lo, k_hi), (occ2, slant2)
+    ):
+        return None
+    signature = types.void(
+        cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2, slant2
+    )
+    return signature, _cells_codegen(True)
+
+
+@intrinsic
+def _cells3_vector(typingctx, cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2):
+    if not _cells_arguments_ok((cur, prev, cost, steps), (o_here, o_steps, k_lo, k_hi), (occ2,)):
+        return None
+    signature = types.void(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2)
+    return signature, _cells_codegen(False)
+
+
+@overload(_cells5_chain)
+def _cells5_compiled(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2,
+                     slant2):  # fmt: skip
+    def run(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2, slant2):
+        _cells5_vector(
+            cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2, slant2
+        )
+
+    return run
+
+
+@overload(_cells3_chain)
+def _cells3_compiled(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2):
+    def run(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2):
+        _cells3_vector(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2)
+
+    return run
 
 
 @nb.njit(cache=True)
@@ -611,7 +799,6 @@ def band_forward(
     anchor_total,
     anchor_steps,
     ring,
-    col_bits,
     steps,
     ends,
     make_costs,
@@ -630,11 +817,8 @@ def band_forward(
     Node ``(x, dmin + k)`` of band row ``r`` gets the value of ``scanline_dp``'s table
     (with ``x_lo = j_lo = 0``, ``x_hi = j_hi = width - 1``) and its step bits go to
     ``steps[x * nk + (k + 1) * R + r]`` (uint8, ``width * nk``). ``ring`` (float64,
-    ``(3, nk)``) holds the values of the last three columns and ``col_bits`` (int64,
-    ``nk``) the step bits of the column being made: the vector loop computes them at its
-    own width, and one conversion loop per column stores them as bytes (a uint8 store in
-    the cell loop stops it from being vectorized; int64 records were 8 bytes a cell, which
-    on wide images and disparity ranges streamed to memory). ``ends`` (float64,
+    ``(3, nk)``) holds the values of the last three columns (the cells of a column are
+    made by ``_cells5_chain`` or ``_cells3_chain``, vector code). ``ends`` (float64,
     ``2 * ndisp * R``) gets the values of the free end's nodes: at ``k * R + r`` the node
     with ``j = width - 1`` and ``x < width - 1`` of disparity index ``k`` (inf where there
     is none), at ``(ndisp + k) * R + r`` the node of the last column.
@@ -729,14 +913,15 @@ def band_forward(
                     cost,
                     o_here,
                     o_left,
-                    col_bits,
+                    steps,
+                    o_steps,
                     k_lo,
                     k_hi,
                     occ2,
                     slant2,
                 )
             else:
-                _cells3_chain(cur, prev, cost, o_here, col_bits, k_lo, k_hi, occ2)
+                _cells3_chain(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2)
             if pin_here:
                 for r in range(nr):
                     j = pins[x * nr + r]
@@ -763,11 +948,9 @@ def band_forward(
                     # b-chain), which the backtrack of that segment takes
                     for k in range(k_lo, k_a + 1):
                         cur[(k + 1) * nr + r] = b_run[k_a - k]
-                        col_bits[(k + 1) * nr + r] = STEP_BIT_B
+                        steps[o_steps + np.uint64((k + 1) * nr + r)] = STEP_BIT_B
                     for k in range(k_a + 1, k_hi + 1):
                         cur[(k + 1) * nr + r] = inf
-            for i in range(np.uint64((k_lo + 1) * nr), np.uint64((k_hi + 2) * nr)):
-                steps[o_steps + i] = np.uint8(col_bits[i])
         # the free end's nodes: j == width - 1 before the last column, then the last column
         k_end = x - (width - 1) - dmin
         if x < width - 1 and 0 <= k_end < ndisp:
@@ -995,11 +1178,6 @@ def _key_scale(nblocks):
 # registers, and the decode of the 8 lanes at once. Plain Python runs the twin below
 # (``NUMBA_DISABLE_JIT``); the tests hold both to the prefix-chain results.
 
-_VEC_F64 = ir.VectorType(ir.DoubleType(), BAND_ROWS)
-_VEC_I64 = ir.VectorType(ir.IntType(64), BAND_ROWS)
-_I64 = ir.IntType(64)
-_FLOOR = f"llvm.floor.v{BAND_ROWS}f64"
-
 
 def _keyed_column(cost, o, nblocks, scale, wta_k, wta_ratio, i0):
     """Block match of a keyed column: its ``R`` lanes' ``wta_k`` and ``wta_ratio`` at ``i0``.
@@ -1036,36 +1214,6 @@ def _keyed_column(cost, o, nblocks, scale, wta_k, wta_ratio, i0):
             wta_ratio[i] = second / best
         else:
             wta_ratio[i] = np.inf if second > 0 else 1.0
-
-
-def _vector_of(value, vtype):
-    return ir.Constant(vtype, [value] * BAND_ROWS)
-
-
-def _broadcast(builder, value, vtype):
-    undef = ir.Constant(vtype, ir.Undefined)
-    first = builder.insert_element(undef, value, ir.Constant(ir.IntType(32), 0))
-    lanes = ir.Constant(ir.VectorType(ir.IntType(32), BAND_ROWS), [0] * BAND_ROWS)
-    return builder.shuffle_vector(first, undef, lanes)
-
-
-def _vector_call(builder, name, *values):
-    signature = ir.FunctionType(_VEC_F64, [_VEC_F64] * len(values))
-    return builder.call(cgutils.get_or_insert_function(builder.module, signature, name), values)
-
-
-def _vector_min(builder, a, b):
-    # a < b ? a : b: the value of numba's min for these operands (no NaN), one vminpd
-    return builder.select(builder.fcmp_ordered("<", a, b), a, b)
-
-
-def _contiguous(array, dtype):
-    return (
-        isinstance(array, types.Array)
-        and array.ndim == 1
-        and array.layout == "C"
-        and (array.dtype == dtype)
-    )
 
 
 @intrinsic
@@ -1722,7 +1870,6 @@ def match_band_rows(
         # free mode and mode 3 make each column's costs inside the passes: two columns
         cost = _placed((2 if made else width) * nk, np.float64, 6)
         step_bits = _placed(width * nk, np.uint8, 7)
-        col_bits = _placed(nk, np.int64, 8)
         ring = _placed(3 * nk, np.float64, 9).reshape((3, nk))
         ends = _placed(2 * ndisp * nr, np.float64, 10)
         pins = _placed(width * nr, np.int64, 11)
@@ -1825,12 +1972,12 @@ def match_band_rows(
             if tests is not None and not made:
                 band_forward(
                     cost, width, dmin, ndisp, occ2, five, slant2, True, pins, pinned,
-                    anchor_total, anchor_steps, ring, col_bits, step_bits, ends, None,
+                    anchor_total, anchor_steps, ring, step_bits, ends, None,
                 )  # fmt: skip
             else:
                 band_forward(
                     cost, width, dmin, ndisp, occ2, five, slant2, anchored, pins, pinned,
-                    anchor_total, anchor_steps, ring, col_bits, step_bits, ends,
+                    anchor_total, anchor_steps, ring, step_bits, ends,
                     (left_t, right_t, radius, spread, vs, SUMS_READY if search else int(t > 0),
                      hsum),
                 )  # fmt: skip
