@@ -679,6 +679,59 @@ def test_keyed_column_vector_code_equals_its_twin_and_the_naive_one(seed):
             assert (wta_ratio[:nr] == -5.0).all() and (wta_ratio[2 * nr :] == -5.0).all()
 
 
+def _compiled(function):
+    """``function`` called from compiled code (its vector form, through ``overload``)."""
+    return numba.njit(lambda *args: function(*args))
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_column_vector_code_equals_its_plain_python_twin(seed):
+    # the DP cells of a column (five- and three-step) and a moved cost column: the LLVM
+    # vector code against the plain-Python functions it stands for, byte for byte
+    rng = np.random.default_rng(800 + seed)
+    nr = _band_kernels.BAND_ROWS
+    for ndisp in (1, 2, 3, 7, 16, 33):
+        nk = (ndisp + 2) * nr
+        k_lo = int(rng.integers(0, ndisp))
+        k_hi = int(rng.integers(k_lo, ndisp))
+        # small integer values (ties between the steps) and inf cells
+        ring = rng.integers(0, 6, (3, nk)).astype(np.float64)
+        ring[rng.random(ring.shape) < 0.15] = np.inf
+        cost = rng.integers(0, 4, 3 * nk).astype(np.float64)
+        cost[rng.random(cost.shape) < 0.1] = np.inf
+        o_here, o_left, o_steps = np.uint64(2 * nk), np.uint64(nk), np.uint64(nk)
+        results = []
+        for run in (_band_kernels._cells5_chain, _compiled(_band_kernels._cells5_chain)):
+            cur = ring[0].copy()
+            steps = np.full(3 * nk, 255, dtype=np.uint8)
+            run(cur, ring[1], ring[2], cost, o_here, o_left, steps, o_steps, k_lo, k_hi, 2.0, 1.0)
+            results.append((cur, steps))
+        for run in (_band_kernels._cells3_chain, _compiled(_band_kernels._cells3_chain)):
+            cur = ring[0].copy()
+            steps = np.full(3 * nk, 255, dtype=np.uint8)
+            run(cur, ring[1], cost, o_here, steps, o_steps, k_lo, k_hi, 2.0)
+            results.append((cur, steps))
+        for a, b in (results[:2], results[2:]):
+            np.testing.assert_array_equal(a[0], b[0])
+            np.testing.assert_array_equal(a[1], b[1])
+            assert (a[1][: int(o_steps) + (k_lo + 1) * nr] == 255).all()  # nothing else written
+        width_p = int(rng.integers(3, 9))
+        n = ndisp * nr
+        left_t = rng.integers(0, 4081, 2 * width_p * nr).astype(np.int32)
+        right_t = rng.integers(0, 4081, 2 * width_p * nr + n).astype(np.int32)
+        vs = rng.integers(0, 40000, 3 * n).astype(np.int32)
+        hsum = rng.integers(0, 200000, n).astype(np.int32)
+        moved = []
+        for run in (_band_kernels._moved_costs, _compiled(_band_kernels._moved_costs)):
+            arrays = vs.copy(), hsum.copy(), np.full(n + 2 * nr, -1.0)
+            offsets = np.uint64(nr), np.uint64(0), np.uint64(2 * n), np.uint64(0), np.uint64(nr)
+            run(left_t, right_t, *arrays, *offsets, np.uint64(n), width_p)
+            moved.append(arrays)
+        for a, b in zip(*moved, strict=True):
+            np.testing.assert_array_equal(a, b)
+        assert (moved[0][2][nr:-nr] != -1.0).all() and (moved[0][2][:nr] == -1.0).all()
+
+
 def naive_feature_mask(var_l, wta_k, wta_ratio, width, dmin, radius, var_floor, uniq, guard):
     """The cheap up-front tests of ``divide_row``, one pixel at a time: the twin of the mask."""
     nr = _band_kernels.BAND_ROWS

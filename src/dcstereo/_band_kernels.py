@@ -115,6 +115,66 @@ def _placed(n, dtype, slot):
     return buf[start : start + n]
 
 
+# --------------------------------------------------------------------------- vector code
+#
+# Where numba's loop vectorizer cannot express a loop well, it is written as LLVM vector
+# code: values of ``BAND_ROWS`` lanes as one ``<R x double>`` (an intrinsic builds the IR;
+# numba compiles and caches it with its callers). Each such function is a plain-Python
+# function, run as such under ``NUMBA_DISABLE_JIT`` and held by the tests to the same
+# results as its vector form, which ``overload`` gives compiled code.
+
+_VEC_F64 = ir.VectorType(ir.DoubleType(), BAND_ROWS)
+_VEC_I64 = ir.VectorType(ir.IntType(64), BAND_ROWS)
+_VEC_I8 = ir.VectorType(ir.IntType(8), BAND_ROWS)
+_VEC_I32 = ir.VectorType(ir.IntType(32), BAND_ROWS)
+_I64 = ir.IntType(64)
+_FLOOR = f"llvm.floor.v{BAND_ROWS}f64"
+
+
+def _vector_of(value, vtype):
+    return ir.Constant(vtype, [value] * BAND_ROWS)
+
+
+def _broadcast(builder, value, vtype):
+    undef = ir.Constant(vtype, ir.Undefined)
+    first = builder.insert_element(undef, value, ir.Constant(ir.IntType(32), 0))
+    lanes = ir.Constant(ir.VectorType(ir.IntType(32), BAND_ROWS), [0] * BAND_ROWS)
+    return builder.shuffle_vector(first, undef, lanes)
+
+
+def _vector_call(builder, name, *values):
+    signature = ir.FunctionType(_VEC_F64, [_VEC_F64] * len(values))
+    return builder.call(cgutils.get_or_insert_function(builder.module, signature, name), values)
+
+
+def _vector_min(builder, a, b):
+    # a < b ? a : b: the value of numba's min for these operands (no NaN), one vminpd
+    return builder.select(builder.fcmp_ordered("<", a, b), a, b)
+
+
+def _contiguous(array, dtype):
+    return (
+        isinstance(array, types.Array)
+        and array.ndim == 1
+        and array.layout == "C"
+        and (array.dtype == dtype)
+    )
+
+
+def _load_vector(builder, data, index):
+    """Load the ``R`` values of ``data`` (a ``double*``) at element ``index``."""
+    return builder.load(builder.bitcast(builder.gep(data, [index]), _VEC_F64.as_pointer()), align=8)
+
+
+def _store_vector(builder, value, data, index):
+    """Store the vector ``value`` into ``data`` (a pointer to its elements) at ``index``."""
+    pointer = builder.bitcast(builder.gep(data, [index]), value.type.as_pointer())
+    element = value.type.element
+    builder.store(
+        value, pointer, align=8 if isinstance(element, ir.DoubleType) else element.width // 8
+    )
+
+
 # --------------------------------------------------------------------------- costs
 #
 # Every hot loop below is one flat loop over unsigned indices: numba wraps a negative
@@ -255,6 +315,108 @@ def _column_sums(left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread
     return offset
 
 
+def _moved_costs(left_t, right_t, vs, hsum, out, o_left, o_right, o_add, o_sub, o_out, n, width_p):
+    """One bulk column of the cost passes, its vertical sums moved down a row (``n`` cells).
+
+    The fused form of ``_vertical_update`` for a column ``add`` whose every disparity has
+    its right pixel inside the image, then the running horizontal sum: ``vs[o_add + i]``
+    gains the entering rows' absolute difference and loses the leaving rows' (the left
+    pixels of lane ``r`` at ``left_t[o_left + r]``, leaving, and ``width_p * R`` further,
+    entering; the right ones at ``right_t[o_right + i]`` and ``width_p * R`` further), then
+    ``hsum[i]`` gains it and loses ``vs[o_sub + i]``, and ``out[o_out + i]`` is the new
+    ``hsum[i]`` as float64. Exact integers throughout (int32, as the arrays). Compiled code
+    runs ``_moved_costs_vector`` (a block of ``R`` cells at a time, the left pixels in a
+    register instead of ``_spread`` copies).
+    """
+    nr = BAND_ROWS
+    step = np.uint64(width_p * nr)
+    for i in range(np.uint64(n)):
+        r = i % np.uint64(nr)
+        enter = left_t[o_left + step + r]
+        leave = left_t[o_left + r]
+        vs[o_add + i] += abs(enter - right_t[o_right + step + i]) - abs(
+            leave - right_t[o_right + i]
+        )
+        h = np.int32(hsum[i] + (vs[o_add + i] - vs[o_sub + i]))
+        hsum[i] = h
+        out[o_out + i] = h
+
+
+@intrinsic
+def _moved_costs_vector(typingctx, left_t, right_t, vs, hsum, out, o_left, o_right, o_add, o_sub,
+                        o_out, n, width_p):  # fmt: skip
+    if not (
+        all(_contiguous(a, types.int32) for a in (left_t, right_t, vs, hsum))
+        and _contiguous(out, types.float64)
+    ):
+        return None
+    signature = types.void(
+        left_t, right_t, vs, hsum, out, o_left, o_right, o_add, o_sub, o_out, n, width_p
+    )
+
+    def codegen(context, builder, sig, args):
+        def data(i):
+            return context.make_array(sig.args[i])(context, builder, args[i]).data
+
+        left, right, sums, running, costs = (data(i) for i in range(5))
+        o_left, o_right, o_add, o_sub, o_out, n, width_p = args[5:]
+        step = builder.mul(width_p, ir.Constant(_I64, BAND_ROWS))
+        abs32 = cgutils.get_or_insert_function(
+            builder.module,
+            ir.FunctionType(_VEC_I32, [_VEC_I32, ir.IntType(1)]),
+            f"llvm.abs.v{BAND_ROWS}i32",
+        )
+
+        def load(array, index):
+            pointer = builder.bitcast(builder.gep(array, [index]), _VEC_I32.as_pointer())
+            return builder.load(pointer, align=4)
+
+        def dist(a, b):
+            return builder.call(abs32, [builder.sub(a, b), ir.Constant(ir.IntType(1), 0)])
+
+        leave = load(left, o_left)
+        enter = load(left, builder.add(o_left, step))
+        blocks = builder.udiv(n, ir.Constant(_I64, BAND_ROWS))
+        width = ir.Constant(_I64, BAND_ROWS)
+        with cgutils.for_range(builder, blocks) as loop:
+            i = builder.mul(loop.index, width)
+            right_at = builder.add(o_right, i)
+            moved = builder.add(
+                load(sums, builder.add(o_add, i)),
+                builder.sub(
+                    dist(enter, load(right, builder.add(right_at, step))),
+                    dist(leave, load(right, right_at)),
+                ),
+            )
+            _store_vector(builder, moved, sums, builder.add(o_add, i))
+            h = builder.add(load(running, i), builder.sub(moved, load(sums, builder.add(o_sub, i))))
+            _store_vector(builder, h, running, i)
+            _store_vector(builder, builder.sitofp(h, _VEC_F64), costs, builder.add(o_out, i))
+        return context.get_dummy_value()
+
+    return signature, codegen
+
+
+@overload(_moved_costs)
+def _moved_costs_compiled(left_t, right_t, vs, hsum, out, o_left, o_right, o_add, o_sub, o_out, n,
+                          width_p):  # fmt: skip
+    if not all(_contiguous(a, types.int32) for a in (left_t, right_t, vs, hsum)):
+        return _moved_costs  # other integer arrays (the tests' int64 ones): the loop
+
+    def run(left_t, right_t, vs, hsum, out, o_left, o_right, o_add, o_sub, o_out, n, width_p):
+        _moved_costs_vector(
+            left_t, right_t, vs, hsum, out, o_left, o_right, o_add, o_sub, o_out, n, width_p
+        )
+
+    return run
+
+
+@nb.njit(cache=True, inline="always")
+def _moved_column(add, width, dmin, ndisp, radius, incremental):
+    """Return whether column ``add``'s sums move down a row over all its disparities."""
+    return incremental == 1 and add - dmin - (width - 1) <= 0 and add - dmin >= ndisp - 1
+
+
 @nb.njit(cache=True)
 def band_lane_costs(
     left_t, right_t, width, dmin, ndisp, radius, spread, vs, incremental, hsum, out
@@ -306,6 +468,13 @@ def band_lane_costs(
         sub = x - radius - 1
         o_out = np.uint64(x * nk + nr)
         o_sub = np.uint64(max(sub, 0) * nkc)
+        if add < width and sub >= 0 and _moved_column(add, width, dmin, ndisp, radius, incremental):
+            o_right = np.uint64((width_p - 1 - (add - dmin + radius)) * nr)
+            _moved_costs(
+                left_t, right_t, vs, hsum, out, np.uint64((add + radius) * nr), o_right,
+                np.uint64(add * nkc), o_sub, o_out, nkc, width_p,
+            )  # fmt: skip
+            continue
         if add < width:
             o_add = _column_sums(
                 left_t, right_t, add, width, width_p, dmin, ndisp, radius, spread, vs, incremental
@@ -397,7 +566,13 @@ def _cost_column(
         add = x + radius
         sub = x - radius - 1
         o_sub = np.uint64(max(sub, 0) * nkc)
-        if add < width and sub >= 0:  # the bulk of the row: one pass
+        if add < width and sub >= 0 and _moved_column(add, width, dmin, ndisp, radius, incremental):
+            o_right = np.uint64((width_p - 1 - (add - dmin + radius)) * nr)
+            _moved_costs(
+                left_t, right_t, vs, hsum, out, np.uint64((add + radius) * nr), o_right,
+                np.uint64(add * nkc), o_sub, o_out, nkc, width_p,
+            )  # fmt: skip
+        elif add < width and sub >= 0:  # the bulk of the row: one pass
             o_add = _column_sums(
                 left_t, right_t, add, width, width_p, dmin, ndisp, radius, spread, vs, incremental
             )
@@ -498,65 +673,6 @@ def band_lane_variance(sig_t, width, radius, steps, incremental, colsum, colsq, 
         hsum[i] = sm
         hsq[i] = sq
         out[i] = float(n * sq - sm * sm) / norm
-
-
-# --------------------------------------------------------------------------- vector code
-#
-# Where numba's loop vectorizer cannot express a loop well, it is written as LLVM vector
-# code: values of ``BAND_ROWS`` lanes as one ``<R x double>`` (an intrinsic builds the IR;
-# numba compiles and caches it with its callers). Each such function is a plain-Python
-# function, run as such under ``NUMBA_DISABLE_JIT`` and held by the tests to the same
-# results as its vector form, which ``overload`` gives compiled code.
-
-_VEC_F64 = ir.VectorType(ir.DoubleType(), BAND_ROWS)
-_VEC_I64 = ir.VectorType(ir.IntType(64), BAND_ROWS)
-_VEC_I8 = ir.VectorType(ir.IntType(8), BAND_ROWS)
-_I64 = ir.IntType(64)
-_FLOOR = f"llvm.floor.v{BAND_ROWS}f64"
-
-
-def _vector_of(value, vtype):
-    return ir.Constant(vtype, [value] * BAND_ROWS)
-
-
-def _broadcast(builder, value, vtype):
-    undef = ir.Constant(vtype, ir.Undefined)
-    first = builder.insert_element(undef, value, ir.Constant(ir.IntType(32), 0))
-    lanes = ir.Constant(ir.VectorType(ir.IntType(32), BAND_ROWS), [0] * BAND_ROWS)
-    return builder.shuffle_vector(first, undef, lanes)
-
-
-def _vector_call(builder, name, *values):
-    signature = ir.FunctionType(_VEC_F64, [_VEC_F64] * len(values))
-    return builder.call(cgutils.get_or_insert_function(builder.module, signature, name), values)
-
-
-def _vector_min(builder, a, b):
-    # a < b ? a : b: the value of numba's min for these operands (no NaN), one vminpd
-    return builder.select(builder.fcmp_ordered("<", a, b), a, b)
-
-
-def _contiguous(array, dtype):
-    return (
-        isinstance(array, types.Array)
-        and array.ndim == 1
-        and array.layout == "C"
-        and (array.dtype == dtype)
-    )
-
-
-def _load_vector(builder, data, index):
-    """Load the ``R`` values of ``data`` (a ``double*``) at element ``index``."""
-    return builder.load(builder.bitcast(builder.gep(data, [index]), _VEC_F64.as_pointer()), align=8)
-
-
-def _store_vector(builder, value, data, index):
-    """Store the vector ``value`` into ``data`` (a pointer to its elements) at ``index``."""
-    pointer = builder.bitcast(builder.gep(data, [index]), value.type.as_pointer())
-    element = value.type.element
-    builder.store(
-        value, pointer, align=8 if isinstance(element, ir.DoubleType) else element.width // 8
-    )
 
 
 # --------------------------------------------------------------------------- DP
