@@ -412,9 +412,32 @@ def _moved_costs_compiled(left_t, right_t, vs, hsum, out, o_left, o_right, o_add
 
 
 @nb.njit(cache=True, inline="always")
-def _moved_column(add, width, dmin, ndisp, radius, incremental):
-    """Return whether column ``add``'s sums move down a row over all its disparities."""
-    return incremental == 1 and add - dmin - (width - 1) <= 0 and add - dmin >= ndisp - 1
+def _moved_column(
+    left_t, right_t, vs, hsum, out, add, sub, width, width_p, dmin, ndisp, radius, incremental,
+    o_sub, o_out,
+):  # fmt: skip
+    """Make a bulk column by ``_moved_costs`` where it applies; return whether it did.
+
+    It applies where the column's sums move down a row (``incremental`` 1), the window's
+    entering column ``add`` and leaving column ``sub`` are inside the image, and every
+    disparity of ``add`` has its right pixel inside the image.
+    """
+    if not (
+        incremental == 1
+        and add < width
+        and sub >= 0
+        and add - dmin - (width - 1) <= 0
+        and add - dmin >= ndisp - 1
+    ):
+        return False
+    nr = BAND_ROWS
+    nkc = np.uint64(ndisp * nr)
+    o_right = np.uint64((width_p - 1 - (add - dmin + radius)) * nr)
+    _moved_costs(
+        left_t, right_t, vs, hsum, out, np.uint64((add + radius) * nr), o_right,
+        np.uint64(add) * nkc, o_sub, o_out, nkc, width_p,
+    )  # fmt: skip
+    return True
 
 
 @nb.njit(cache=True)
@@ -468,12 +491,10 @@ def band_lane_costs(
         sub = x - radius - 1
         o_out = np.uint64(x * nk + nr)
         o_sub = np.uint64(max(sub, 0) * nkc)
-        if add < width and sub >= 0 and _moved_column(add, width, dmin, ndisp, radius, incremental):
-            o_right = np.uint64((width_p - 1 - (add - dmin + radius)) * nr)
-            _moved_costs(
-                left_t, right_t, vs, hsum, out, np.uint64((add + radius) * nr), o_right,
-                np.uint64(add * nkc), o_sub, o_out, nkc, width_p,
-            )  # fmt: skip
+        if _moved_column(
+            left_t, right_t, vs, hsum, out, add, sub, width, width_p, dmin, ndisp, radius,
+            incremental, o_sub, o_out,
+        ):  # fmt: skip
             continue
         if add < width:
             o_add = _column_sums(
@@ -566,12 +587,11 @@ def _cost_column(
         add = x + radius
         sub = x - radius - 1
         o_sub = np.uint64(max(sub, 0) * nkc)
-        if add < width and sub >= 0 and _moved_column(add, width, dmin, ndisp, radius, incremental):
-            o_right = np.uint64((width_p - 1 - (add - dmin + radius)) * nr)
-            _moved_costs(
-                left_t, right_t, vs, hsum, out, np.uint64((add + radius) * nr), o_right,
-                np.uint64(add * nkc), o_sub, o_out, nkc, width_p,
-            )  # fmt: skip
+        if _moved_column(
+            left_t, right_t, vs, hsum, out, add, sub, width, width_p, dmin, ndisp, radius,
+            incremental, o_sub, o_out,
+        ):  # fmt: skip
+            pass
         elif add < width and sub >= 0:  # the bulk of the row: one pass
             o_add = _column_sums(
                 left_t, right_t, add, width, width_p, dmin, ndisp, radius, spread, vs, incremental
