@@ -152,6 +152,11 @@ def _vector_min(builder, a, b):
     return builder.select(builder.fcmp_ordered("<", a, b), a, b)
 
 
+def _words(*values):
+    # the offsets and counts of the vector code: 64-bit integers, as its IR takes them
+    return all(isinstance(v, types.Integer) and v.bitwidth == 64 for v in values)
+
+
 def _contiguous(array, dtype):
     return (
         isinstance(array, types.Array)
@@ -348,6 +353,7 @@ def _moved_costs_vector(typingctx, left_t, right_t, vs, hsum, out, o_left, o_rig
     if not (
         all(_contiguous(a, types.int32) for a in (left_t, right_t, vs, hsum))
         and _contiguous(out, types.float64)
+        and _words(o_left, o_right, o_add, o_sub, o_out, n, width_p)
     ):
         return None
     signature = types.void(
@@ -875,7 +881,7 @@ def _cells_arguments_ok(arrays, offsets, floats):
     return (
         all(_contiguous(a, types.float64) for a in arrays[:-1])
         and _contiguous(arrays[-1], types.uint8)
-        and all(isinstance(o, types.Integer) for o in offsets)
+        and _words(*offsets)
         and all(f == types.float64 for f in floats)
     )
 
@@ -1359,6 +1365,7 @@ def _keyed_column_vector(typingctx, cost, o, nblocks, scale, wta_k, wta_ratio, i
         and _contiguous(wta_k, types.int64)
         and _contiguous(wta_ratio, types.float64)
         and scale == types.float64
+        and _words(o, nblocks, i0)
     ):
         return None
     signature = types.void(cost, o, nblocks, scale, wta_k, wta_ratio, i0)
