@@ -645,17 +645,18 @@ def test_band_block_match_equals_the_naive_one(seed):
         check_block_match(fractional, cost, width, 0, scratch, wta_k, wta_ratio)
 
 
+def _compiled(function):
+    """``function`` called from compiled code (its vector form, through ``overload``)."""
+    return numba.njit(lambda *args: function(*args))
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_keyed_column_vector_code_equals_its_twin_and_the_naive_one(seed):
     # the keyed column's LLVM vector code (compiled) and its plain-Python twin, on columns
     # of both parities of block count, at an offset in the band and in the outputs
     rng = np.random.default_rng(700 + seed)
     nr = _band_kernels.BAND_ROWS
-    compiled = numba.njit(
-        lambda cost, o, nblocks, scale, wta_k, wta_ratio, i0: _band_kernels._keyed_column(
-            cost, o, nblocks, scale, wta_k, wta_ratio, i0
-        )
-    )
+    compiled = _compiled(_band_kernels._keyed_column)
     for ndisp in list(range(1, 9)) + [int(n) for n in rng.integers(9, 70, 6)]:
         nblocks = ndisp + 2
         scale = _band_kernels._key_scale(nblocks)
@@ -677,11 +678,6 @@ def test_keyed_column_vector_code_equals_its_twin_and_the_naive_one(seed):
             np.testing.assert_array_equal(wta_ratio[nr : 2 * nr], expected_ratio)
             assert (wta_k[:nr] == 99).all() and (wta_k[2 * nr :] == 99).all()
             assert (wta_ratio[:nr] == -5.0).all() and (wta_ratio[2 * nr :] == -5.0).all()
-
-
-def _compiled(function):
-    """``function`` called from compiled code (its vector form, through ``overload``)."""
-    return numba.njit(lambda *args: function(*args))
 
 
 @pytest.mark.parametrize("seed", range(3))

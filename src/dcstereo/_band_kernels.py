@@ -129,6 +129,7 @@ _VEC_I8 = ir.VectorType(ir.IntType(8), BAND_ROWS)
 _VEC_I32 = ir.VectorType(ir.IntType(32), BAND_ROWS)
 _I64 = ir.IntType(64)
 _FLOOR = f"llvm.floor.v{BAND_ROWS}f64"
+_FMA = f"llvm.fma.v{BAND_ROWS}f64"
 
 
 def _vector_of(value, vtype):
@@ -166,18 +167,26 @@ def _contiguous(array, dtype):
     )
 
 
-def _load_vector(builder, data, index):
-    """Load the ``R`` values of ``data`` (a ``double*``) at element ``index``."""
-    return builder.load(builder.bitcast(builder.gep(data, [index]), _VEC_F64.as_pointer()), align=8)
+def _array_data(context, builder, sig, args, i):
+    """Return the data pointer of argument ``i`` of an intrinsic (an array)."""
+    return context.make_array(sig.args[i])(context, builder, args[i]).data
+
+
+def _element_bytes(vtype):
+    element = vtype.element
+    return 8 if isinstance(element, ir.DoubleType) else element.width // 8
+
+
+def _load_vector(builder, data, index, vtype=_VEC_F64):
+    """Load the ``R`` values of ``data`` (a pointer to ``vtype``'s elements) at ``index``."""
+    pointer = builder.bitcast(builder.gep(data, [index]), vtype.as_pointer())
+    return builder.load(pointer, align=_element_bytes(vtype))
 
 
 def _store_vector(builder, value, data, index):
     """Store the vector ``value`` into ``data`` (a pointer to its elements) at ``index``."""
     pointer = builder.bitcast(builder.gep(data, [index]), value.type.as_pointer())
-    element = value.type.element
-    builder.store(
-        value, pointer, align=8 if isinstance(element, ir.DoubleType) else element.width // 8
-    )
+    builder.store(value, pointer, align=_element_bytes(value.type))
 
 
 # --------------------------------------------------------------------------- costs
@@ -361,10 +370,9 @@ def _moved_costs_vector(typingctx, left_t, right_t, vs, hsum, out, o_left, o_rig
     )
 
     def codegen(context, builder, sig, args):
-        def data(i):
-            return context.make_array(sig.args[i])(context, builder, args[i]).data
-
-        left, right, sums, running, costs = (data(i) for i in range(5))
+        left, right, sums, running, costs = (
+            _array_data(context, builder, sig, args, i) for i in range(5)
+        )
         o_left, o_right, o_add, o_sub, o_out, n, width_p = args[5:]
         step = builder.mul(width_p, ir.Constant(_I64, BAND_ROWS))
         abs32 = cgutils.get_or_insert_function(
@@ -374,8 +382,7 @@ def _moved_costs_vector(typingctx, left_t, right_t, vs, hsum, out, o_left, o_rig
         )
 
         def load(array, index):
-            pointer = builder.bitcast(builder.gep(array, [index]), _VEC_I32.as_pointer())
-            return builder.load(pointer, align=4)
+            return _load_vector(builder, array, index, _VEC_I32)
 
         def dist(a, b):
             return builder.call(abs32, [builder.sub(a, b), ir.Constant(ir.IntType(1), 0)])
@@ -809,13 +816,13 @@ def _cells_codegen(five):
         else:
             _, _, _, o_here, _, o_steps, k_lo, k_hi, occ2 = args
 
-        def data(i):
-            return context.make_array(sig.args[i])(context, builder, args[i]).data
+        def data(*indices):
+            return (_array_data(context, builder, sig, args, i) for i in indices)
 
         if five:
-            cur, prev, prev2, cost, steps_data = data(0), data(1), data(2), data(3), data(6)
+            cur, prev, prev2, cost, steps_data = data(0, 1, 2, 3, 6)
         else:
-            cur, prev, cost, steps_data = data(0), data(1), data(2), data(4)
+            cur, prev, cost, steps_data = data(0, 1, 2, 4)
         steps_data = builder.gep(steps_data, [o_steps])
         width = ir.Constant(_I64, BAND_ROWS)
         occ2_vec = _broadcast(builder, occ2, _VEC_F64)
@@ -1371,17 +1378,14 @@ def _keyed_column_vector(typingctx, cost, o, nblocks, scale, wta_k, wta_ratio, i
     signature = types.void(cost, o, nblocks, scale, wta_k, wta_ratio, i0)
 
     def codegen(context, builder, sig, args):
-        cost_v, o_v, nblocks_v, scale_v, k_v, ratio_v, i0_v = args
-        data = context.make_array(sig.args[0])(context, builder, cost_v).data
-        column = builder.bitcast(builder.gep(data, [o_v]), _VEC_F64.as_pointer())
+        _, o_v, nblocks_v, scale_v, _, _, i0_v = args
+        data = _array_data(context, builder, sig, args, 0)
+        width = ir.Constant(_I64, BAND_ROWS)
         inf = _vector_of(float("inf"), _VEC_F64)
         one = _vector_of(1.0, _VEC_F64)
         zero = _vector_of(0.0, _VEC_F64)
         scale_vec = _broadcast(builder, scale_v, _VEC_F64)
         unscale = builder.fdiv(one, scale_vec)  # exact: a power of two
-        fma = cgutils.get_or_insert_function(
-            builder.module, ir.FunctionType(_VEC_F64, [_VEC_F64] * 3), f"llvm.fma.v{BAND_ROWS}f64"
-        )
         # blocks in pairs, two running minima (the chain of one is twice as long); an odd
         # count takes block 0 (padding) alone first
         pairs = builder.udiv(nblocks_v, ir.Constant(_I64, 2))
@@ -1394,8 +1398,8 @@ def _keyed_column_vector(typingctx, cost, o, nblocks, scale, wta_k, wta_ratio, i
 
         def key(j, j_vec):
             # cost * scale + j: exact (below 2**53), so the fused multiply-add rounds nothing
-            values = builder.load(builder.gep(column, [j]), align=8)
-            return builder.call(fma, [values, scale_vec, j_vec])
+            values = _load_vector(builder, data, builder.add(o_v, builder.mul(j, width)))
+            return _vector_call(builder, _FMA, values, scale_vec, j_vec)
 
         def pair_keys(index):
             j = builder.add(first, builder.mul(index, ir.Constant(_I64, 2)))
@@ -1445,12 +1449,8 @@ def _keyed_column_vector(typingctx, cost, o, nblocks, scale, wta_k, wta_ratio, i
         )
         match = builder.select(valid, builder.sub(block_int, step), _vector_of(-1, _VEC_I64))
         ratio = builder.select(valid, ratio, zero)
-        k_data = context.make_array(sig.args[4])(context, builder, k_v).data
-        ratio_data = context.make_array(sig.args[5])(context, builder, ratio_v).data
-        k_out = builder.bitcast(builder.gep(k_data, [i0_v]), _VEC_I64.as_pointer())
-        ratio_out = builder.bitcast(builder.gep(ratio_data, [i0_v]), _VEC_F64.as_pointer())
-        builder.store(match, k_out, align=8)
-        builder.store(ratio, ratio_out, align=8)
+        _store_vector(builder, match, _array_data(context, builder, sig, args, 4), i0_v)
+        _store_vector(builder, ratio, _array_data(context, builder, sig, args, 5), i0_v)
         return context.get_dummy_value()
 
     return signature, codegen
