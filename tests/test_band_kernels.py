@@ -670,14 +670,39 @@ def test_keyed_column_vector_code_equals_its_twin_and_the_naive_one(seed):
         cost = np.concatenate([rng.random(3 * nblocks * nr), column.ravel()])
         o = np.uint64(3 * nblocks * nr)
         expected_k, expected_ratio = naive_block_match(cells)
+        numbers = np.arange(nblocks + int(rng.integers(0, 3)), dtype=np.float64)
         for run in (_band_kernels._keyed_column, compiled):
             wta_k = np.full(3 * nr, 99, dtype=np.int64)
             wta_ratio = np.full(3 * nr, -5.0)
-            run(cost, o, nblocks, scale, wta_k, wta_ratio, np.uint64(nr))
+            run(cost, o, nblocks, scale, numbers, wta_k, wta_ratio, np.uint64(nr))
             assert list(wta_k[nr : 2 * nr]) == expected_k
             np.testing.assert_array_equal(wta_ratio[nr : 2 * nr], expected_ratio)
             assert (wta_k[:nr] == 99).all() and (wta_k[2 * nr :] == 99).all()
             assert (wta_ratio[:nr] == -5.0).all() and (wta_ratio[2 * nr :] == -5.0).all()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_window_ssd_vector_code_equals_its_twin_and_numpy(seed):
+    # windows of one to 25 pixels a side (a row of more than R pixels takes several masked
+    # loads), against the image's edges (nothing past the window is read: a read past the
+    # array's end could fault), on signals whose squares need 64 bits
+    rng = np.random.default_rng(900 + seed)
+    compiled = _compiled(_band_kernels._window_ssd)
+    for radius in range(13):
+        win = 2 * radius + 1
+        height, width = win + int(rng.integers(0, 3)), win + int(rng.integers(0, 20))
+        high = 2**25 if rng.random() < 0.5 else 4081  # 625 squares of 2**26: below 2**63
+        left = rng.integers(-high, high, (height, width)).astype(np.int32)
+        right = rng.integers(-high, high, (height, width)).astype(np.int32)
+        for y, x, j in [(height - win, width - win, width - win), (0, 0, width - win)] + [
+            (int(rng.integers(0, height - win + 1)), int(rng.integers(0, width - win + 1)),
+             int(rng.integers(0, width - win + 1)))
+            for _ in range(5)
+        ]:  # fmt: skip
+            diff = left[y : y + win, x : x + win].astype(np.int64) - right[y : y + win, j : j + win]
+            expected = float((diff * diff).sum())
+            assert _band_kernels._window_ssd(left, right, y, x, j, radius) == expected
+            assert compiled(left, right, y, x, j, radius) == expected
 
 
 @pytest.mark.parametrize("seed", range(3))

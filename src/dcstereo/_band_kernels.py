@@ -1328,7 +1328,7 @@ def _key_scale(nblocks):
 # (``NUMBA_DISABLE_JIT``); the tests hold both to the prefix-chain results.
 
 
-def _keyed_column(cost, o, nblocks, scale, wta_k, wta_ratio, i0):
+def _keyed_column(cost, o, nblocks, scale, numbers, wta_k, wta_ratio, i0):
     """Block match of a keyed column: its ``R`` lanes' ``wta_k`` and ``wta_ratio`` at ``i0``.
 
     ``cost[o + j * R + r]``, blocks ``j = 0 .. nblocks - 1`` (the first and the last are the
@@ -1336,7 +1336,10 @@ def _keyed_column(cost, o, nblocks, scale, wta_k, wta_ratio, i0):
     ``cost * scale + j`` (``scale`` a power of two above ``nblocks``), exact and ordered as
     ``(cost, j)``. The least key gives the match (block ``b = k + 1``, the first of the
     least costs) and the least key over ``|j - b| >= 2`` the second cost of the uniqueness
-    ratio: the values of ``_kernels.block_match``, bit for bit.
+    ratio: the values of ``_kernels.block_match``, bit for bit. ``numbers[j]`` is ``j``
+    (float64, at least ``nblocks`` values): the vector code loads each block's ``j``
+    instead of counting it up in a vector register (an addition per block, on the
+    floating-point pipes the key's fused multiply-add and the minimum need).
     Compiled code runs ``_keyed_column_vector`` instead (the same operations, the lanes as
     one vector).
     """
@@ -1345,7 +1348,7 @@ def _keyed_column(cost, o, nblocks, scale, wta_k, wta_ratio, i0):
     for r in range(nr):
         least = np.inf
         for j in range(nblocks):
-            least = min(least, cost[o + j * nr + r] * scale + j)
+            least = min(least, cost[o + j * nr + r] * scale + numbers[j])
         i = i0 + r
         if not least < np.inf:
             wta_k[i] = -1
@@ -1356,7 +1359,7 @@ def _keyed_column(cost, o, nblocks, scale, wta_k, wta_ratio, i0):
         second = np.inf
         for j in range(nblocks):
             if abs(j - b) >= 2:
-                second = min(second, cost[o + j * nr + r] * scale + j)
+                second = min(second, cost[o + j * nr + r] * scale + numbers[j])
         second = np.floor(second * unscale)
         wta_k[i] = b - 1
         if best > 0:
@@ -1365,82 +1368,84 @@ def _keyed_column(cost, o, nblocks, scale, wta_k, wta_ratio, i0):
             wta_ratio[i] = np.inf if second > 0 else 1.0
 
 
+#: Running minima of ``_keyed_column_vector`` (blocks taken this many at a time).
+_KEY_CHAINS = 4
+
+
 @intrinsic
-def _keyed_column_vector(typingctx, cost, o, nblocks, scale, wta_k, wta_ratio, i0):
+def _keyed_column_vector(typingctx, cost, o, nblocks, scale, numbers, wta_k, wta_ratio, i0):
     if not (
         _contiguous(cost, types.float64)
+        and _contiguous(numbers, types.float64)
         and _contiguous(wta_k, types.int64)
         and _contiguous(wta_ratio, types.float64)
         and scale == types.float64
         and _words(o, nblocks, i0)
     ):
         return None
-    signature = types.void(cost, o, nblocks, scale, wta_k, wta_ratio, i0)
+    signature = types.void(cost, o, nblocks, scale, numbers, wta_k, wta_ratio, i0)
 
     def codegen(context, builder, sig, args):
-        _, o_v, nblocks_v, scale_v, _, _, i0_v = args
+        _, o_v, nblocks_v, scale_v, _, _, _, i0_v = args
         data = _array_data(context, builder, sig, args, 0)
+        number = _array_data(context, builder, sig, args, 4)
         width = ir.Constant(_I64, BAND_ROWS)
         inf = _vector_of(float("inf"), _VEC_F64)
         one = _vector_of(1.0, _VEC_F64)
         zero = _vector_of(0.0, _VEC_F64)
         scale_vec = _broadcast(builder, scale_v, _VEC_F64)
         unscale = builder.fdiv(one, scale_vec)  # exact: a power of two
-        # blocks in pairs, two running minima (the chain of one is twice as long); an odd
-        # count takes block 0 (padding) alone first
-        pairs = builder.udiv(nblocks_v, ir.Constant(_I64, 2))
-        odd = builder.trunc(builder.urem(nblocks_v, ir.Constant(_I64, 2)), ir.IntType(1))
-        first = builder.select(odd, ir.Constant(_I64, 1), ir.Constant(_I64, 0))
-        first_vec = builder.select(odd, one, zero)
-        least_a = cgutils.alloca_once_value(builder, inf)
-        least_b = cgutils.alloca_once_value(builder, inf)
-        block_vec = cgutils.alloca_once_value(builder, first_vec)  # j as a vector
+        # blocks in groups of _KEY_CHAINS, one running minimum per place in the group (the
+        # chains are short: the next column's can start before this one's end); the
+        # blocks left over (nblocks % _KEY_CHAINS) go first, into the first minimum
+        chains = ir.Constant(_I64, _KEY_CHAINS)
+        groups = builder.udiv(nblocks_v, chains)
+        rest = builder.urem(nblocks_v, chains)
+        least = [cgutils.alloca_once_value(builder, inf) for _ in range(_KEY_CHAINS)]
 
-        def key(j, j_vec):
+        def key(j):
             # cost * scale + j: exact (below 2**53), so the fused multiply-add rounds nothing
             values = _load_vector(builder, data, builder.add(o_v, builder.mul(j, width)))
+            j_vec = _broadcast(builder, builder.load(builder.gep(number, [j])), _VEC_F64)
             return _vector_call(builder, _FMA, values, scale_vec, j_vec)
 
-        def pair_keys(index):
-            j = builder.add(first, builder.mul(index, ir.Constant(_I64, 2)))
-            j_vec = builder.load(block_vec)
-            j1_vec = builder.fadd(j_vec, one)
-            builder.store(builder.fadd(j1_vec, one), block_vec)
-            return key(j, j_vec), key(builder.add(j, ir.Constant(_I64, 1)), j1_vec)
+        def fold(slot, value, keep=None):
+            # keep: the lanes that take the value (a masked minimum, no blend)
+            old = builder.load(slot)
+            new = _vector_min(builder, old, value)
+            builder.store(new if keep is None else builder.select(keep, new, old), slot)
 
-        def fold(slot, value):
-            builder.store(_vector_min(builder, builder.load(slot), value), slot)
+        def fold_all(keep):
+            # keep(j, place): the lanes that block j takes part in (None: all)
+            with cgutils.for_range(builder, rest) as loop:
+                fold(least[0], key(loop.index), keep(loop.index, 0))
+            with cgutils.for_range(builder, groups) as loop:
+                j0 = builder.add(rest, builder.mul(loop.index, chains))
+                for place in range(_KEY_CHAINS):
+                    j = builder.add(j0, ir.Constant(_I64, place))
+                    fold(least[place], key(j), keep(j, place))
+            result = builder.load(least[0])
+            for slot in least[1:]:
+                result = _vector_min(builder, result, builder.load(slot))
+            return result
 
-        with cgutils.for_range(builder, pairs) as loop:  # the least key
-            key_a, key_b = pair_keys(loop.index)
-            fold(least_a, key_a)
-            fold(least_b, key_b)
-        least = _vector_min(builder, builder.load(least_a), builder.load(least_b))
-        valid = builder.fcmp_ordered("<", least, inf)
-        best = _vector_call(builder, _FLOOR, builder.fmul(least, unscale))
-        block = builder.fsub(least, builder.fmul(best, scale_vec))  # b = k + 1
+        least_key = fold_all(lambda j, place: None)  # the least key
+        valid = builder.fcmp_ordered("<", least_key, inf)
+        best = _vector_call(builder, _FLOOR, builder.fmul(least_key, unscale))
+        block = builder.fsub(least_key, builder.fmul(best, scale_vec))  # b = k + 1
         block_int = builder.fptosi(builder.select(valid, block, one), _VEC_I64)
-        # the second key: the blocks with |j - b| >= 2, i.e. j - b + 1 > 2 as unsigned,
-        # that difference carried along with j
-        builder.store(inf, least_a)
-        builder.store(inf, least_b)
-        builder.store(first_vec, block_vec)
-        offset = cgutils.alloca_once_value(
-            builder,
-            builder.sub(
-                builder.select(odd, _vector_of(2, _VEC_I64), _vector_of(1, _VEC_I64)), block_int
-            ),
-        )
+        # the second key: the blocks with |j - b| >= 2, i.e. j - b + 1 > 2 as unsigned
+        for slot in least:
+            builder.store(inf, slot)
+        base = builder.sub(_vector_of(1, _VEC_I64), block_int)
         two = _vector_of(2, _VEC_I64)
         step = _vector_of(1, _VEC_I64)
-        with cgutils.for_range(builder, pairs) as loop:
-            key_a, key_b = pair_keys(loop.index)
-            off_a = builder.load(offset)
-            off_b = builder.add(off_a, step)
-            builder.store(builder.add(off_b, step), offset)
-            fold(least_a, builder.select(builder.icmp_unsigned(">", off_a, two), key_a, inf))
-            fold(least_b, builder.select(builder.icmp_unsigned(">", off_b, two), key_b, inf))
-        second_key = _vector_min(builder, builder.load(least_a), builder.load(least_b))
+
+        def apart(j, place):
+            offset = builder.add(base, _broadcast(builder, j, _VEC_I64))
+            return builder.icmp_unsigned(">", offset, two)
+
+        second_key = fold_all(apart)
         second = _vector_call(builder, _FLOOR, builder.fmul(second_key, unscale))
         ratio = builder.select(
             builder.fcmp_ordered(">", best, zero),
@@ -1449,17 +1454,17 @@ def _keyed_column_vector(typingctx, cost, o, nblocks, scale, wta_k, wta_ratio, i
         )
         match = builder.select(valid, builder.sub(block_int, step), _vector_of(-1, _VEC_I64))
         ratio = builder.select(valid, ratio, zero)
-        _store_vector(builder, match, _array_data(context, builder, sig, args, 4), i0_v)
-        _store_vector(builder, ratio, _array_data(context, builder, sig, args, 5), i0_v)
+        _store_vector(builder, match, _array_data(context, builder, sig, args, 5), i0_v)
+        _store_vector(builder, ratio, _array_data(context, builder, sig, args, 6), i0_v)
         return context.get_dummy_value()
 
     return signature, codegen
 
 
 @overload(_keyed_column)
-def _keyed_column_compiled(cost, o, nblocks, scale, wta_k, wta_ratio, i0):
-    return lambda cost, o, nblocks, scale, wta_k, wta_ratio, i0: _keyed_column_vector(
-        cost, o, nblocks, scale, wta_k, wta_ratio, i0
+def _keyed_column_compiled(cost, o, nblocks, scale, numbers, wta_k, wta_ratio, i0):
+    return lambda cost, o, nblocks, scale, numbers, wta_k, wta_ratio, i0: _keyed_column_vector(
+        cost, o, nblocks, scale, numbers, wta_k, wta_ratio, i0
     )
 
 
@@ -1503,6 +1508,7 @@ def band_block_match(
     top = unk - unr
     inf = np.inf
     scale = _key_scale(nblocks)
+    numbers = np.arange(nblocks).astype(np.float64)  # _keyed_column's j
     for x in range(width):
         if make_costs is None:
             o = np.uint64(x) * unk
@@ -1514,7 +1520,7 @@ def band_block_match(
                 cost, o,
             )  # fmt: skip
         if x_int_lo <= x < x_int_hi:
-            _keyed_column(cost, o, nblocks, scale, wta_k, wta_ratio, np.uint64(x) * unr)
+            _keyed_column(cost, o, nblocks, scale, numbers, wta_k, wta_ratio, np.uint64(x) * unr)
             continue
         for i in range(unr):
             pre[i] = cost[o + i]  # the padding cells: inf
@@ -1575,21 +1581,109 @@ def _sparse_best(values, sparse, lo, hi):
     return _better(values, sparse[level, lo], sparse[level, hi - (1 << level) + 1])
 
 
-@nb.njit(cache=True, inline="always")
 def _window_ssd(left_p, right_p, y, x, j, radius):
     """Window sum of squared signal differences of the pair ``x <-> j`` of padded row ``y``.
 
     Both windows inside the image (every feature candidate): exact integers, the value of
-    ``_kernels.window_ssd``. Unsigned indices: no wrap-around selects.
+    ``_kernels.window_ssd``. Compiled code runs ``_window_ssd_vector`` (the same sum).
     """
-    win = np.uint64(2 * radius + 1)
+    win = 2 * radius + 1
     si = 0
     for t in range(win):
-        yt = np.uint64(y) + t
         for c in range(win):
-            di = np.int64(left_p[yt, np.uint64(x) + c]) - np.int64(right_p[yt, np.uint64(j) + c])
+            di = np.int64(left_p[y + t, x + c]) - np.int64(right_p[y + t, j + c])
             si += di * di
     return float(si)
+
+
+# The window's rows are short (5 pixels by default), too short for numba's loop
+# vectorizer, which leaves a scalar loop of two loads, a subtraction, a multiplication and
+# an addition per pixel. The vector code takes each row ``R`` pixels at a time: masked
+# loads (nothing past the window is read), the differences and their squares as 64-bit
+# integers, one sum at the end: the same integer, so the same float.
+
+
+@intrinsic
+def _window_ssd_vector(typingctx, left_p, right_p, y, x, j, radius):
+    if not (
+        all(
+            isinstance(a, types.Array)
+            and a.ndim == 2
+            and a.layout == "C"
+            and a.dtype == types.int32
+            for a in (left_p, right_p)
+        )  # fmt: skip
+        and _words(y, x, j, radius)
+    ):
+        return None
+    signature = types.float64(left_p, right_p, y, x, j, radius)
+
+    def codegen(context, builder, sig, args):
+        y_v, x_v, j_v, radius_v = args[2:]
+        views = [context.make_array(sig.args[i])(context, builder, args[i]) for i in (0, 1)]
+        win = builder.add(builder.mul(radius_v, ir.Constant(_I64, 2)), ir.Constant(_I64, 1))
+        width = ir.Constant(_I64, BAND_ROWS)
+        pieces = builder.udiv(builder.add(win, ir.Constant(_I64, BAND_ROWS - 1)), width)
+        lanes = ir.Constant(_VEC_I64, list(range(BAND_ROWS)))
+        mask_type = ir.VectorType(ir.IntType(1), BAND_ROWS)
+        masked_load = cgutils.get_or_insert_function(
+            builder.module,
+            ir.FunctionType(_VEC_I32, [_VEC_I32.as_pointer(), ir.IntType(32), mask_type, _VEC_I32]),
+            f"llvm.masked.load.v{BAND_ROWS}i32.p0",
+        )
+        total = cgutils.alloca_once_value(builder, _vector_of(0, _VEC_I64))
+        # the pieces of R pixels outside, the rows inside: a window row of at most R
+        # pixels (the common case) is one loop of one masked load per view and row
+        with cgutils.for_range(builder, pieces) as piece:
+            c = builder.mul(piece.index, width)
+            mask = builder.icmp_unsigned(
+                "<",
+                builder.add(_broadcast(builder, c, _VEC_I64), lanes),
+                _broadcast(builder, win, _VEC_I64),
+            )
+
+            def corner(view, column):
+                # the window's first row in a view, from piece c on, and the row length
+                length = cgutils.unpack_tuple(builder, view.shape, 2)[1]
+                start = builder.add(builder.mul(y_v, length), builder.add(column, c))
+                return builder.gep(view.data, [start]), length
+
+            def window_row(first, length, t):
+                # the R pixels of row t (those of the window: the mask)
+                pointer = builder.gep(first, [builder.mul(t, length)])
+                loaded = builder.call(
+                    masked_load,
+                    [builder.bitcast(pointer, _VEC_I32.as_pointer()),
+                     ir.Constant(ir.IntType(32), 4), mask, _vector_of(0, _VEC_I32)],
+                )  # fmt: skip
+                return builder.sext(loaded, _VEC_I64)
+
+            left_first, right_first = corner(views[0], x_v), corner(views[1], j_v)
+            with cgutils.for_range(builder, win) as rows:
+                d = builder.sub(
+                    window_row(*left_first, rows.index), window_row(*right_first, rows.index)
+                )
+                builder.store(builder.add(builder.load(total), builder.mul(d, d)), total)
+        reduce_add = cgutils.get_or_insert_function(
+            builder.module,
+            ir.FunctionType(_I64, [_VEC_I64]),
+            f"llvm.vector.reduce.add.v{BAND_ROWS}i64",
+        )
+        return builder.sitofp(builder.call(reduce_add, [builder.load(total)]), ir.DoubleType())
+
+    return signature, codegen
+
+
+@overload(_window_ssd)
+def _window_ssd_compiled(left_p, right_p, y, x, j, radius):
+    if not all(
+        isinstance(a, types.Array) and a.ndim == 2 and a.layout == "C" and a.dtype == types.int32
+        for a in (left_p, right_p)
+    ):
+        return _window_ssd  # other signals (the tests' int64 ones): the loop
+    return lambda left_p, right_p, y, x, j, radius: _window_ssd_vector(
+        left_p, right_p, y, x, j, radius
+    )
 
 
 @nb.njit(cache=True, inline="always")
