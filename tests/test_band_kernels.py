@@ -495,6 +495,45 @@ def test_block_match_on_made_costs_equals_the_one_on_the_band_array():
             assert vs_made.tobytes() == vs_array.tobytes()
 
 
+@pytest.mark.parametrize("guard", [0, 1, 3])
+def test_block_match_of_the_wanted_columns_only(guard):
+    # with wanted (band_strong_counts' counts), the columns within guard of a strong one
+    # get the values of the full block match and the others those of an empty column;
+    # the counts are those of a plain count over the lanes
+    rng = np.random.default_rng(31 + guard)
+    nr = _band_kernels.BAND_ROWS
+    left_out = 0
+    for width, ndisp in ((1, 3), (9, 5), (40, 12), (23, 30)):
+        nk = (ndisp + 2) * nr
+        cost = rng.integers(0, 9, (width, ndisp + 2, nr)).astype(np.float64)
+        cost[:, [0, -1]] = np.inf
+        cost[rng.random(cost.shape) < 0.1] = np.inf
+        cost = cost.ravel()
+        var = rng.random(width * nr) * 100.0
+        var[rng.random(width * nr) < 0.97] = 0.0  # strong pixels are few: columns left out
+        floor = 50.0
+        counts = np.full(width + 1, -7, dtype=np.int64)
+        _band_kernels.band_strong_counts(var, width, floor, counts)
+        strong = (var.reshape(width, nr) >= floor).any(axis=1)
+        assert list(counts) == [0] + list(np.cumsum(strong))
+        wanted = np.array(
+            [strong[max(x - guard, 0) : x + guard + 1].any() for x in range(width)], dtype=bool
+        )
+        pre, suf = np.empty(nk), np.empty(nk)
+        full_k, part_k = (np.empty(width * nr, dtype=np.int64) for _ in range(2))
+        full_r, part_r = np.empty(width * nr), np.empty(width * nr)
+        _band_kernels.band_block_match(cost, width, ndisp, 0, width, pre, suf, full_k, full_r)
+        _band_kernels.band_block_match(
+            cost, width, ndisp, 0, width, pre, suf, part_k, part_r, None, (counts, guard)
+        )
+        lanes = np.repeat(wanted, nr)
+        np.testing.assert_array_equal(part_k[lanes], full_k[lanes])
+        assert part_r[lanes].tobytes() == full_r[lanes].tobytes()
+        assert (part_k[~lanes] == -1).all() and (part_r[~lanes] == 0.0).all()
+        left_out += int((~wanted).sum())
+    assert left_out > 0
+
+
 def test_largest_window_sums_fit_the_int32_buffers():
     # MAX_WINDOW with the largest absolute difference everywhere (4080, a white left view
     # and a black right one), in match_band_rows' int32 buffers, moved down a row too: every

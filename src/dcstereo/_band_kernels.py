@@ -1112,7 +1112,7 @@ def band_forward(
         prev2, prev, cur = prev, cur, prev2
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _trace_segment(
     steps,
     nk,
@@ -1470,8 +1470,9 @@ def _keyed_column_compiled(cost, o, nblocks, scale, numbers, wta_k, wta_ratio, i
 
 @nb.njit(cache=True)
 def band_block_match(
-    cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio, make_costs=None
-):
+    cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio, make_costs=None,
+    wanted=None,
+):  # fmt: skip
     """Whole-band block match of every left pixel of the ``R`` rows of a band.
 
     ``wta_k[x * R + r]`` is the least-cost index ``k`` of column ``x`` of band row ``r``
@@ -1500,6 +1501,12 @@ def band_block_match(
     leaves the caches (the same values). The band's vertical sums are left in ``vs``, so
     that the DP pass after it makes the costs again from them (``SUMS_READY``). (As in
     ``band_forward``, None and a tuple compile to two functions.)
+
+    ``wanted`` None: every column. Otherwise ``(counts, guard)`` (``band_strong_counts``):
+    only the columns within ``guard`` of a column with a strong pixel are matched, the
+    only ones the feature tests read (``band_feature_mask``: a candidate's own column and
+    its guard columns); the others get -1 and 0, as an empty column (their costs are
+    still made).
     """
     nr = BAND_ROWS
     unr = np.uint64(nr)
@@ -1519,6 +1526,13 @@ def band_block_match(
                 left_t, right_t, x, width, dmin, ndisp, radius, spread, vs, incremental, hsum,
                 cost, o,
             )  # fmt: skip
+        if wanted is not None:
+            counts, guard = wanted
+            if counts[min(x + guard + 1, width)] == counts[max(x - guard, 0)]:
+                for i in range(np.uint64(x) * unr, np.uint64(x + 1) * unr):
+                    wta_k[i] = -1
+                    wta_ratio[i] = 0.0
+                continue
         if x_int_lo <= x < x_int_hi:
             _keyed_column(cost, o, nblocks, scale, numbers, wta_k, wta_ratio, np.uint64(x) * unr)
             continue
@@ -1694,6 +1708,24 @@ def _variance_similarity(var_left, var_right, vs_relative):
         total = var_left + var_right
         vs = vs / total if total > 0 else 0.0
     return vs
+
+
+@nb.njit(cache=True)
+def band_strong_counts(var_l, width, var_floor, counts):
+    """Count the strong columns of a band: ``counts[x]`` of the columns before ``x``.
+
+    A column is strong where the window variance of some lane reaches the variance floor
+    (``var_l[x * R + r] >= var_floor``, as in ``band_feature_mask``; idle lanes count
+    too). ``counts`` (int64, ``width + 1``) tells ``band_block_match`` which columns the
+    feature tests read.
+    """
+    nr = BAND_ROWS
+    counts[0] = 0
+    for x in range(width):
+        strong = False
+        for r in range(nr):
+            strong |= var_l[x * nr + r] >= var_floor
+        counts[x + 1] = counts[x] + strong
 
 
 @nb.njit(cache=True, inline="always")
@@ -2133,6 +2165,7 @@ def match_band_rows(
         iwork = _placed((6 + levels) * nwork, np.int64, 24).reshape((6 + levels, nwork))
         fwork = _placed(4 * nwork, np.float64, 25).reshape((4, nwork))
         stack = _placed((nwork + 2) * 6, np.int64, 26).reshape((nwork + 2, 6))
+        strong = _placed(nwork + 1, np.int64, 8)
         for t in range(run):
             nt = _lane_rows(t, y_a, run, n, radius, height_p, rows)
             band_lane_signals(left_p, right_p, rows, nt, left_t, right_t)
@@ -2150,15 +2183,19 @@ def match_band_rows(
                     right_t, width, radius, steps, t > 0, colsum[1], colsq[1], hwork[0], hwork[1],
                     var_band[1],
                 )  # fmt: skip
+                # the block match only where the feature tests read it
+                band_strong_counts(var_band[0], width, tests[3], strong)
+                wanted = (strong, max(tests[6], 0))
                 if made:
                     band_block_match(
                         cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio,
-                        (left_t, right_t, dmin, radius, spread, vs, int(t > 0), hsum),
+                        (left_t, right_t, dmin, radius, spread, vs, int(t > 0), hsum), wanted,
                     )  # fmt: skip
                 else:
                     band_block_match(
-                        cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio, None
-                    )
+                        cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio, None,
+                        wanted,
+                    )  # fmt: skip
                 band_feature_mask(var_band[0], wta_k, wta_ratio, width, dmin, radius, tests, keep)
                 for i in range(width * nr):
                     pins[i] = -1
