@@ -158,10 +158,10 @@ def _words(*values):
     return all(isinstance(v, types.Integer) and v.bitwidth == 64 for v in values)
 
 
-def _contiguous(array, dtype):
+def _contiguous(array, dtype, ndim=1):
     return (
         isinstance(array, types.Array)
-        and array.ndim == 1
+        and array.ndim == ndim
         and array.layout == "C"
         and (array.dtype == dtype)
     )
@@ -1112,7 +1112,7 @@ def band_forward(
         prev2, prev, cur = prev, cur, prev2
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _trace_segment(
     steps,
     nk,
@@ -1416,20 +1416,20 @@ def _keyed_column_vector(typingctx, cost, o, nblocks, scale, numbers, wta_k, wta
             builder.store(new if keep is None else builder.select(keep, new, old), slot)
 
         def fold_all(keep):
-            # keep(j, place): the lanes that block j takes part in (None: all)
+            # keep(j): the lanes that block j takes part in (None: all)
             with cgutils.for_range(builder, rest) as loop:
-                fold(least[0], key(loop.index), keep(loop.index, 0))
+                fold(least[0], key(loop.index), keep(loop.index))
             with cgutils.for_range(builder, groups) as loop:
                 j0 = builder.add(rest, builder.mul(loop.index, chains))
                 for place in range(_KEY_CHAINS):
                     j = builder.add(j0, ir.Constant(_I64, place))
-                    fold(least[place], key(j), keep(j, place))
+                    fold(least[place], key(j), keep(j))
             result = builder.load(least[0])
             for slot in least[1:]:
                 result = _vector_min(builder, result, builder.load(slot))
             return result
 
-        least_key = fold_all(lambda j, place: None)  # the least key
+        least_key = fold_all(lambda j: None)  # the least key
         valid = builder.fcmp_ordered("<", least_key, inf)
         best = _vector_call(builder, _FLOOR, builder.fmul(least_key, unscale))
         block = builder.fsub(least_key, builder.fmul(best, scale_vec))  # b = k + 1
@@ -1441,7 +1441,7 @@ def _keyed_column_vector(typingctx, cost, o, nblocks, scale, numbers, wta_k, wta
         two = _vector_of(2, _VEC_I64)
         step = _vector_of(1, _VEC_I64)
 
-        def apart(j, place):
+        def apart(j):
             offset = builder.add(base, _broadcast(builder, j, _VEC_I64))
             return builder.icmp_unsigned(">", offset, two)
 
@@ -1620,14 +1620,7 @@ def _window_ssd(left_p, right_p, y, x, j, radius):
 @intrinsic
 def _window_ssd_vector(typingctx, left_p, right_p, y, x, j, radius):
     if not (
-        all(
-            isinstance(a, types.Array)
-            and a.ndim == 2
-            and a.layout == "C"
-            and a.dtype == types.int32
-            for a in (left_p, right_p)
-        )  # fmt: skip
-        and _words(y, x, j, radius)
+        all(_contiguous(a, types.int32, 2) for a in (left_p, right_p)) and _words(y, x, j, radius)
     ):
         return None
     signature = types.float64(left_p, right_p, y, x, j, radius)
@@ -1690,10 +1683,7 @@ def _window_ssd_vector(typingctx, left_p, right_p, y, x, j, radius):
 
 @overload(_window_ssd)
 def _window_ssd_compiled(left_p, right_p, y, x, j, radius):
-    if not all(
-        isinstance(a, types.Array) and a.ndim == 2 and a.layout == "C" and a.dtype == types.int32
-        for a in (left_p, right_p)
-    ):
+    if not all(_contiguous(a, types.int32, 2) for a in (left_p, right_p)):
         return _window_ssd  # other signals (the tests' int64 ones): the loop
     return lambda left_p, right_p, y, x, j, radius: _window_ssd_vector(
         left_p, right_p, y, x, j, radius
