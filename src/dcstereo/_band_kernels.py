@@ -1323,8 +1323,8 @@ def _key_scale(nblocks):
 # disparities. numba's loop vectorizer cannot express that (a flat loop over ``(k, r)``
 # carries it through memory, as the prefix and suffix chains did: two stores per block
 # of 8 cells, and a per-row decode after them), so the keyed column is written as LLVM
-# vector code (``<R x double>``, R = ``BAND_ROWS``): two running minima per pass, held in
-# registers, and the decode of the 8 lanes at once. Plain Python runs the twin below
+# vector code (``<R x double>``, R = ``BAND_ROWS``): ``_KEY_CHAINS`` running minima per
+# pass, held in registers, and the decode of the 8 lanes at once. Plain Python runs the twin below
 # (``NUMBA_DISABLE_JIT``); the tests hold both to the prefix-chain results.
 
 
@@ -1700,6 +1700,16 @@ def _variance_similarity(var_left, var_right, vs_relative):
     return vs
 
 
+@nb.njit(cache=True, inline="always")
+def _guard_columns(edge_guard):
+    """Return how far a candidate's guard columns lie (0: the cell itself, implied tests).
+
+    One rule for ``band_feature_mask``, which reads the guard columns, and for the block
+    match's ``wanted`` columns, which must include every column it reads.
+    """
+    return max(edge_guard, 0)
+
+
 @nb.njit(cache=True)
 def band_strong_counts(var_l, width, var_floor, counts):
     """Count the strong columns of a band: ``counts[x]`` of the columns before ``x``.
@@ -1760,7 +1770,7 @@ def band_feature_mask(var_l, wta_k, wta_ratio, width, dmin, radius, tests, keep)
         keep[i] = 0
     if width <= 2 * radius:
         return
-    guard = max(edge_guard, 0)  # 0: the guard cells are the cell itself (implied tests)
+    guard = _guard_columns(edge_guard)
     x_lo = min(max(radius, guard), width - radius)  # the vector loop's columns
     x_hi = max(min(width - radius, width - guard), x_lo)
     g = np.uint64(guard * nr)
@@ -2175,7 +2185,7 @@ def match_band_rows(
                 )  # fmt: skip
                 # the block match only where the feature tests read it
                 band_strong_counts(var_band[0], width, tests[3], strong)
-                wanted = (strong, max(tests[6], 0))
+                wanted = (strong, _guard_columns(tests[6]))
                 if made:
                     band_block_match(
                         cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio,
