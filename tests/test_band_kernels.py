@@ -759,22 +759,25 @@ def test_column_vector_code_equals_its_plain_python_twin(seed):
         ring[rng.random(ring.shape) < 0.15] = np.inf
         cost = rng.integers(0, 4, 3 * nk).astype(np.float64)
         cost[rng.random(cost.shape) < 0.1] = np.inf
-        o_here, o_left, o_steps = np.uint64(2 * nk), np.uint64(nk), np.uint64(nk)
+        o_here, o_left, o_steps = np.uint64(2 * nk), np.uint64(nk), np.uint64(ndisp + 2)
         results = []
         for run in (_band_kernels._cells5_chain, _compiled(_band_kernels._cells5_chain)):
             cur = ring[0].copy()
-            steps = np.full(3 * nk, 255, dtype=np.uint8)
+            steps = np.full(3 * (ndisp + 2), 0xFFFFFFFF, dtype=np.uint32)
             run(cur, ring[1], ring[2], cost, o_here, o_left, steps, o_steps, k_lo, k_hi, 2.0, 1.0)
             results.append((cur, steps))
         for run in (_band_kernels._cells3_chain, _compiled(_band_kernels._cells3_chain)):
             cur = ring[0].copy()
-            steps = np.full(3 * nk, 255, dtype=np.uint8)
+            steps = np.full(3 * (ndisp + 2), 0xFFFFFFFF, dtype=np.uint32)
             run(cur, ring[1], cost, o_here, steps, o_steps, k_lo, k_hi, 2.0)
             results.append((cur, steps))
         for a, b in (results[:2], results[2:]):
             np.testing.assert_array_equal(a[0], b[0])
             np.testing.assert_array_equal(a[1], b[1])
-            assert (a[1][: int(o_steps) + (k_lo + 1) * nr] == 255).all()  # nothing else written
+            # the words of blocks k_lo + 1 .. k_hi + 1 of column 1 and nothing else written
+            untouched = np.ones(a[1].size, dtype=bool)
+            untouched[int(o_steps) + k_lo + 1 : int(o_steps) + k_hi + 2] = False
+            assert (a[1][untouched] == 0xFFFFFFFF).all()
         width_p = int(rng.integers(3, 9))
         n = ndisp * nr
         left_t = rng.integers(0, 4081, 2 * width_p * nr).astype(np.int32)

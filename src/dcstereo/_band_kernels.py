@@ -41,8 +41,9 @@ made in other files); nothing here is imported from ``_kernels.py``.
 
 import numba as nb
 import numpy as np
+from llvmlite import binding as llvm
 from llvmlite import ir
-from numba.core import cgutils, types
+from numba.core import cgutils, config, types
 from numba.extending import intrinsic, overload
 
 #: Rows of a band: eight float64 values fill one AVX-512 vector. A module constant, not an
@@ -751,6 +752,36 @@ def _step_of_bits():
 #: (``STEP_NONE`` for 0: an anchor no match step reaches, as ``_kernels.scanline_dp``).
 STEP_OF_BITS = _step_of_bits()
 
+#: The forward pass records the steps of a block of ``R`` cells (one disparity, the band's
+#: rows) in one 32-bit word: byte 0 has bit ``r`` set where step c reaches row ``r``'s
+#: value, bytes 1, 2 and 3 the same for d, e and a (b always reaches it: the value is at
+#: most the cell above's plus ``occ2``). The vector code makes each byte from one compare's
+#: lane mask (``vmovmskpd`` / ``kmovb``) instead of narrowing eight 64-bit masks to bytes,
+#: which on AVX2 took a third of the five-step cell's instructions. ``STEP_LANE << r`` are
+#: row ``r``'s four bits.
+STEP_LANE = 0x01010101
+
+
+@nb.njit(cache=True, inline="always")
+def _cell_step(steps, o, r):
+    """Return the step into lane ``r``'s cell of block word ``steps[o]``: c, d, e, a, else b."""
+    w = (steps[o] >> r) & STEP_LANE
+    if w & 1:
+        return STEP_C
+    if w & 0x100:
+        return STEP_D
+    if w & 0x10000:
+        return STEP_E
+    if w & 0x1000000:
+        return STEP_A
+    return STEP_B
+
+
+def _set_cell_steps(steps, o, r, c, d, e, a):
+    """Record which of the steps c, d, e, a reach lane ``r``'s cell of block word ``steps[o]``."""
+    word = (int(c) | int(d) << 8 | int(e) << 16 | int(a) << 24) << r
+    steps[o] = (steps[o] & np.uint32(0xFFFFFFFF ^ (STEP_LANE << r))) | np.uint32(word)
+
 
 def _cells5_chain(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2, slant2):
     """Five-step cells ``k_lo..k_hi`` of one column, in one descending loop.
@@ -758,9 +789,10 @@ def _cells5_chain(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, 
     ``cur``, ``prev`` and ``prev2``: the values of columns ``x``, ``x - 1`` and ``x - 2``.
     The steps from earlier columns (c, d, e, a: ``_earlier_steps5``, the same expressions
     in the same order), then the b step from the cell above: ``min`` with its value plus
-    ``occ2`` (the value of ``scanline_dp``'s branch). The cell's step bits go to
-    ``steps[o_steps + p]``. Compiled code runs ``_cells5_vector`` (the same operations, a
-    block of ``R`` cells at a time).
+    ``occ2`` (the value of ``scanline_dp``'s branch). Which steps reach the cell's value
+    goes to the word of its block, ``steps[o_steps + p // R]`` (see ``band_forward``).
+    Compiled code runs ``_cells5_vector`` (the same operations, a block of ``R`` cells at a
+    time).
     """
     nr = np.uint64(BAND_ROWS)
     top = np.uint64((k_hi + 2) * BAND_ROWS - 1)
@@ -775,13 +807,7 @@ def _cells5_chain(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, 
         cell = min(min(c, d), min(e, a))
         v = min(cell, cur[p + nr] + occ2)
         cur[p] = v
-        steps[o_steps + p] = (
-            (STEP_BIT_C if c == v else 0)
-            | (STEP_BIT_D if d == v else 0)
-            | (STEP_BIT_E if e == v else 0)
-            | (STEP_BIT_A if a == v else 0)
-            | STEP_BIT_B
-        )
+        _set_cell_steps(steps, o_steps + p // nr, int(p % nr), c == v, d == v, e == v, a == v)
 
 
 def _cells3_chain(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2):
@@ -794,9 +820,7 @@ def _cells3_chain(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2):
         a = prev[p - nr] + occ2
         v = min(min(c, a), cur[p + nr] + occ2)
         cur[p] = v
-        steps[o_steps + p] = (
-            (STEP_BIT_C if c == v else 0) | (STEP_BIT_A if a == v else 0) | STEP_BIT_B
-        )
+        _set_cell_steps(steps, o_steps + p // nr, int(p % nr), c == v, False, False, a == v)
 
 
 # The b step makes each column one chain down the disparities (a cell's value is the
@@ -807,6 +831,21 @@ def _cells3_chain(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2):
 # the neighbouring blocks (``prev`` at ``k + 1`` and ``k - 1``, the costs at ``k + 1``)
 # stay in registers from one block to the next: the block's new loads are ``prev`` and
 # ``prev2`` below it, its cost here and the left column's cost below it.
+
+
+def _wide_vectors():
+    """Whether numba compiles for AVX-512 (32 vector registers, ``R`` lanes in one)."""
+    features = config.CPU_FEATURES or llvm.get_host_cpu_features().flatten()
+    return "+avx512f" in features.split(",")
+
+
+#: Whether the cells' vector code carries the blocks it has loaded (the left and upper
+#: neighbours of the next block) in registers from one block to the next. With AVX-512's
+#: 32 registers it does. With AVX2's 16, where each value of ``R`` lanes takes two, the
+#: carried values were spilled to the stack and loaded back every block: loading them
+#: again from the arrays (in L1) made dsi5 10-16 % faster (A/B in one process, tsukuba,
+#: venus, teddy).
+_CARRY = _wide_vectors()
 
 
 def _cells_codegen(five):
@@ -825,16 +864,20 @@ def _cells_codegen(five):
             cur, prev, cost, steps_data = data(0, 1, 2, 4)
         steps_data = builder.gep(steps_data, [o_steps])
         width = ir.Constant(_I64, BAND_ROWS)
+        word_type = ir.IntType(32)
         occ2_vec = _broadcast(builder, occ2, _VEC_F64)
         two = _vector_of(2.0, _VEC_F64)
 
-        def bit(mask, value):
-            return builder.select(mask, _vector_of(value, _VEC_I8), _vector_of(0, _VEC_I8))
+        def lanes(mask, byte):
+            # the lanes' compare results as the bits of one byte of the block's word
+            bits = builder.zext(builder.bitcast(mask, ir.IntType(BAND_ROWS)), word_type)
+            return builder.shl(bits, ir.Constant(word_type, 8 * byte))
 
         top = builder.mul(builder.add(k_hi, ir.Constant(_I64, 1)), width)  # block k_hi + 1
         above = builder.add(top, width)
         count = builder.add(builder.sub(k_hi, k_lo), ir.Constant(_I64, 1))
-        # the values carried from the block above (each alloca becomes a register)
+        # the values carried from the block above (each alloca becomes a register; without
+        # _CARRY, a load at the start of each block)
         chain = cgutils.alloca_once_value(builder, _load_vector(builder, cur, above))
         prev_here = cgutils.alloca_once_value(builder, _load_vector(builder, prev, top))
         if five:
@@ -849,6 +892,13 @@ def _cells_codegen(five):
         with cgutils.for_range(builder, count) as loop:
             p = builder.sub(top, builder.mul(loop.index, width))
             below = builder.sub(p, width)
+            if not _CARRY:
+                up = builder.add(p, width)
+                builder.store(_load_vector(builder, prev, p), prev_here)
+                if five:
+                    builder.store(_load_vector(builder, prev, up), prev_up)
+                    builder.store(_load_vector(builder, cost, builder.add(o_here, up)), cost_up)
+                    builder.store(_load_vector(builder, cost, builder.add(o_left, p)), left_here)
             prev_below = _load_vector(builder, prev, below)
             here = _load_vector(builder, cost, builder.add(o_here, p))
             h2 = builder.fmul(two, here)
@@ -865,14 +915,14 @@ def _cells_codegen(five):
             v = _vector_min(builder, cell, builder.fadd(builder.load(chain), occ2_vec))
             _store_vector(builder, v, cur, p)
             steps = builder.or_(
-                bit(builder.fcmp_ordered("==", c, v), STEP_BIT_C),
-                bit(builder.fcmp_ordered("==", a, v), STEP_BIT_A),
+                lanes(builder.fcmp_ordered("==", c, v), 0),
+                lanes(builder.fcmp_ordered("==", a, v), 3),
             )
             if five:
-                steps = builder.or_(steps, bit(builder.fcmp_ordered("==", d, v), STEP_BIT_D))
-                steps = builder.or_(steps, bit(builder.fcmp_ordered("==", e, v), STEP_BIT_E))
-            steps = builder.or_(steps, _vector_of(STEP_BIT_B, _VEC_I8))
-            _store_vector(builder, steps, steps_data, p)
+                steps = builder.or_(steps, lanes(builder.fcmp_ordered("==", d, v), 1))
+                steps = builder.or_(steps, lanes(builder.fcmp_ordered("==", e, v), 2))
+            block = builder.udiv(p, width)
+            builder.store(steps, builder.gep(steps_data, [block]), align=4)
             builder.store(v, chain)
             if five:
                 builder.store(builder.load(prev_here), prev_up)
@@ -887,7 +937,7 @@ def _cells_codegen(five):
 def _cells_arguments_ok(arrays, offsets, floats):
     return (
         all(_contiguous(a, types.float64) for a in arrays[:-1])
-        and _contiguous(arrays[-1], types.uint8)
+        and _contiguous(arrays[-1], types.uint32)
         and _words(*offsets)
         and all(f == types.float64 for f in floats)
     )
@@ -964,8 +1014,10 @@ def band_forward(
     compiled functions, and the one with the array has no trace of the other.)
 
     Node ``(x, dmin + k)`` of band row ``r`` gets the value of ``scanline_dp``'s table
-    (with ``x_lo = j_lo = 0``, ``x_hi = j_hi = width - 1``) and its step bits go to
-    ``steps[x * nk + (k + 1) * R + r]`` (uint8, ``width * nk``). ``ring`` (float64,
+    (with ``x_lo = j_lo = 0``, ``x_hi = j_hi = width - 1``) and the steps that reach it to
+    bits ``r``, ``8 + r``, ``16 + r`` and ``24 + r`` (c, d, e, a) of the word
+    ``steps[x * (ndisp + 2) + k + 1]`` (uint32, ``width * (ndisp + 2)``; ``STEP_LANE``,
+    ``_cell_step``). ``ring`` (float64,
     ``(3, nk)``) holds the values of the last three columns (the cells of a column are
     made by ``_cells5_chain`` or ``_cells3_chain``, vector code). ``ends`` (float64,
     ``2 * ndisp * R``) gets the values of the free end's nodes: at ``k * R + r`` the node
@@ -1004,9 +1056,9 @@ def band_forward(
     for i in range(np.uint64(2 * ndisp * nr)):
         ends[i] = inf
     for x in range(width):
-        o_steps = np.uint64(x * nk)
+        o_steps = np.uint64(x * (ndisp + 2))
         if make_costs is None:
-            o_here = o_steps
+            o_here = np.uint64(x * nk)
             o_left = o_here - unk if x >= 1 else o_here
         else:
             o_here = np.uint64((x % 2) * nk)
@@ -1095,9 +1147,11 @@ def band_forward(
                     # ... and starts the next one: the column holds only the anchor (0)
                     # and the b steps below it (the values of clearing it and running the
                     # b-chain), which the backtrack of that segment takes
+                    others = np.uint32(0xFFFFFFFF ^ (STEP_LANE << r))
                     for k in range(k_lo, k_a + 1):
                         cur[(k + 1) * nr + r] = b_run[k_a - k]
-                        steps[o_steps + np.uint64((k + 1) * nr + r)] = STEP_BIT_B
+                        o = o_steps + np.uint64(k + 1)
+                        steps[o] = steps[o] & others
                     for k in range(k_a + 1, k_hi + 1):
                         cur[(k + 1) * nr + r] = inf
         # the free end's nodes: j == width - 1 before the last column, then the last column
@@ -1115,7 +1169,7 @@ def band_forward(
 @nb.njit(cache=True)
 def _trace_segment(
     steps,
-    nk,
+    nwords,
     r,
     dmin,
     x_lo,
@@ -1131,10 +1185,10 @@ def _trace_segment(
 
     The segment starts at the anchor ``(x_lo, j_lo)`` (``anchor_start``) or at the free
     start (then ``x_lo = j_lo = 0``); ``end_step`` is the step into the end node (from
-    ``anchor_steps`` for an anchored end), the others come from ``steps``. The writes are
+    ``anchor_steps`` for an anchored end), the others come from ``steps`` (``nwords`` words a
+    column, see ``band_forward``). The writes are
     those of ``apply_path``, in its order.
     """
-    nr = BAND_ROWS
     x = end_x
     k = end_k
     s = end_step
@@ -1169,7 +1223,7 @@ def _trace_segment(
             k -= 1
         if not anchor_start and (x == -1 or x - dmin - k == -1):
             break
-        s = STEP_OF_BITS[steps[x * nk + (k + 1) * nr + r]]
+        s = _cell_step(steps, x * nwords + k + 1, r)
 
 
 @nb.njit(cache=True)
@@ -1197,7 +1251,7 @@ def band_backtrack_row(
     NaN/border.
     """
     nr = BAND_ROWS
-    nk = (ndisp + 2) * nr
+    nwords = ndisp + 2
     inf = np.inf
     total = 0.0
     x_lo = 0
@@ -1212,7 +1266,7 @@ def band_backtrack_row(
             if value < inf:
                 _trace_segment(
                     steps,
-                    nk,
+                    nwords,
                     r,
                     dmin,
                     x_lo,
@@ -1255,7 +1309,7 @@ def band_backtrack_row(
     if value < inf:
         _trace_segment(
             steps,
-            nk,
+            nwords,
             r,
             dmin,
             x_lo,
@@ -1263,7 +1317,7 @@ def band_backtrack_row(
             anchor_start,
             end_x,
             end_k,
-            STEP_OF_BITS[steps[end_x * nk + (end_k + 1) * nr + r]],
+            _cell_step(steps, end_x * nwords + end_k + 1, r),
             disp_row,
             flag_row,
         )
@@ -2138,7 +2192,7 @@ def match_band_rows(
         made = pin_mode != 1 and pin_mode != 2  # no band cost array
         # free mode and mode 3 make each column's costs inside the passes: two columns
         cost = _placed((2 if made else width) * nk, np.float64, 6)
-        step_bits = _placed(width * nk, np.uint8, 7)
+        step_bits = _placed(width * (ndisp + 2), np.uint32, 7)
         ring = _placed(3 * nk, np.float64, 9).reshape((3, nk))
         ends = _placed(2 * ndisp * nr, np.float64, 10)
         pins = _placed(width * nr, np.int64, 11)
