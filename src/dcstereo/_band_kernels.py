@@ -126,7 +126,6 @@ def _placed(n, dtype, slot):
 
 _VEC_F64 = ir.VectorType(ir.DoubleType(), BAND_ROWS)
 _VEC_I64 = ir.VectorType(ir.IntType(64), BAND_ROWS)
-_VEC_I8 = ir.VectorType(ir.IntType(8), BAND_ROWS)
 _VEC_I32 = ir.VectorType(ir.IntType(32), BAND_ROWS)
 _I64 = ir.IntType(64)
 _FLOOR = f"llvm.floor.v{BAND_ROWS}f64"
