@@ -373,6 +373,25 @@ def cpu_model():
     return platform.processor() or platform.machine()
 
 
+def vector_target():
+    """What numba compiles for: the CPU name LLVM gives the host and its widest vector unit.
+
+    The band kernels hold ``BAND_ROWS`` = 8 float64 lanes per value: one register with
+    AVX-512, two with AVX2, so the same code runs at quite different speeds on the two.
+    """
+    from llvmlite import binding as llvm
+    from numba.core import config
+
+    name = config.CPU_NAME or llvm.get_host_cpu_name()
+    features = (config.CPU_FEATURES or llvm.get_host_cpu_features().flatten()).split(",")
+    unit = next(
+        (label for flag, label in (("+avx512f", "AVX-512"), ("+avx2", "AVX2"), ("+avx", "AVX"))
+         if flag in features),
+        "SSE",
+    )  # fmt: skip
+    return f"{name}, {unit}"
+
+
 def machine_info(cv2):
     """Where and with what the benchmark ran."""
     import numba
@@ -384,6 +403,7 @@ def machine_info(cv2):
         "date": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
         "platform": platform.platform(),
         "cpu": cpu_model(),
+        "vector_target": vector_target(),
         "cpu_count": os.cpu_count(),
         "cpus_usable": usable,
         "python": platform.python_version(),
@@ -547,7 +567,8 @@ def machine_line(machine):
         else "OpenCV not installed"
     )
     return (
-        f"{machine['date']}; {machine['platform']}; CPU: {machine['cpu']}, "
+        f"{machine['date']}; {machine['platform']}; CPU: {machine['cpu']} "
+        f"({machine.get('vector_target', 'target not recorded')}), "
         f"{machine['cpu_count']} CPUs ({machine['cpus_usable']} usable); Python "
         f"{machine['python']}, numpy {machine['numpy']}, numba {machine['numba']} "
         f"(up to {machine['numba_threads_max']} threads), {opencv}; dcstereo "

@@ -83,6 +83,10 @@ def test_dcstereo_methods_table(bench, tmp_path):
     assert payload["speedup"] == []  # one thread count only
     assert "| synthetic | 60x40 | 8 | block | 1 |" in markdown
     assert "## First call: compile and cache" in markdown
+    # the machine line says what numba compiled for (CPU name, widest vector unit)
+    name, unit = payload["machine"]["vector_target"].split(", ")
+    assert name and unit in ("AVX-512", "AVX2", "AVX", "SSE")
+    assert f"({name}, {unit})" in markdown
 
 
 def test_opencv_rows_and_ratios(bench, tmp_path):
