@@ -714,16 +714,16 @@ def band_lane_variance(sig_t, width, radius, steps, incremental, colsum, colsq, 
 # ``cost[x * nk + (k + 1) * R + r]``; the column functions get the offsets of their columns
 # (unsigned, see above) and loop over ``p = (k + 1) * R + r``, so that a step to ``k + 1``
 # is ``p + R``. The forward pass keeps the DP values of only three columns (``x``, ``x - 1``
-# and ``x - 2``: all a step reads), and records for every cell, in ``steps`` (the layout of
-# ``cost``, one byte a cell), which steps reach its value: bits ``STEP_BIT_*``, the
-# least-cost steps in the order of preference of ``_kernels.scanline_dp``'s backtrack (c,
-# d, e, a, then b). The backtrack reads the step of each cell from them (``STEP_OF_BITS``)
-# instead of recomputing the five candidates from the costs and the table: the same
-# comparisons of the same values, made once in vector loops.
+# and ``x - 2``: all a step reads), and records for every cell, in ``steps`` (one 32-bit
+# word per block of ``R`` cells, see ``STEP_LANE``), which steps reach its value. The
+# backtrack takes the first of them in the order of preference of
+# ``_kernels.scanline_dp``'s backtrack (c, d, e, a, then b: ``_cell_step``) instead of
+# recomputing the five candidates from the costs and the table: the same comparisons of
+# the same values, made once in vector loops.
 
-#: Bits of ``steps`` (bit 4 down to bit 0): the cell's value is reached by that step. Bit 0
-#: is always set: it stands for b, taken when none of the others reaches the value (the
-#: value is the least of the five, so then b does).
+#: Bits of an anchor's steps (``anchor_steps``; bit 4 down to bit 0): the anchor's value
+#: is reached by that step. The match steps only (c, d, e): no bit set means none reaches
+#: it (``STEP_NONE``).
 STEP_BIT_C = 16
 STEP_BIT_D = 8
 STEP_BIT_E = 4
