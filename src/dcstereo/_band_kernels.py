@@ -842,8 +842,8 @@ def _wide_vectors():
 #: neighbours of the next block) in registers from one block to the next. With AVX-512's
 #: 32 registers it does. With AVX2's 16, where each value of ``R`` lanes takes two, the
 #: carried values were spilled to the stack and loaded back every block: loading them
-#: again from the arrays (in L1) made dsi5 10-16 % faster (A/B in one process, tsukuba,
-#: venus, teddy).
+#: again from the arrays (in L1) made dsi5 4-7 % faster (A/B in one process, tsukuba,
+#: venus, teddy). Tests exercise the branch of the host they run on.
 _CARRY = _wide_vectors()
 
 
@@ -1016,8 +1016,8 @@ def band_forward(
     (with ``x_lo = j_lo = 0``, ``x_hi = j_hi = width - 1``) and the steps that reach it to
     bits ``r``, ``8 + r``, ``16 + r`` and ``24 + r`` (c, d, e, a) of the word
     ``steps[x * (ndisp + 2) + k + 1]`` (uint32, ``width * (ndisp + 2)``; ``STEP_LANE``,
-    ``_cell_step``). ``ring`` (float64,
-    ``(3, nk)``) holds the values of the last three columns (the cells of a column are
+    ``_cell_step``). ``ring`` (float64, ``(3, nk)``) holds the values of the last three
+    columns (the cells of a column are
     made by ``_cells5_chain`` or ``_cells3_chain``, vector code). ``ends`` (float64,
     ``2 * ndisp * R``) gets the values of the free end's nodes: at ``k * R + r`` the node
     with ``j = width - 1`` and ``x < width - 1`` of disparity index ``k`` (inf where there
@@ -1184,9 +1184,9 @@ def _trace_segment(
 
     The segment starts at the anchor ``(x_lo, j_lo)`` (``anchor_start``) or at the free
     start (then ``x_lo = j_lo = 0``); ``end_step`` is the step into the end node (from
-    ``anchor_steps`` for an anchored end), the others come from ``steps`` (``nwords`` words a
-    column, see ``band_forward``). The writes are
-    those of ``apply_path``, in its order.
+    ``anchor_steps`` for an anchored end), the others come from ``steps`` (``nwords``
+    words a column, see ``band_forward``). The writes are those of ``apply_path``, in its
+    order.
     """
     x = end_x
     k = end_k
@@ -1652,7 +1652,8 @@ def _window_ssd(left_p, right_p, y, x, j, radius):
     """Window sum of squared signal differences of the pair ``x <-> j`` of padded row ``y``.
 
     Both windows inside the image (every feature candidate): exact integers, the value of
-    ``_kernels.window_ssd``. Compiled code runs ``_window_ssd_vector`` (the same sum).
+    ``_kernels.window_ssd``. Compiled code runs ``_window_ssd_vector`` (the same sum for
+    int32 signals below 2**30 in magnitude).
     """
     win = 2 * radius + 1
     si = 0
