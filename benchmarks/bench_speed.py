@@ -379,11 +379,9 @@ def vector_target():
     The band kernels hold ``BAND_ROWS`` = 8 float64 lanes per value: one register with
     AVX-512, two with AVX2, so the same code runs at quite different speeds on the two.
     """
-    from llvmlite import binding as llvm
-    from numba.core import config
+    from dcstereo._band_kernels import compile_target
 
-    name = config.CPU_NAME or llvm.get_host_cpu_name()
-    features = (config.CPU_FEATURES or llvm.get_host_cpu_features().flatten()).split(",")
+    name, features = compile_target()
     unit = next(
         (label for flag, label in (("+avx512f", "AVX-512"), ("+avx2", "AVX2"), ("+avx", "AVX"))
          if flag in features),

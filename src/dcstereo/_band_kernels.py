@@ -832,10 +832,19 @@ def _cells3_chain(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2):
 # ``prev2`` below it, its cost here and the left column's cost below it.
 
 
+def compile_target():
+    """Return what numba compiles for: ``(cpu name, features)``, features as ``"+avx2"`` etc.
+
+    The host's, unless ``NUMBA_CPU_NAME`` / ``NUMBA_CPU_FEATURES`` set them.
+    """
+    name = config.CPU_NAME or llvm.get_host_cpu_name()
+    features = config.CPU_FEATURES or llvm.get_host_cpu_features().flatten()
+    return name, features.split(",")
+
+
 def _wide_vectors():
     """Whether numba compiles for AVX-512 (32 vector registers, ``R`` lanes in one)."""
-    features = config.CPU_FEATURES or llvm.get_host_cpu_features().flatten()
-    return "+avx512f" in features.split(",")
+    return "+avx512f" in compile_target()[1]
 
 
 #: Whether the cells' vector code carries the blocks it has loaded (the left and upper
