@@ -721,43 +721,21 @@ def band_lane_variance(sig_t, width, radius, steps, incremental, colsum, colsq, 
 # recomputing the five candidates from the costs and the table: the same comparisons of
 # the same values, made once in vector loops.
 
-#: Bits of an anchor's steps (``anchor_steps``; bit 4 down to bit 0): the anchor's value
-#: is reached by that step. The match steps only (c, d, e): no bit set means none reaches
-#: it (``STEP_NONE``).
-STEP_BIT_C = 16
-STEP_BIT_D = 8
-STEP_BIT_E = 4
-STEP_BIT_A = 2
-STEP_BIT_B = 1
-
-
-def _step_of_bits():
-    table = np.full(32, STEP_NONE, dtype=np.int64)
-    for bits in range(32):
-        for bit, step in (
-            (STEP_BIT_C, STEP_C),
-            (STEP_BIT_D, STEP_D),
-            (STEP_BIT_E, STEP_E),
-            (STEP_BIT_A, STEP_A),
-            (STEP_BIT_B, STEP_B),
-        ):
-            if bits & bit:
-                table[bits] = step
-                break
-    return table
-
-
-#: The step of a cell from its ``steps`` bits: the first one set, in the order of preference
-#: (``STEP_NONE`` for 0: an anchor no match step reaches, as ``_kernels.scanline_dp``).
-STEP_OF_BITS = _step_of_bits()
+#: Bytes of a block's step word (see ``STEP_LANE``): the one whose bit ``r`` says that step
+#: c (d, e, a) reaches row ``r``'s cell. The vector code, its twins and ``_cell_step`` all
+#: take the layout from these.
+STEP_BYTE_C = 0
+STEP_BYTE_D = 1
+STEP_BYTE_E = 2
+STEP_BYTE_A = 3
 
 #: The forward pass records the steps of a block of ``R`` cells (one disparity, the band's
-#: rows) in one 32-bit word: byte 0 has bit ``r`` set where step c reaches row ``r``'s
-#: value, bytes 1, 2 and 3 the same for d, e and a (b always reaches it: the value is at
-#: most the cell above's plus ``occ2``). The vector code makes each byte from one compare's
-#: lane mask (``vmovmskpd`` / ``kmovb``) instead of narrowing eight 64-bit masks to bytes,
-#: which on AVX2 took a third of the five-step cell's instructions. ``STEP_LANE << r`` are
-#: row ``r``'s four bits.
+#: rows) in one 32-bit word: byte ``STEP_BYTE_C`` has bit ``r`` set where step c reaches
+#: row ``r``'s value, the other bytes the same for d, e and a (b always reaches it: the
+#: value is at most the cell above's plus ``occ2``). The vector code makes each byte from
+#: one compare's lane mask (``vmovmskpd`` / ``kmovb``) instead of narrowing eight 64-bit
+#: masks to bytes, which on AVX2 took a third of the five-step cell's instructions.
+#: ``STEP_LANE << r`` are row ``r``'s four bits.
 STEP_LANE = 0x01010101
 
 
@@ -765,20 +743,22 @@ STEP_LANE = 0x01010101
 def _cell_step(steps, o, r):
     """Return the step into lane ``r``'s cell of block word ``steps[o]``: c, d, e, a, else b."""
     w = (steps[o] >> r) & STEP_LANE
-    if w & 1:
+    if w & (1 << 8 * STEP_BYTE_C):
         return STEP_C
-    if w & 0x100:
+    if w & (1 << 8 * STEP_BYTE_D):
         return STEP_D
-    if w & 0x10000:
+    if w & (1 << 8 * STEP_BYTE_E):
         return STEP_E
-    if w & 0x1000000:
+    if w & (1 << 8 * STEP_BYTE_A):
         return STEP_A
     return STEP_B
 
 
 def _set_cell_steps(steps, o, r, c, d, e, a):
     """Record which of the steps c, d, e, a reach lane ``r``'s cell of block word ``steps[o]``."""
-    word = (int(c) | int(d) << 8 | int(e) << 16 | int(a) << 24) << r
+    word = 0
+    for reached, byte in ((c, STEP_BYTE_C), (d, STEP_BYTE_D), (e, STEP_BYTE_E), (a, STEP_BYTE_A)):
+        word |= int(reached) << (8 * byte + r)
     steps[o] = (steps[o] & np.uint32(0xFFFFFFFF ^ (STEP_LANE << r))) | np.uint32(word)
 
 
@@ -923,12 +903,12 @@ def _cells_codegen(five):
             v = _vector_min(builder, cell, builder.fadd(builder.load(chain), occ2_vec))
             _store_vector(builder, v, cur, p)
             steps = builder.or_(
-                lanes(builder.fcmp_ordered("==", c, v), 0),
-                lanes(builder.fcmp_ordered("==", a, v), 3),
+                lanes(builder.fcmp_ordered("==", c, v), STEP_BYTE_C),
+                lanes(builder.fcmp_ordered("==", a, v), STEP_BYTE_A),
             )
             if five:
-                steps = builder.or_(steps, lanes(builder.fcmp_ordered("==", d, v), 1))
-                steps = builder.or_(steps, lanes(builder.fcmp_ordered("==", e, v), 2))
+                steps = builder.or_(steps, lanes(builder.fcmp_ordered("==", d, v), STEP_BYTE_D))
+                steps = builder.or_(steps, lanes(builder.fcmp_ordered("==", e, v), STEP_BYTE_E))
             block = builder.udiv(p, width)
             builder.store(steps, builder.gep(steps_data, [block]), align=4)
             builder.store(v, chain)
@@ -1036,11 +1016,11 @@ def band_forward(
     pinned to at ``x`` (-1: none; increasing in ``x`` along a row, every pair inside the
     disparity range), ``pinned[x]`` whether any row of the band is pinned at ``x``; the
     match-step value of each anchor cell (the total of the segment it ends) goes to
-    ``anchor_total[x * R + r]`` and the bits of the match steps that reach it to
-    ``anchor_steps[x * R + r]``. The column of an anchor then holds only the anchor (0) and
-    the b steps below it; the e step over an anchor, from column ``x - 2`` to ``x``, reads
-    inf (the values of column ``x - 2`` are not needed after column ``x``, so the pinned
-    rows' cells are set to inf in place).
+    ``anchor_total[x * R + r]`` and the step into it (the first of c, d, e that reaches
+    its value; ``STEP_NONE`` if none does) to ``anchor_steps[x * R + r]``. The column of
+    an anchor then holds only the anchor (0) and the b steps below it; the e step over an
+    anchor, from column ``x - 2`` to ``x``, reads inf (the values of column ``x - 2`` are
+    not needed after column ``x``, so the pinned rows' cells are set to inf in place).
     """
     nr = BAND_ROWS
     nk = (ndisp + 2) * nr
@@ -1143,15 +1123,17 @@ def band_forward(
                     h2 = 2.0 * cost[o_here + p]
                     c = prev[p] + h2
                     best = c
-                    bits = 0
+                    d = e = inf
                     if slant_ok:
                         u = h2 + cost[o_left + p] + slant2
                         d = prev[p + nr] + cost[o_here + p + nr] + u
                         e = prev2[p - nr] + cost[o_left + p - nr] + u
                         best = min(min(best, d), e)
-                        bits = (STEP_BIT_D if d == best else 0) | (STEP_BIT_E if e == best else 0)
                     anchor_total[x * nr + r] = best
-                    anchor_steps[x * nr + r] = bits | (STEP_BIT_C if c == best else 0)
+                    # the first match step that reaches it, in the order of preference
+                    step = STEP_E if e == best else STEP_NONE
+                    step = STEP_D if d == best else step
+                    anchor_steps[x * nr + r] = STEP_C if c == best else step
                     # ... and starts the next one: the column holds only the anchor (0)
                     # and the b steps below it (the values of clearing it and running the
                     # b-chain), which the backtrack of that segment takes
@@ -1282,7 +1264,7 @@ def band_backtrack_row(
                     anchor_start,
                     x,
                     x - j - dmin,
-                    STEP_OF_BITS[anchor_steps[x * nr + r]],
+                    anchor_steps[x * nr + r],
                     disp_row,
                     flag_row,
                 )
