@@ -1447,11 +1447,13 @@ def _keyed_column_vector(typingctx, cost, o, nblocks, scale, numbers, wta_k, wta
         rest = builder.urem(nblocks_v, chains)
         least = [cgutils.alloca_once_value(builder, inf) for _ in range(_KEY_CHAINS)]
 
+        def block_number(j):
+            return _broadcast(builder, builder.load(builder.gep(number, [j])), _VEC_F64)
+
         def key(j):
             # cost * scale + j: exact (below 2**53), so the fused multiply-add rounds nothing
             values = _load_vector(builder, data, builder.add(o_v, builder.mul(j, width)))
-            j_vec = _broadcast(builder, builder.load(builder.gep(number, [j])), _VEC_F64)
-            return _vector_call(builder, _FMA, values, scale_vec, j_vec)
+            return _vector_call(builder, _FMA, values, scale_vec, block_number(j))
 
         def fold(slot, value, keep=None):
             # keep: the lanes that take the value (a masked minimum, no blend)
@@ -1477,17 +1479,17 @@ def _keyed_column_vector(typingctx, cost, o, nblocks, scale, numbers, wta_k, wta
         valid = builder.fcmp_ordered("<", least_key, inf)
         best = _vector_call(builder, _FLOOR, builder.fmul(least_key, unscale))
         block = builder.fsub(least_key, builder.fmul(best, scale_vec))  # b = k + 1
-        block_int = builder.fptosi(builder.select(valid, block, one), _VEC_I64)
-        # the second key: the blocks with |j - b| >= 2, i.e. j - b + 1 > 2 as unsigned
+        block = builder.select(valid, block, one)
+        # the second key: the blocks with |j - b| >= 2, compared as float64 (exact small
+        # integers; 64-bit integer lanes would take an unsigned compare, which AVX2 lacks)
         for slot in least:
             builder.store(inf, slot)
-        base = builder.sub(_vector_of(1, _VEC_I64), block_int)
-        two = _vector_of(2, _VEC_I64)
-        step = _vector_of(1, _VEC_I64)
+        two = _vector_of(2.0, _VEC_F64)
+        fabs = f"llvm.fabs.v{BAND_ROWS}f64"
 
         def apart(j):
-            offset = builder.add(base, _broadcast(builder, j, _VEC_I64))
-            return builder.icmp_unsigned(">", offset, two)
+            distance = _vector_call(builder, fabs, builder.fsub(block_number(j), block))
+            return builder.fcmp_ordered(">=", distance, two)
 
         second_key = fold_all(apart)
         second = _vector_call(builder, _FLOOR, builder.fmul(second_key, unscale))
@@ -1496,7 +1498,13 @@ def _keyed_column_vector(typingctx, cost, o, nblocks, scale, numbers, wta_k, wta
             builder.fdiv(second, best),
             builder.select(builder.fcmp_ordered(">", second, zero), inf, one),
         )
-        match = builder.select(valid, builder.sub(block_int, step), _vector_of(-1, _VEC_I64))
+        # k = b - 1 as an integer: b + 2**52 holds b in its low mantissa bits (exact for
+        # 0 <= b < 2**52), one addition and one integer subtraction a vector (AVX2 has no
+        # vector conversion of float64 to 64-bit integers: fptosi was eight scalar ones)
+        magic = _vector_of(float(2**52), _VEC_F64)
+        block_bits = builder.bitcast(builder.fadd(block, magic), _VEC_I64)
+        match = builder.sub(block_bits, _vector_of((0x433 << 52) + 1, _VEC_I64))
+        match = builder.select(valid, match, _vector_of(-1, _VEC_I64))
         ratio = builder.select(valid, ratio, zero)
         _store_vector(builder, match, _array_data(context, builder, sig, args, 5), i0_v)
         _store_vector(builder, ratio, _array_data(context, builder, sig, args, 6), i0_v)
