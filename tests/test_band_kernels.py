@@ -720,6 +720,15 @@ def test_keyed_column_vector_code_equals_its_twin_and_the_naive_one(seed):
             assert (wta_ratio[:nr] == -5.0).all() and (wta_ratio[2 * nr :] == -5.0).all()
 
 
+def test_floor_log2_compiled_equals_its_twin():
+    # the sparse table's level of an interval of n candidates: lzcnt against bit_length
+    compiled = _compiled(_band_kernels._floor_log2)
+    values = [1, 2, 3, 4, 5, 7, 8, 9, 1023, 1024, 1025, 2**40 - 1, 2**40, 2**62, 2**63 - 1]
+    for n in values + [int(n) for n in np.random.default_rng(5).integers(1, 2**31, 50)]:
+        expected = int(np.floor(np.log2(float(n)))) if n < 2**50 else n.bit_length() - 1
+        assert _band_kernels._floor_log2(n) == expected == compiled(np.int64(n)), n
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_window_ssd_vector_code_equals_its_twin_and_numpy(seed):
     # windows of one to 25 pixels a side (a row of more than R pixels takes several masked

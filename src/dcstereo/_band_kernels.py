@@ -39,6 +39,8 @@ Kernels that call each other live in this one file (numba's cache does not notic
 made in other files); nothing here is imported from ``_kernels.py``.
 """
 
+import time
+
 import numba as nb
 import numpy as np
 from llvmlite import binding as llvm
@@ -1638,12 +1640,41 @@ def _sparse_build(values, n, sparse):
         level += 1
 
 
+def _floor_log2(n):
+    """Return ``floor(log2(n))`` of an integer ``n >= 1``.
+
+    Compiled code runs ``_floor_log2_ctlz``: 63 less the leading zeros of the 64-bit
+    value (one ``lzcnt``), where a loop that doubles a power of two until it passes ``n``
+    ends on a branch that depends on ``n``, mispredicted from one interval to the next.
+    """
+    return int(n).bit_length() - 1
+
+
+@intrinsic
+def _floor_log2_ctlz(typingctx, n):
+    if not _words(n):
+        return None
+
+    def codegen(context, builder, sig, args):
+        flag = ir.IntType(1)
+        ctlz = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(_I64, [_I64, flag]), "llvm.ctlz.i64"
+        )
+        zeros = builder.call(ctlz, [args[0], ir.Constant(flag, 1)])  # n >= 1: never 64
+        return builder.sub(ir.Constant(_I64, 63), zeros)
+
+    return types.int64(n), codegen
+
+
+@overload(_floor_log2)
+def _floor_log2_compiled(n):
+    return lambda n: _floor_log2_ctlz(n)
+
+
 @nb.njit(cache=True, inline="always")
 def _sparse_best(values, sparse, lo, hi):
     """Return the best candidate of ``lo..hi`` (``lo <= hi``) from two table entries."""
-    level = 0
-    while (2 << level) <= hi - lo + 1:
-        level += 1
+    level = _floor_log2(hi - lo + 1)
     return _better(values, sparse[level, lo], sparse[level, hi - (1 << level) + 1])
 
 
@@ -2019,6 +2050,60 @@ def band_row_features(
 
 # --------------------------------------------------------------------------- drivers
 
+#: The stages of ``match_band_rows`` that its ``clock`` times, in that order (``costs``:
+#: the band's cost array, made before the search; in free mode the forward pass makes the
+#: costs, in mode 3 the block match and the forward pass do; ``block match``: with
+#: ``band_strong_counts``; ``search``: the feature pairs of the band's rows, or its pins
+#: read from ``partner``, and the pinned columns).
+CLOCK_STAGES = (
+    "signals", "costs", "variances", "block match", "mask", "search", "forward", "backtrack",
+)  # fmt: skip
+(
+    _CLOCK_SIGNALS, _CLOCK_COSTS, _CLOCK_VARIANCES, _CLOCK_BLOCK, _CLOCK_MASK, _CLOCK_SEARCH,
+    _CLOCK_FORWARD, _CLOCK_BACKTRACK,
+) = range(len(CLOCK_STAGES))  # fmt: skip
+
+
+@intrinsic
+def _cycle_counter(typingctx):
+    """Read the processor's cycle counter (``llvm.readcyclecounter``: the TSC on x86)."""
+
+    def codegen(context, builder, sig, args):
+        counter = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(_I64, []), "llvm.readcyclecounter"
+        )
+        return builder.call(counter, [])
+
+    return types.int64(), codegen
+
+
+def cycle_counter():
+    """Plain Python's stand-in for the cycle counter (``NUMBA_DISABLE_JIT``): nanoseconds."""
+    return time.perf_counter_ns()
+
+
+@overload(cycle_counter)
+def _cycle_counter_compiled():
+    return lambda: _cycle_counter()
+
+
+@nb.njit(cache=True, inline="always")
+def _clock_mark(clock):
+    """Return the counter now, or 0 without a clock (``clock`` None: nothing is compiled)."""
+    if clock is None:
+        return 0
+    return cycle_counter()
+
+
+@nb.njit(cache=True, inline="always")
+def _clock_add(clock, ch, stage, mark):
+    """Add the counts since ``mark`` to ``clock[ch, stage]``; return the counter now."""
+    if clock is None:
+        return 0
+    now = cycle_counter()
+    clock[ch, stage] += now - mark
+    return now
+
 
 @nb.njit(cache=True, inline="always")
 def _chunk_lanes(height, nchunks, ch):
@@ -2150,6 +2235,7 @@ def match_band_rows(
     total,
     ser_out,
     vs_out,
+    clock=None,
 ):
     """Run the whole-scanline DP of every row (SAD cost), ``BAND_ROWS`` rows at a time.
 
@@ -2179,6 +2265,10 @@ def match_band_rows(
     ``tests`` None (with ``pin_mode`` 0 only): the search and the band cost array are
     left out of the compiled function (numba prunes the ``tests is not None`` branches),
     so that ``dsi3`` and ``dsi5`` do not compile ``dc``'s code on their first call.
+
+    ``clock`` None: not timed. Otherwise int64, ``(nchunks, len(CLOCK_STAGES))``: each
+    chunk adds the cycle counts of its stages (``CLOCK_STAGES``) to its row (for
+    ``benchmarks/bench_stages.py``; None compiles to the function without the counter).
     """
     height, width = disp.shape
     height_p, width_p = left_p.shape
@@ -2225,13 +2315,16 @@ def match_band_rows(
         stack = _placed((nwork + 2) * 6, np.int64, 26).reshape((nwork + 2, 6))
         strong = _placed(nwork + 1, np.int64, 8)
         for t in range(run):
+            mark = _clock_mark(clock)
             nt = _lane_rows(t, y_a, run, n, radius, height_p, rows)
             band_lane_signals(left_p, right_p, rows, nt, left_t, right_t)
+            mark = _clock_add(clock, ch, _CLOCK_SIGNALS, mark)
             if tests is not None and not made:  # the search and pins read them before the DP
                 band_lane_costs(
                     left_t, right_t, width, dmin, ndisp, radius, spread, vs, int(t > 0), hsum,
                     cost,
                 )  # fmt: skip
+                mark = _clock_add(clock, ch, _CLOCK_COSTS, mark)
             if tests is not None and search:
                 band_lane_variance(
                     left_t, width, radius, steps, t > 0, colsum[0], colsq[0], hwork[0], hwork[1],
@@ -2241,6 +2334,7 @@ def match_band_rows(
                     right_t, width, radius, steps, t > 0, colsum[1], colsq[1], hwork[0], hwork[1],
                     var_band[1],
                 )  # fmt: skip
+                mark = _clock_add(clock, ch, _CLOCK_VARIANCES, mark)
                 # the block match only where the feature tests read it
                 band_strong_counts(var_band[0], width, tests[3], strong)
                 wanted = (strong, _guard_columns(tests[6]))
@@ -2254,7 +2348,9 @@ def match_band_rows(
                         cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio, None,
                         wanted,
                     )  # fmt: skip
+                mark = _clock_add(clock, ch, _CLOCK_BLOCK, mark)
                 band_feature_mask(var_band[0], wta_k, wta_ratio, width, dmin, radius, tests, keep)
+                mark = _clock_add(clock, ch, _CLOCK_MASK, mark)
                 for i in range(width * nr):
                     pins[i] = -1
                 for r in range(nr):
@@ -2298,6 +2394,7 @@ def match_band_rows(
                     for r in range(nr):
                         if pins[x * nr + r] >= 0:
                             pinned[x] = True
+                mark = _clock_add(clock, ch, _CLOCK_SEARCH, mark)
             # two call sites: the forward pass with the band's costs, and the one that
             # makes them (a None or a tuple argument: two compiled versions); after the
             # block match of mode 3 the band's vertical sums are ready
@@ -2313,6 +2410,7 @@ def match_band_rows(
                     (left_t, right_t, radius, spread, vs, SUMS_READY if search else int(t > 0),
                      hsum),
                 )  # fmt: skip
+            mark = _clock_add(clock, ch, _CLOCK_FORWARD, mark)
             for r in range(nr):
                 if r * run + t >= n:
                     continue
@@ -2334,6 +2432,7 @@ def match_band_rows(
                     disp[y],
                     flags[y],
                 )
+            _clock_add(clock, ch, _CLOCK_BACKTRACK, mark)
 
 
 @nb.njit(parallel=True, cache=True)

@@ -150,12 +150,13 @@ def _match_block(left, right, params: MatchParams) -> DisparityResult:
     return DisparityResult(disparity, flags, params, total / cost_scale(params.window))
 
 
-def _match_dsi(left, right, params: MatchParams) -> DisparityResult:
+def _match_dsi(left, right, params: MatchParams, clock=None) -> DisparityResult:
     """``dsi3`` / ``dsi5``: the whole-scanline DP of every row.
 
     The SAD cost runs ``_band_kernels.BAND_ROWS`` rows in lockstep (vectorized across
     rows; the same results, bit for bit, as the per-row kernel); the Birchfield-Tomasi
-    cost runs row by row (``_kernels.match_dsi_rows``).
+    cost runs row by row (``_kernels.match_dsi_rows``). ``clock``: the band kernel's stage
+    counters (``match_band_rows``; ``benchmarks/bench_stages.py``), the band path only.
     """
     radius = params.window // 2
     left_p, right_p = _padded_signals(left, right, radius)
@@ -199,6 +200,7 @@ def _match_dsi(left, right, params: MatchParams) -> DisparityResult:
             total,
             np.empty((0, 0), dtype=np.float32),
             np.empty((0, 0), dtype=np.float32),
+            clock,
         )
     return DisparityResult(disparity, flags, params, total / (2.0 * scale))
 
@@ -208,7 +210,7 @@ def _band_chunks(height: int) -> int:
     return max(1, min(bands, 4 * numba.get_num_threads()))
 
 
-def _match_dc(left, right, params: MatchParams) -> DisparityResult:
+def _match_dc(left, right, params: MatchParams, clock=None) -> DisparityResult:
     """``dc`` / ``dc-linear``: reliable feature pairs pin the path; the DP fills between.
 
     ``dc`` with the SAD cost, the uniqueness test on and no limit on the tries (the
@@ -220,7 +222,7 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
     interval between pairs separately.
     Both give the same pairs and maps; the band path's ``path_cost`` is that of the whole
     path through the pairs (the row-by-row one leaves
-    out intervals with no left pixel inside).
+    out intervals with no left pixel inside). ``clock``: as ``_match_dsi``'s.
     """
     radius = params.window // 2
     left_p, right_p = _padded_signals(left, right, radius)
@@ -260,6 +262,7 @@ def _match_dc(left, right, params: MatchParams) -> DisparityResult:
             total,
             ser,
             vs,
+            clock,
         )
         features = _features(partner, flags, ser, vs)
         return DisparityResult(disparity, flags, params, total / (2.0 * scale), features)
