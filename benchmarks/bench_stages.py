@@ -28,7 +28,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from bench_speed import parse_size, synthetic_pair
+from bench_speed import fail, markdown_table, parse_size, synthetic_pair, text_table, write_atomic
 
 METHODS = ("dsi5", "dc")
 
@@ -72,33 +72,35 @@ def stage_times(left, right, min_disparity, max_disparity, method, repeat):
     return best_call * 1e3, least
 
 
-def table(rows, scenes, stages, rate, markdown):
-    """The stage table: a row per (method, stage), a column per scene (ms)."""
-    head = ["method", "stage"] + list(scenes)
-    lines = []
+def table_rows(rows, names, rate):
+    """A row per (method, stage) that the method runs, a value per input (ms)."""
+    from dcstereo import _band_kernels
+
+    out = []
     for method in METHODS:
         if not any(key[1] == method for key in rows):
             continue
-        for index, stage in enumerate(stages):
-            values = [rows[(name, method)][1][index] / rate * 1e3 for name in scenes]
-            if max(values) == 0:
+        per_stage = {name: rows[(name, method)][1] / rate * 1e3 for name in names}
+        for index, stage in enumerate(_band_kernels.CLOCK_STAGES):
+            if max(per_stage[name][index] for name in names) == 0:
                 continue  # a stage this method does not run
-            lines.append([method, stage] + [f"{v:.2f}" for v in values])
-        sums = [rows[(name, method)][1].sum() / rate * 1e3 for name in scenes]
-        lines.append([method, "sum of stages"] + [f"{v:.2f}" for v in sums])
-        lines.append([method, "best call"] + [f"{rows[(n, method)][0]:.2f}" for n in scenes])
-    if markdown:
-        out = ["| " + " | ".join(head) + " |", "|---|---|" + "---:|" * len(scenes)]
-        out += ["| " + " | ".join(line) + " |" for line in lines]
-        return "\n".join(out)
-    widths = [max(len(str(r[i])) for r in [head] + lines) for i in range(len(head))]
+            out.append({"method": method, "stage": stage} | {
+                name: per_stage[name][index] for name in names
+            })  # fmt: skip
+        out.append({"method": method, "stage": "sum of stages"} | {
+            name: per_stage[name].sum() for name in names
+        })  # fmt: skip
+        out.append({"method": method, "stage": "best call"} | {
+            name: rows[(name, method)][0] for name in names
+        })  # fmt: skip
+    return out
 
-    def text_row(row):
-        cells = [str(c).rjust(w) if i > 1 else str(c).ljust(w) for i, (c, w) in
-                 enumerate(zip(row, widths, strict=True))]  # fmt: skip
-        return "  ".join(cells)
 
-    return "\n".join(text_row(row) for row in [head] + lines)
+def table_columns(names):
+    """``bench_speed.py``'s column specs: method, stage, then one per input."""
+    return (("method", "method", "s", 6), ("stage", "stage", "s", 13)) + tuple(
+        (name, name, ".2f", max(len(name), 7)) for name in names
+    )
 
 
 def parse_args(argv):
@@ -121,28 +123,23 @@ def main(argv=None):
     args = parse_args(argv)
     import numba
 
-    from dcstereo import _band_kernels
     from dcstereo.datasets import list_middlebury, load_middlebury
 
     methods = [m for m in args.methods.split(",") if m]
     unknown = [m for m in methods if m not in METHODS]
     if unknown:
-        print(f"error: unknown method(s) {', '.join(unknown)}; choose from dsi5, dc")
-        return 2
+        return fail(f"unknown method(s) {', '.join(unknown)}; choose from dsi5, dc")
     if args.repeat < 1:
-        print("error: --repeat must be at least 1")
-        return 2
+        return fail("--repeat must be at least 1")
     if not 1 <= args.threads <= numba.config.NUMBA_NUM_THREADS:
-        print(f"error: --threads must lie between 1 and {numba.config.NUMBA_NUM_THREADS}")
-        return 2
-    scenes = args.scenes.split(",") if args.scenes else list_middlebury()
-    missing = [name for name in scenes if name not in list_middlebury()]
+        return fail(f"--threads must lie between 1 and {numba.config.NUMBA_NUM_THREADS}")
+    present = list_middlebury()
+    scenes = args.scenes.split(",") if args.scenes else present
+    missing = [name for name in scenes if name not in present]
     if missing:
-        print(f"error: Middlebury scene(s) not found: {', '.join(missing)}")
-        return 2
+        return fail(f"Middlebury scene(s) not found: {', '.join(missing)}")
     if not scenes and not args.synthetic:
-        print("error: no Middlebury scenes found (see dcstereo.datasets.middlebury_dir)")
-        return 2
+        return fail("no Middlebury scenes found (see dcstereo.datasets.middlebury_dir)")
     numba.set_num_threads(args.threads)
     rate = counter_rate()
     pairs = {}
@@ -157,14 +154,11 @@ def main(argv=None):
     for name, pair in pairs.items():
         for method in methods:
             rows[(name, method)] = stage_times(*pair, method, args.repeat)
+    lines, columns = table_rows(rows, list(pairs), rate), table_columns(list(pairs))
     print(f"counter: {rate / 1e9:.3f} GHz; threads: {args.threads}; best of {args.repeat}; ms")
-    print(table(rows, list(pairs), _band_kernels.CLOCK_STAGES, rate, markdown=False))
+    print(text_table(lines, columns))
     if args.markdown:
-        from dcstereo.io import atomic_write
-
-        text = table(rows, list(pairs), _band_kernels.CLOCK_STAGES, rate, markdown=True)
-        with atomic_write(args.markdown) as tmp:
-            tmp.write_text(text + "\n", encoding="utf-8")
+        write_atomic(args.markdown, markdown_table(lines, columns) + "\n")
     return 0
 
 

@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import synthetic
 from dcstereo import _band_kernels, api
 from dcstereo.params import MatchParams
 
@@ -13,15 +14,9 @@ SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_stages.py"
 STAGES = _band_kernels.CLOCK_STAGES
 
 
-def textured_pair(height=40, width=90, shift=4, seed=3):
-    rng = np.random.default_rng(seed)
-    right = rng.integers(0, 256, (height, width + shift), dtype=np.uint8)
-    return right[:, :width], right[:, shift:]
-
-
 @pytest.mark.parametrize("method", ["dsi5", "dc"])
 def test_the_clock_times_the_stages_it_runs_and_changes_no_result(method):
-    left, right = textured_pair()
+    left, right = synthetic.constant_pair(np.random.default_rng(3), 40, 90, 4)
     params = MatchParams(max_disparity=9, method=method)
     run = api._match_dc if method == "dc" else api._match_dsi
     plain = run(left, right, params)
