@@ -51,3 +51,10 @@ def test_same_picture_in_every_dtype_gives_one_signal():
     want = padded_signal(image, 2)
     np.testing.assert_array_equal(padded_signal(image.astype(np.uint16) * 257, 2), want)
     np.testing.assert_array_equal(padded_signal(image / 255.0, 2), want)
+
+
+def test_every_uint8_colour_equals_numpy():
+    # the uint8 colour path reads its channel products from tables: every (R, G, B) triple
+    codes = np.arange(2**24, dtype=np.uint32).reshape(4096, 4096)
+    image = np.stack([codes >> 16, (codes >> 8) & 255, codes & 255], axis=-1).astype(np.uint8)
+    np.testing.assert_array_equal(padded_signal(image, 0), matching_signal(image))

@@ -5,6 +5,11 @@ temporaries and runs on one core: on a Middlebury colour pair it took 2 ms, an e
 the whole ``dsi5`` match, and all of it serial. Here every padded row is computed straight
 from its source row, rows in parallel, with the same float64 expressions in the same order,
 so the values are those of the numpy path, bit for bit.
+
+A ``uint8`` colour row reads its three weighted channels from tables of the 256 products
+``v * LUMA[i]`` (the float64 products the expression makes, so the same sums): the
+interleaved three-byte pixels leave the arithmetic loop scalar, and the tables halve its
+time (a 434 x 383 colour image: 0.32 -> 0.16 ms).
 """
 
 import numba as nb
@@ -42,6 +47,23 @@ def _row(image, y, mul, div, colour, steps, out, yp, radius):
         out[yp, radius + width + x] = out[yp, radius + width - 1]
 
 
+@nb.njit(cache=True, inline="always")
+def _row_tables(image, y, tables, steps, out, yp, radius):
+    """``_row`` of a ``uint8`` colour image, the channel products read from ``tables``.
+
+    (Compiled for every dtype, ``padded_signal``'s branches being chosen at run time; the
+    ``np.intp`` casts type it, and only ``uint8`` images run it.)
+    """
+    width = image.shape[1]
+    for x in range(width):
+        v0, v1, v2 = np.intp(image[y, x, 0]), np.intp(image[y, x, 1]), np.intp(image[y, x, 2])
+        lum = (tables[0, v0] + tables[1, v1]) + tables[2, v2]
+        out[yp, radius + x] = np.int32(np.rint(lum * steps))
+    for x in range(radius):
+        out[yp, x] = out[yp, radius]
+        out[yp, radius + width + x] = out[yp, radius + width - 1]
+
+
 @nb.njit(cache=True, parallel=True)
 def padded_signal(image, mode, steps, radius, out):
     """Write the matching signal of ``image`` (H, W, C), edge-padded by ``radius``, to ``out``.
@@ -52,11 +74,15 @@ def padded_signal(image, mode, steps, radius, out):
     """
     height = image.shape[0]
     colour = image.shape[2] >= 3
+    tables = np.empty((3, 256), dtype=np.float64)
+    for v in range(256):
+        for i in range(3):
+            tables[i, v] = np.float64(v) * LUMA[i]
     for yp in nb.prange(height + 2 * radius):
         y = min(max(yp - radius, 0), height - 1)
         if colour:
             if mode == MODE_UINT8:
-                _row(image, y, 1.0, 1.0, True, steps, out, yp, radius)
+                _row_tables(image, y, tables, steps, out, yp, radius)
             elif mode == MODE_UINT16:
                 _row(image, y, 1.0, 257.0, True, steps, out, yp, radius)
             else:
