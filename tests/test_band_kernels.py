@@ -58,7 +58,7 @@ def banded(left, right, dmin, ndisp, radius, occ2, five, slant2, partner=None, n
     _band_kernels.match_band_rows(
         padded(left, radius), padded(right, radius), dmin, ndisp, radius, occ2, five, slant2,
         int(anchored), partner, PIN_TESTS if anchored else None, nchunks, disp, flags, total,
-        np.empty((0, 0), dtype=np.float32), np.empty((0, 0), dtype=np.float32),
+        np.empty((0, 0, 4), dtype=np.float32), np.empty(0, dtype=np.int64),
     )  # fmt: skip
     return disp, flags, total
 

@@ -202,3 +202,30 @@ def test_collect_features_equals_numpy_nonzero(with_scores):
     else:
         assert np.isnan(got[:, 3:]).all()
     np.testing.assert_array_equal(flags, want_flags)
+
+
+def test_collect_pairs_equals_collect_features():
+    # the same pairs, stored per row (the band kernel's dc output) and per pixel
+    rng = np.random.default_rng(12)
+    height, width = 9, 23
+    partner = np.full((height, width), -1, dtype=np.int64)
+    ser = np.full((height, width), np.nan, dtype=np.float32)
+    vs = np.full((height, width), np.nan, dtype=np.float32)
+    pairs = np.full((height, width, 4), np.nan, dtype=np.float32)  # the rest is scratch
+    counts = np.zeros(height, dtype=np.int64)
+    for y in range(height):
+        if y == 3:
+            continue  # a row without pairs
+        xs = np.sort(rng.choice(width, size=rng.integers(1, width), replace=False))
+        for i, x in enumerate(xs):
+            j, s, v = rng.integers(0, width), rng.random() * 50, rng.random()
+            partner[y, x], ser[y, x], vs[y, x] = j, s, v
+            pairs[y, i] = (x, j, ser[y, x], vs[y, x])
+        counts[y] = xs.size
+    flags = rng.integers(0, 4, (height, width)).astype(np.uint8)
+    want_flags = flags.copy()
+    want = _kernels.collect_features(partner, ser, vs, FLAG_FEATURE, want_flags)
+    got = _kernels.collect_pairs(pairs, counts, FLAG_FEATURE, flags)
+    assert got.dtype == want.dtype and got.shape == want.shape
+    np.testing.assert_array_equal(got, want)
+    np.testing.assert_array_equal(flags, want_flags)

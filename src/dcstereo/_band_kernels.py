@@ -1899,9 +1899,7 @@ def band_row_features(
     fwork,
     stack,
     pins,
-    partner_row,
-    ser_row,
-    vs_row,
+    pairs_row,
 ):
     """Find the reliable feature pairs of band row ``r`` (image row ``y``), as ``divide_row``.
 
@@ -1915,8 +1913,9 @@ def band_row_features(
     are tested here, on the survivors. The search takes the strongest candidate of each
     interval that lies in its ordering range and passes the left-right test, and splits
     the interval at it. Pair ``x <-> j`` is written to ``pins[x * R + r]`` (which must
-    hold -1), ``partner_row[x]``, ``ser_row[x]`` and ``vs_row[x]``. No fill: the pinned
-    band DP does it. Scratch:
+    hold -1). Returns the number of pairs ``n``, whose ``(x, j, SER, VS)`` are
+    ``pairs_row[:n]`` in increasing ``x`` (float32, ``(width, 4)``; rows from ``n`` on
+    may be overwritten). No fill: the pinned band DP does it. Scratch:
     ``iwork`` (int64, (6 + levels, width), ``2**(levels - 1) >= width``), ``fwork``
     (float64, (4, width)), ``stack`` (int64, (width + 2, 6)).
     """
@@ -2027,9 +2026,6 @@ def band_row_features(
                     nheld += 1
                     continue
             pins[p * nr + r] = j
-            partner_row[p] = j
-            ser_row[p] = cand_ser[i]
-            vs_row[p] = cand_vs[i]
             stack[top, 0] = a
             stack[top, 1] = p
             stack[top, 2] = b
@@ -2046,6 +2042,18 @@ def band_row_features(
             break
         for h in range(nheld):
             cand_live[held[h]] = cand_var[held[h]]
+    # the accepted candidates, in increasing x (as cand_x), without branches: each writes
+    # the next row, and only an accepted one keeps it
+    found = 0
+    for i in range(n):
+        p = cand_x[i]
+        j = pins[p * nr + r]
+        pairs_row[found, 0] = p
+        pairs_row[found, 1] = j
+        pairs_row[found, 2] = cand_ser[i]
+        pairs_row[found, 3] = cand_vs[i]
+        found += j >= 0
+    return found
 
 
 # --------------------------------------------------------------------------- drivers
@@ -2233,8 +2241,8 @@ def match_band_rows(
     disp,
     flags,
     total,
-    ser_out,
-    vs_out,
+    pairs,
+    counts,
     clock=None,
 ):
     """Run the whole-scanline DP of every row (SAD cost), ``BAND_ROWS`` rows at a time.
@@ -2248,15 +2256,16 @@ def match_band_rows(
     the chunk's first band (computed afresh). Lanes past the chunk's rows are idle: their
     sums stay those of their last row (or of clamped rows), no pins, results not written.
 
-    ``pin_mode`` 0: no pins (``partner``, ``ser_out``, ``vs_out`` and ``tests`` are not
+    ``pin_mode`` 0: no pins (``partner``, ``pairs``, ``counts`` and ``tests`` are not
     used). 1: ``partner[y, x] = j`` pins left pixel ``(y, x)`` to right
     pixel ``(y, j)`` (-1: no pin; along a row increasing in both ``x`` and ``j``, each pair
     inside the disparity range), and each row gets the result of ``_kernels.gcp_row``'s
     segment-by-segment DP through its pins, with the five- or three-step model (``five``).
     2: ``dc``: the pins are the reliable feature pairs of ``band_row_features`` (``tests``;
-    the window variances of the two views from ``band_lane_variance``), written to
-    ``partner`` (-1 elsewhere) with their SER and VS (``ser_out``, ``vs_out``, NaN
-    elsewhere), and then as 1. 3: as 2, without the band's cost array (for wide images
+    the window variances of the two views from ``band_lane_variance``; ``partner`` is not
+    used), and then as 1. Row ``y``'s ``counts[y]`` pairs are ``pairs[y, :counts[y]]``
+    (float32 ``(height, width, 4)``: ``x``, ``j``, SER, VS, in increasing ``x``; the rest
+    of each row is scratch). 3: as 2, without the band's cost array (for wide images
     and disparity ranges, whose band costs leave the caches): the block match makes the
     costs a column at a time (``band_block_match``'s ``make_costs``) and the DP pass
     makes them again from the vertical sums it left. The search then has no costs to
@@ -2357,11 +2366,7 @@ def match_band_rows(
                     if r * run + t >= n:
                         continue
                     y = y_a + r * run + t
-                    for x in range(width):
-                        partner[y, x] = -1
-                        ser_out[y, x] = np.nan
-                        vs_out[y, x] = np.nan
-                    band_row_features(
+                    counts[y] = band_row_features(
                         cost,
                         width,
                         ndisp,
@@ -2380,9 +2385,7 @@ def match_band_rows(
                         fwork,
                         stack,
                         pins,
-                        partner[y],
-                        ser_out[y],
-                        vs_out[y],
+                        pairs[y],
                     )
             elif anchored:
                 for x in range(width):

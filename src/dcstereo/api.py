@@ -198,8 +198,8 @@ def _match_dsi(left, right, params: MatchParams, clock=None) -> DisparityResult:
             disparity,
             flags,
             total,
-            np.empty((0, 0), dtype=np.float32),
-            np.empty((0, 0), dtype=np.float32),
+            np.empty((0, 0, 4), dtype=np.float32),
+            np.empty(0, dtype=np.int64),
             clock,
         )
     return DisparityResult(disparity, flags, params, total / (2.0 * scale))
@@ -227,13 +227,13 @@ def _match_dc(left, right, params: MatchParams, clock=None) -> DisparityResult:
     radius = params.window // 2
     left_p, right_p = _padded_signals(left, right, radius)
     disparity, flags, total, nchunks = _outputs(left.shape)
-    partner = np.empty(disparity.shape, dtype=np.int64)
-    ser = np.empty(disparity.shape, dtype=np.float32)
-    vs = np.empty(disparity.shape, dtype=np.float32)
     scale = cost_scale(params.window)
     occ2 = _doubled(params.occlusion_cost, scale)
     band_mode = _dc_band_mode(params, left.shape[1])
     if band_mode:
+        # each row's pairs, compactly (only the first few of each row are touched)
+        pairs = np.empty((*disparity.shape, 4), dtype=np.float32)
+        counts = np.empty(disparity.shape[0], dtype=np.int64)
         tests = (
             float(params.ser_min),
             float(params.vs_max),
@@ -254,18 +254,21 @@ def _match_dc(left, right, params: MatchParams, clock=None) -> DisparityResult:
             True,
             _doubled(params.effective_slant_cost, scale),
             band_mode,
-            partner,
+            np.empty((0, 0), dtype=np.int64),
             tests,
             _band_chunks(left.shape[0]),
             disparity,
             flags,
             total,
-            ser,
-            vs,
+            pairs,
+            counts,
             clock,
         )
-        features = _features(partner, flags, ser, vs)
+        features = _kernels.collect_pairs(pairs, counts, FLAG_FEATURE, flags)
         return DisparityResult(disparity, flags, params, total / (2.0 * scale), features)
+    partner = np.empty(disparity.shape, dtype=np.int64)
+    ser = np.empty(disparity.shape, dtype=np.float32)
+    vs = np.empty(disparity.shape, dtype=np.float32)
     _kernels.match_dc_rows(
         left_p,
         right_p,
