@@ -1226,7 +1226,8 @@ def band_backtrack_row(
     dmin,
     ndisp,
     r,
-    anchored,
+    anchor_x,
+    nanchors,
     pins,
     anchor_total,
     anchor_steps,
@@ -1239,8 +1240,9 @@ def band_backtrack_row(
     free start or the anchor before) is traced from it when its value is finite, then the
     anchor pixel is written (``x - j``, flag 0); the last segment ends free (skipped when
     the last anchor is the row's last pixel). The total is the sum of the segment totals
-    in order (inf when a segment has no path). ``disp_row``/``flag_row`` must hold
-    NaN/border.
+    in order (inf when a segment has no path). The anchors are the columns
+    ``anchor_x[:nanchors]``, increasing (those with ``pins[x * R + r] >= 0``; none in
+    free mode). ``disp_row``/``flag_row`` must hold NaN/border.
     """
     nr = BAND_ROWS
     nwords = ndisp + 2
@@ -1249,33 +1251,31 @@ def band_backtrack_row(
     x_lo = 0
     j_lo = 0
     anchor_start = False
-    if anchored:
-        for x in range(width):
-            j = pins[x * nr + r]
-            if j < 0:
-                continue
-            value = anchor_total[x * nr + r]
-            if value < inf:
-                _trace_segment(
-                    steps,
-                    nwords,
-                    r,
-                    dmin,
-                    x_lo,
-                    j_lo,
-                    anchor_start,
-                    x,
-                    x - j - dmin,
-                    anchor_steps[x * nr + r],
-                    disp_row,
-                    flag_row,
-                )
-            total += value
-            disp_row[x] = x - j
-            flag_row[x] = 0
-            x_lo = x
-            j_lo = j
-            anchor_start = True
+    for i in range(nanchors):
+        x = anchor_x[i]
+        j = pins[x * nr + r]
+        value = anchor_total[x * nr + r]
+        if value < inf:
+            _trace_segment(
+                steps,
+                nwords,
+                r,
+                dmin,
+                x_lo,
+                j_lo,
+                anchor_start,
+                x,
+                x - j - dmin,
+                anchor_steps[x * nr + r],
+                disp_row,
+                flag_row,
+            )
+        total += value
+        disp_row[x] = x - j
+        flag_row[x] = 0
+        x_lo = x
+        j_lo = j
+        anchor_start = True
     if anchor_start and x_lo == width - 1:
         return total
     # the free end: nodes with x == width - 1, then nodes with j == width - 1
@@ -2304,6 +2304,7 @@ def match_band_rows(
         pinned[:] = False
         anchor_total = _placed(width * nr, np.float64, 13)
         anchor_steps = _placed(width * nr, np.int64, 14)
+        anchor_x = np.empty(width, dtype=np.int64)
         nwork = width if search else 1
         pre = _placed(nk if search else 1, np.float64, 15)
         suf = _placed(nk if search else 1, np.float64, 16)
@@ -2421,6 +2422,17 @@ def match_band_rows(
                 for x in range(width):
                     disp[y, x] = np.nan
                     flags[y, x] = FLAG_BORDER
+                # the row's anchor columns: its pairs, or the pins given (a scan without
+                # branches: each column writes the next entry, a pinned one keeps it)
+                nanchors = 0
+                if search:
+                    nanchors = counts[y]
+                    for i in range(nanchors):
+                        anchor_x[i] = np.int64(pairs[y, i, 0])
+                elif anchored:
+                    for x in range(width):
+                        anchor_x[nanchors] = x
+                        nanchors += pins[x * nr + r] >= 0
                 total[y] = band_backtrack_row(
                     step_bits,
                     ends,
@@ -2428,7 +2440,8 @@ def match_band_rows(
                     dmin,
                     ndisp,
                     r,
-                    anchored,
+                    anchor_x,
+                    nanchors,
                     pins,
                     anchor_total,
                     anchor_steps,
