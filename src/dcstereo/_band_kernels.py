@@ -1879,6 +1879,12 @@ def band_feature_mask(var_l, wta_k, wta_ratio, width, dmin, radius, tests, keep)
                 )  # fmt: skip
 
 
+@nb.njit(cache=True, inline="always")
+def _worth_splitting(a, c, b, e, i_lo, i_hi):
+    """1 if interval ``(a, c) <-> (b, e)`` has pixels inside and candidates ``i_lo..i_hi``."""
+    return int(c - a > 1) & int(e - b > 1) & int(i_lo <= i_hi)
+
+
 @nb.njit(cache=True)
 def band_row_features(
     cost,
@@ -1962,13 +1968,16 @@ def band_row_features(
         lr_j[n] = -1
         n += 1
     _sparse_build(cand_var, n, sparse)
-    top = 1
+    # the work list holds only intervals with room and candidates: each push writes the
+    # next entry and keeps it only then (no branch; an empty interval was a push, a pop
+    # and a mispredicted test)
     stack[0, 0] = -1
     stack[0, 1] = width
     stack[0, 2] = -1
     stack[0, 3] = width
     stack[0, 4] = 0
     stack[0, 5] = n - 1
+    top = _worth_splitting(-1, width, -1, width, 0, n - 1)
     while top > 0:
         top -= 1
         a = stack[top, 0]
@@ -1977,8 +1986,6 @@ def band_row_features(
         e = stack[top, 3]
         i_lo = stack[top, 4]
         i_hi = stack[top, 5]
-        if not (c - a > 1 and e - b > 1 and i_lo <= i_hi):
-            continue
         nheld = 0
         while True:
             i = _sparse_best(cand_var, sparse, i_lo, i_hi)
@@ -2032,13 +2039,14 @@ def band_row_features(
             stack[top, 3] = j
             stack[top, 4] = i_lo
             stack[top, 5] = i - 1
-            stack[top + 1, 0] = p
-            stack[top + 1, 1] = c
-            stack[top + 1, 2] = j
-            stack[top + 1, 3] = e
-            stack[top + 1, 4] = i + 1
-            stack[top + 1, 5] = i_hi
-            top += 2
+            top += _worth_splitting(a, p, b, j, i_lo, i - 1)
+            stack[top, 0] = p
+            stack[top, 1] = c
+            stack[top, 2] = j
+            stack[top, 3] = e
+            stack[top, 4] = i + 1
+            stack[top, 5] = i_hi
+            top += _worth_splitting(p, c, j, e, i + 1, i_hi)
             break
         for h in range(nheld):
             cand_live[held[h]] = cand_var[held[h]]
