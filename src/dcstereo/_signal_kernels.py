@@ -25,6 +25,14 @@ LUMA = (0.299, 0.587, 0.114)
 
 
 @nb.njit(cache=True, inline="always")
+def _pad_ends(out, yp, radius, width):
+    """Repeat padded row ``yp``'s first and last image pixels over its ``radius`` ends."""
+    for x in range(radius):
+        out[yp, x] = out[yp, radius]
+        out[yp, radius + width + x] = out[yp, radius + width - 1]
+
+
+@nb.njit(cache=True, inline="always")
 def _row(image, y, mul, div, colour, steps, out, yp, radius):
     """Write padded row ``yp`` of ``out`` from row ``y`` (a value's intensity: ``v * mul / div``).
 
@@ -42,9 +50,7 @@ def _row(image, y, mul, div, colour, steps, out, yp, radius):
         else:
             lum = np.float64(image[y, x, 0]) * mul / div
         out[yp, radius + x] = np.int32(np.rint(lum * steps))
-    for x in range(radius):
-        out[yp, x] = out[yp, radius]
-        out[yp, radius + width + x] = out[yp, radius + width - 1]
+    _pad_ends(out, yp, radius, width)
 
 
 @nb.njit(cache=True, inline="always")
@@ -59,9 +65,7 @@ def _row_tables(image, y, tables, steps, out, yp, radius):
         v0, v1, v2 = np.intp(image[y, x, 0]), np.intp(image[y, x, 1]), np.intp(image[y, x, 2])
         lum = (tables[0, v0] + tables[1, v1]) + tables[2, v2]
         out[yp, radius + x] = np.int32(np.rint(lum * steps))
-    for x in range(radius):
-        out[yp, x] = out[yp, radius]
-        out[yp, radius + width + x] = out[yp, radius + width - 1]
+    _pad_ends(out, yp, radius, width)
 
 
 @nb.njit(cache=True, parallel=True)
