@@ -1020,9 +1020,11 @@ def band_forward(
     match-step value of each anchor cell (the total of the segment it ends) goes to
     ``anchor_total[x * R + r]`` and the step into it (the first of c, d, e that reaches
     its value; ``STEP_NONE`` if none does) to ``anchor_steps[x * R + r]``. The column of
-    an anchor then holds only the anchor (0) and the b steps below it; the e step over an
-    anchor, from column ``x - 2`` to ``x``, reads inf (the values of column ``x - 2`` are
-    not needed after column ``x``, so the pinned rows' cells are set to inf in place).
+    an anchor then holds only the anchor (0) and the b steps below it (their step bits are
+    left as the cell loop wrote them: the backtrack stops on reaching the anchor's column,
+    ``_trace_segment``); the e step over an anchor, from column ``x - 2`` to ``x``, reads
+    inf (the values of column ``x - 2`` are not needed after column ``x``, so the pinned
+    rows' cells are set to inf in place).
     """
     nr = BAND_ROWS
     nk = (ndisp + 2) * nr
@@ -1138,12 +1140,10 @@ def band_forward(
                     anchor_steps[x * nr + r] = STEP_C if c == best else step
                     # ... and starts the next one: the column holds only the anchor (0)
                     # and the b steps below it (the values of clearing it and running the
-                    # b-chain), which the backtrack of that segment takes
-                    others = np.uint32(0xFFFFFFFF ^ (STEP_LANE << r))
+                    # b-chain), which the backtrack of that segment takes without reading
+                    # their steps
                     for k in range(k_lo, k_a + 1):
                         cur[(k + 1) * nr + r] = b_run[k_a - k]
-                        o = o_steps + np.uint64(k + 1)
-                        steps[o] = steps[o] & others
                     for k in range(k_a + 1, k_hi + 1):
                         cur[(k + 1) * nr + r] = inf
         # the free end's nodes: j == width - 1 before the last column, then the last column
@@ -1165,7 +1165,6 @@ def _trace_segment(
     r,
     dmin,
     x_lo,
-    j_lo,
     anchor_start,
     end_x,
     end_k,
@@ -1175,19 +1174,20 @@ def _trace_segment(
 ):
     """Backtrack one segment of band row ``r`` from its end node and write its pixels.
 
-    The segment starts at the anchor ``(x_lo, j_lo)`` (``anchor_start``) or at the free
-    start (then ``x_lo = j_lo = 0``); ``end_step`` is the step into the end node (from
+    The segment starts at the anchor in column ``x_lo`` (``anchor_start``) or at the free
+    start (then ``x_lo = 0``); ``end_step`` is the step into the end node (from
     ``anchor_steps`` for an anchored end), the others come from ``steps`` (``nwords``
     words a column, see ``band_forward``). The writes are those of ``apply_path``, in its
-    order.
+    order. A path that reaches the starting anchor's column is at the anchor or below it,
+    and from there only b steps lead to it (``band_forward`` keeps the other cells of that
+    column at inf, and no e step crosses it), which write nothing: the walk stops there.
     """
     x = end_x
     k = end_k
     s = end_step
-    k_start = x_lo - j_lo - dmin
     while True:
-        if anchor_start and x == x_lo and k == k_start:
-            break
+        if anchor_start and x == x_lo:
+            break  # the rest are b steps up the anchor's column, which write nothing
         d = dmin + k
         if s == STEP_C or s == STEP_D:
             disp_row[x] = d
@@ -1262,7 +1262,6 @@ def band_backtrack_row(
                 r,
                 dmin,
                 x_lo,
-                j_lo,
                 anchor_start,
                 x,
                 x - j - dmin,
@@ -1305,7 +1304,6 @@ def band_backtrack_row(
             r,
             dmin,
             x_lo,
-            j_lo,
             anchor_start,
             end_x,
             end_k,
