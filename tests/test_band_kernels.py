@@ -753,6 +753,29 @@ def test_window_ssd_vector_code_equals_its_twin_and_numpy(seed):
             assert compiled(left, right, y, x, j, radius) == expected
 
 
+@pytest.mark.parametrize("dtype", [np.int32, np.int64])
+def test_lane_signals_are_the_rows_as_lanes(dtype):
+    # band_lane_signals against numpy's transposition, for padded widths below, at and
+    # around multiples of R (the vector code's last block overlaps the one before), rows
+    # in any order and repeated; int32 runs the vector code, int64 the loop
+    rng = np.random.default_rng(31)
+    nr = _band_kernels.BAND_ROWS
+    for width_p in list(range(1, 3 * nr + 2)) + [437, 438, 450]:
+        height, nt = int(rng.integers(1, 12)), int(rng.integers(1, 4))
+        left_p = rng.integers(-(2**31), 2**31, (height, width_p)).astype(dtype)
+        right_p = rng.integers(-(2**31), 2**31, (height, width_p)).astype(dtype)
+        rows = rng.integers(0, height, nt * nr).astype(np.int64)
+        left_t = np.full(nt * width_p * nr + 5, 7, dtype=dtype)  # 5 past the end: untouched
+        right_t = left_t.copy()
+        _band_kernels.band_lane_signals(left_p, right_p, rows, nt, left_t, right_t)
+        lanes = rows.reshape(nt, nr)
+        expected_left = left_p[lanes].transpose(0, 2, 1)  # (t, xp, r)
+        expected_right = right_p[lanes][:, :, ::-1].transpose(0, 2, 1)  # stored right to left
+        assert (left_t[:-5].reshape(nt, width_p, nr) == expected_left).all(), width_p
+        assert (right_t[:-5].reshape(nt, width_p, nr) == expected_right).all(), width_p
+        assert (left_t[-5:] == 7).all() and (right_t[-5:] == 7).all()
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_column_vector_code_equals_its_plain_python_twin(seed):
     # the DP cells of a column (five- and three-step) and a moved cost column: the LLVM

@@ -211,11 +211,139 @@ def band_lane_signals(left_p, right_p, rows, nt, left_t, right_t):
     width_p = left_p.shape[1]
     nr = BAND_ROWS
     for t in range(nt):
-        for r in range(nr):
-            y = rows[t * nr + r]
-            for xp in range(width_p):
-                left_t[(t * width_p + xp) * nr + r] = left_p[y, xp]
-                right_t[(t * width_p + width_p - 1 - xp) * nr + r] = right_p[y, xp]
+        _lane_rows_copy(left_p, rows, t * nr, left_t, t * width_p * nr, False)
+        _lane_rows_copy(right_p, rows, t * nr, right_t, t * width_p * nr, True)
+
+
+def _lane_rows_copy(src, rows, o_rows, dst, o_dst, reverse):
+    """``dst[o_dst + q * R + r] = src[rows[o_rows + r], xp]``: ``R`` rows as the lanes.
+
+    ``q = xp``, or ``wp - 1 - xp`` with ``reverse``. Compiled code runs
+    ``_lane_rows_forward`` or ``_lane_rows_reversed`` for int32 signals at least ``R``
+    pixels wide (vector code, the same values).
+    """
+    width_p = src.shape[1]
+    nr = BAND_ROWS
+    for r in range(nr):
+        y = rows[o_rows + r]
+        for xp in range(width_p):
+            q = width_p - 1 - xp if reverse else xp
+            dst[o_dst + q * nr + r] = src[y, xp]
+
+
+_lane_rows_loop = nb.njit(cache=True, inline="always")(_lane_rows_copy)
+
+
+# The copy above, scalar, stores one 32-bit value 32 bytes after the last: two loads and
+# two stores a pixel of the two views. The vector form loads ``R`` pixels of each of the
+# ``R`` rows, transposes the ``R x R`` block in registers and stores each pixel's ``R``
+# lanes as one vector. A last block that would pass the row's end is taken ``R`` pixels
+# back from it instead: it stores some values twice, the same values.
+
+
+def _transpose_block(builder, vectors):
+    """Return the transpose of ``R`` vectors of ``R`` lanes (``vectors[r][c]`` -> ``[c][r]``)."""
+    mask_type = ir.VectorType(ir.IntType(32), BAND_ROWS)
+
+    def shuffle(a, b, lanes):
+        return builder.shuffle_vector(a, b, ir.Constant(mask_type, lanes))
+
+    if BAND_ROWS == 8:
+        # 24 shuffles that AVX2 has as single instructions (the generic rounds below cross
+        # the 128-bit halves every time: 48): pairs of lanes interleaved within each half
+        # (rows 2i, 2i + 1), then pairs of pairs (a column's four rows of a half), then the
+        # halves exchanged
+        t = []
+        for i in range(0, 8, 2):
+            t += [shuffle(vectors[i], vectors[i + 1], [0, 8, 1, 9, 4, 12, 5, 13]),
+                  shuffle(vectors[i], vectors[i + 1], [2, 10, 3, 11, 6, 14, 7, 15])]  # fmt: skip
+        u = []
+        for i in (0, 4):
+            for a, b in ((t[i], t[i + 2]), (t[i + 1], t[i + 3])):
+                u += [shuffle(a, b, [0, 1, 8, 9, 4, 5, 12, 13]),
+                      shuffle(a, b, [2, 3, 10, 11, 6, 7, 14, 15])]  # fmt: skip
+        # u[c] (c < 4): column c of rows 0-3 in its low half, column c + 4 in its high half
+        low, high = [0, 1, 2, 3, 8, 9, 10, 11], [4, 5, 6, 7, 12, 13, 14, 15]
+        return [shuffle(u[c % 4], u[c % 4 + 4], low if c < 4 else high) for c in range(8)]
+    # any other R (a power of two): log2 R rounds of interleaving rows i and i + R / 2,
+    # each of which rotates the bits of a value's (row, column) index by one place
+    half = BAND_ROWS // 2
+    low = [i // 2 + (BAND_ROWS if i % 2 else 0) for i in range(BAND_ROWS)]
+    high = [half + i // 2 + (BAND_ROWS if i % 2 else 0) for i in range(BAND_ROWS)]
+    for _ in range(BAND_ROWS.bit_length() - 1):
+        out = []
+        for i in range(half):
+            out.append(shuffle(vectors[i], vectors[i + half], low))
+            out.append(shuffle(vectors[i], vectors[i + half], high))
+        vectors = out
+    return vectors
+
+
+def _lane_rows_codegen(reverse):
+    def codegen(context, builder, sig, args):
+        _, _, o_rows, _, o_dst = args
+        source = context.make_array(sig.args[0])(context, builder, args[0])
+        width_p = cgutils.unpack_tuple(builder, source.shape, 2)[1]
+        rows = _array_data(context, builder, sig, args, 1)
+        dst = _array_data(context, builder, sig, args, 3)
+        nr = ir.Constant(_I64, BAND_ROWS)
+        starts = []  # the first pixel of each lane's row
+        for r in range(BAND_ROWS):
+            y = builder.load(builder.gep(rows, [builder.add(o_rows, ir.Constant(_I64, r))]))
+            starts.append(builder.gep(source.data, [builder.mul(y, width_p)]))
+        last = builder.sub(width_p, nr)
+        blocks = builder.udiv(builder.add(width_p, ir.Constant(_I64, BAND_ROWS - 1)), nr)
+        with cgutils.for_range(builder, blocks) as loop:
+            xp = builder.mul(loop.index, nr)
+            xp = builder.select(builder.icmp_unsigned(">", xp, last), last, xp)
+            loaded = [_load_vector(builder, start, xp, _VEC_I32) for start in starts]
+            for c, lanes in enumerate(_transpose_block(builder, loaded)):
+                q = builder.add(xp, ir.Constant(_I64, c))
+                if reverse:
+                    q = builder.sub(builder.sub(width_p, ir.Constant(_I64, 1)), q)
+                _store_vector(builder, lanes, dst, builder.add(o_dst, builder.mul(q, nr)))
+        return context.get_dummy_value()
+
+    return codegen
+
+
+def _lane_rows_intrinsic(reverse):
+    @intrinsic
+    def vector(typingctx, src, rows, o_rows, dst, o_dst):
+        if not (
+            _contiguous(src, types.int32, 2)
+            and _contiguous(rows, types.int64)
+            and _contiguous(dst, types.int32)
+            and _words(o_rows, o_dst)
+        ):
+            return None
+        return types.void(src, rows, o_rows, dst, o_dst), _lane_rows_codegen(reverse)
+
+    return vector
+
+
+_lane_rows_forward = _lane_rows_intrinsic(False)
+_lane_rows_reversed = _lane_rows_intrinsic(True)
+
+
+@overload(_lane_rows_copy)
+def _lane_rows_compiled(src, rows, o_rows, dst, o_dst, reverse):
+    if not (
+        _contiguous(src, types.int32, 2)
+        and _contiguous(rows, types.int64)
+        and _contiguous(dst, types.int32)
+    ):
+        return _lane_rows_copy  # other signals (the tests' int64 buffers): the loop
+
+    def run(src, rows, o_rows, dst, o_dst, reverse):
+        if src.shape[1] < BAND_ROWS:
+            _lane_rows_loop(src, rows, o_rows, dst, o_dst, reverse)
+        elif reverse:
+            _lane_rows_reversed(src, rows, np.int64(o_rows), dst, np.int64(o_dst))
+        else:
+            _lane_rows_forward(src, rows, np.int64(o_rows), dst, np.int64(o_dst))
+
+    return run
 
 
 @nb.njit(cache=True, inline="always")
