@@ -414,9 +414,9 @@ def test_incremental_lane_costs_equal_row_costs(dtype):
         out = np.empty(width * nk)
         expected = np.empty((width, ndisp))
         vcol = np.empty((width, ndisp), dtype=np.int32)
-        colsum = np.empty((2, (width + 2 * radius) * nr), dtype=np.int64)
+        colsum = np.empty((2, (width + 2 * radius) * nr))
         colsq = np.empty_like(colsum)
-        hs = np.empty((2, width * nr), dtype=np.int64)
+        hs = np.empty((2, width * nr))
         var = np.empty((2, width * nr))
         var_row = np.empty(width)
         col_row = np.empty((2, width + 2 * radius), dtype=np.int64)
@@ -443,6 +443,47 @@ def test_incremental_lane_costs_equal_row_costs(dtype):
                     if v == 1:  # the right view is stored right to left
                         lane = lane[::-1]
                     assert lane.tobytes() == var_row.tobytes()
+
+
+@pytest.mark.parametrize("radius", [75, 76, 80])
+def test_lane_variance_of_wide_windows_equals_the_integer_one(radius):
+    # band_lane_variance's sums are integers in float64; past some 150 pixels a side
+    # n * sq can leave float64's exact integers (side 153 is the first where it can on a
+    # signal of 4080), and then the numerators are made again in int64: the values of
+    # window_variance_row on windows below it (75) and past it (76, 80: they do),
+    # summed afresh and moved down a row
+    rng = np.random.default_rng(40 + radius)
+    nr = _band_kernels.BAND_ROWS
+    win = 2 * radius + 1
+    assert 151**4 * 4080**2 < 2**53 <= 153**4 * 4080**2
+    width, height = 24, win + 2
+    signal = np.where(rng.random((height + 1, width)) < 0.99, 4080, rng.integers(0, 4081))
+    signal_p = padded(signal.astype(np.int32), radius)
+    window_sq = np.lib.stride_tricks.sliding_window_view(signal_p.astype(np.int64) ** 2, (win, win))
+    over = (win * win * window_sq.sum(axis=(2, 3)) >= 2**53).any()
+    assert over == (radius > 75)
+    sig_t = np.empty(win * (width + 2 * radius) * nr, dtype=np.int32)
+    rows = np.empty(win * nr, dtype=np.int64)
+    colsum, colsq = np.empty((2, (width + 2 * radius) * nr))
+    hs = np.empty((2, width * nr))
+    var = np.empty(width * nr)
+    var_row = np.empty(width)
+    col_row = np.empty((2, width + 2 * radius), dtype=np.int64)
+    last = signal_p.shape[0] - 1
+    for t in range(2):  # lane r on row r + t: afresh, then moved down
+        if t == 0:
+            rows[:] = np.minimum(np.arange(win)[:, None] + np.arange(nr), last).ravel()
+        else:
+            rows[:nr] = np.arange(nr)
+            rows[nr : 2 * nr] = np.minimum(np.arange(nr) + win, last)
+        nt = win if t == 0 else 2
+        _band_kernels.band_lane_signals(signal_p, signal_p, rows, nt, sig_t, sig_t.copy())
+        _band_kernels.band_lane_variance(sig_t, width, radius, 16, t > 0, colsum, colsq, hs[0],
+                                         hs[1], var)  # fmt: skip
+        for r in range(nr):  # (no lane's window reaches the padded signal's last row)
+            _kernels.window_variance_row(signal_p, r + t, radius, 16, col_row[0], col_row[1],
+                                         var_row, False)  # fmt: skip
+            assert var.reshape(width, nr)[:, r].tobytes() == var_row.tobytes(), (t, r)
 
 
 def test_block_match_on_made_costs_equals_the_one_on_the_band_array():

@@ -789,10 +789,19 @@ def band_lane_variance(sig_t, width, radius, steps, incremental, colsum, colsq, 
     column ``u`` of lane ``r``: left pixel ``x = u``, right pixel ``x = width - 1 - u``
     (the right view is stored right to left). The values of ``_kernels.window_variance_row``
     bit for bit: exact integer sums, then the same one float64 expression. ``colsum`` and
-    ``colsq`` (int64, ``wp * R``) keep the vertical window sums of the signal and of its
+    ``colsq`` (float64, ``wp * R``) keep the vertical window sums of the signal and of its
     square; ``incremental`` moves them down a row (row 0 of ``sig_t`` leaving, row 1
     entering), else they are summed afresh from its ``2 radius + 1`` window rows.
-    ``hsum``/``hsq`` (int64, ``width * R``) are scratch for the window sums.
+    ``hsum``/``hsq`` (float64, ``width * R``) are scratch for the window sums.
+
+    The sums are integers held as float64, exact while ``n * S**2 < 2**53`` (``n`` the
+    window's pixels, ``S`` the largest signal magnitude): for the matching signal (``S =
+    4080``) at every window up to ``params.MAX_WINDOW``. The variance's numerator
+    ``n * sq - sm**2`` is exact in float64 while ``n * sq < 2**53`` (``sm**2 <= n * sq``),
+    which holds below some 150 pixels a side; past it (the largest ``n * sq`` says) the
+    numerators are made again from the same sums in int64, as ``window_variance_row`` does.
+    (int64 sums had cost three multiplications per square and a scalar conversion per
+    pixel on AVX2, which has no 64-bit vector multiply or conversion to float64.)
     """
     nr = BAND_ROWS
     win = 2 * radius + 1
@@ -801,41 +810,52 @@ def band_lane_variance(sig_t, width, radius, steps, incremental, colsum, colsq, 
     m = np.uint64(width_p * nr)
     if incremental:
         for i in range(m):  # row 0 leaves, row 1 enters
-            ve = np.int64(sig_t[m + i])
-            vl = np.int64(sig_t[i])
+            ve = float(sig_t[m + i])
+            vl = float(sig_t[i])
             colsum[i] += ve - vl
             colsq[i] += ve * ve - vl * vl
     else:
         for i in range(m):
-            v = np.int64(sig_t[i])
+            v = float(sig_t[i])
             colsum[i] = v
             colsq[i] = v * v
         for t in range(1, win):
             o = np.uint64(t) * m
             for i in range(m):
-                v = np.int64(sig_t[o + i])
+                v = float(sig_t[o + i])
                 colsum[i] += v
                 colsq[i] += v * v
-    norm = float(n) * float(n) * float(steps) * float(steps)
+    fn = float(n)
+    norm = fn * fn * float(steps) * float(steps)
     # the window sums of storage column 0, then a running sum along the columns (one flat
-    # loop: each lane's sum at i from the one at i - R)
+    # loop: each lane's sum at i from the one at i - R); ``over``: some ``n * sq`` is not
+    # exact (a flag, not a largest value: a float max stops the loop's vector form)
     unr = np.uint64(nr)
+    over = False
     for r in range(unr):
-        sm = np.int64(0)
-        sq = np.int64(0)
+        sm = 0.0
+        sq = 0.0
         for c in range(win):
             sm += colsum[c * nr + r]
             sq += colsq[c * nr + r]
         hsum[r] = sm
         hsq[r] = sq
-        out[r] = float(n * sq - sm * sm) / norm
+        top = fn * sq
+        over |= top >= 2.0**53
+        out[r] = (top - sm * sm) / norm
     o_add = np.uint64((win - 1) * nr)
     for i in range(unr, np.uint64(width * nr)):
         sm = hsum[i - unr] + colsum[o_add + i] - colsum[i - unr]
         sq = hsq[i - unr] + colsq[o_add + i] - colsq[i - unr]
         hsum[i] = sm
         hsq[i] = sq
-        out[i] = float(n * sq - sm * sm) / norm
+        top = fn * sq
+        over |= top >= 2.0**53
+        out[i] = (top - sm * sm) / norm
+    if over:
+        for i in range(np.uint64(width * nr)):
+            sm = np.int64(hsum[i])
+            out[i] = float(n * np.int64(hsq[i]) - sm * sm) / norm
 
 
 # --------------------------------------------------------------------------- DP
@@ -2446,9 +2466,9 @@ def match_band_rows(
         wta_ratio = _placed(nwork * nr, np.float64, 18)
         keep = _placed(nwork * nr, np.uint8, 19)
         nvar = width_p * nr if search else 1
-        colsum = _placed(2 * nvar, np.int64, 20).reshape((2, nvar))
-        colsq = _placed(2 * nvar, np.int64, 21).reshape((2, nvar))
-        hwork = _placed(2 * nwork * nr, np.int64, 22).reshape((2, nwork * nr))
+        colsum = _placed(2 * nvar, np.float64, 20).reshape((2, nvar))
+        colsq = _placed(2 * nvar, np.float64, 21).reshape((2, nvar))
+        hwork = _placed(2 * nwork * nr, np.float64, 22).reshape((2, nwork * nr))
         var_band = _placed(2 * nwork * nr, np.float64, 23).reshape((2, nwork * nr))
         steps = 1 if tests is None else tests[7]
         levels = 1
