@@ -1,11 +1,12 @@
 """``dcstereo.match`` end to end: hand cases, synthetic stereograms, invariances, bad input."""
 
+import numba
 import numpy as np
 import pytest
 
 import dcstereo
 import synthetic
-from dcstereo import FLAG_BORDER, FLAG_FILLED, FLAG_OCCLUDED
+from dcstereo import FLAG_BORDER, FLAG_FILLED, FLAG_OCCLUDED, api
 
 DP_METHODS = ["dsi3", "dsi5"]
 ALL_METHODS = ["block", "dsi3", "dsi5"]
@@ -226,6 +227,20 @@ def test_fill_gives_a_dense_map_with_background_values():
     assert not (dense.flags[~holes] & FLAG_FILLED).any()
     # the occluded band left of the object takes the background disparity
     np.testing.assert_array_equal(dense.disparity[:, 23:29], 2)
+
+
+def test_band_chunks_one_for_a_lone_thread_four_a_thread_else():
+    # the band kernels' chunks (their maps do not depend on them: test_band_kernels)
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        assert api._band_chunks(375) == 1
+        if numba.config.NUMBA_NUM_THREADS >= 2:
+            numba.set_num_threads(2)
+            assert api._band_chunks(375) == 8
+            assert api._band_chunks(17) == 3  # no more chunks than bands
+    finally:
+        numba.set_num_threads(before)
 
 
 def test_result_carries_its_parameters():

@@ -24,7 +24,7 @@ SCRIPT = textwrap.dedent(
     import resource, numpy as np, numba, dcstereo
     numba.set_num_threads(1)
     rng = np.random.default_rng(0)
-    right = rng.integers(0, 256, (375, 450), dtype=np.uint8)
+    right = rng.integers(0, 256, (375, 1800), dtype=np.uint8)
     left = np.roll(right, 7, axis=1)
     dcstereo.match(left, right, max_disparity=59, method="dsi5")
     before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
@@ -48,8 +48,9 @@ def _faults_per_call(keep_malloc):
 
 @pytest.mark.skipif(not _is_glibc(), reason="the thresholds are glibc's (Linux only)")
 def test_repeated_matches_do_not_page_fault_their_buffers():
-    # a 450 x 375 pair with 60 disparities: about 17 MB of band buffers per call, 4,000+
-    # fresh pages per call when glibc maps and unmaps them each time (measured: 4,419)
+    # an 1800 x 375 pair with 60 disparities on one thread (one band chunk): 3,000+ fresh
+    # pages per call when glibc maps and unmaps the buffers each time (measured: 3,146;
+    # 526 for 450 x 375, whose chunk's buffers are a quarter as wide), none when kept
     assert _memory.KEPT
     assert _faults_per_call(keep_malloc=False) < 200
     assert _faults_per_call(keep_malloc=True) > 1000  # the opt-out leaves glibc alone

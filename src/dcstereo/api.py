@@ -206,8 +206,15 @@ def _match_dsi(left, right, params: MatchParams, clock=None) -> DisparityResult:
 
 
 def _band_chunks(height: int) -> int:
+    """Chunks of the band kernels: four a thread (uneven threads even out), one alone.
+
+    Each chunk starts its vertical window sums afresh and takes its own scratch, so on one
+    thread a single chunk is 2-6 % faster than four (``dc`` and ``dsi5`` on the Middlebury
+    scenes, alternating in one process); the results do not depend on the chunks.
+    """
+    threads = numba.get_num_threads()
     bands = -(-height // _band_kernels.BAND_ROWS)
-    return max(1, min(bands, 4 * numba.get_num_threads()))
+    return 1 if threads == 1 else max(1, min(bands, 4 * threads))
 
 
 def _match_dc(left, right, params: MatchParams, clock=None) -> DisparityResult:
