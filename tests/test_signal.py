@@ -16,6 +16,10 @@ def _images():
     yield "uint8 gray", rng.integers(0, 256, (7, 9), dtype=np.uint8)
     yield "uint8 colour", rng.integers(0, 256, (6, 11, 3), dtype=np.uint8)
     yield "uint8 rgba", rng.integers(0, 256, (5, 4, 4), dtype=np.uint8)
+    # rows of 8 pixels and more: 8 at a time (vector code), the last 8 overlapping
+    for width in (8, 13, 16, 21):
+        yield f"uint8 colour, {width} wide", rng.integers(0, 256, (3, width, 3), dtype=np.uint8)
+    yield "uint8 rgba, 13 wide", rng.integers(0, 256, (3, 13, 4), dtype=np.uint8)
     yield "uint8 colour, reversed columns", rng.integers(0, 256, (8, 8, 3), dtype=np.uint8)[:, ::-1]
     yield "uint16 gray", rng.integers(0, 65536, (5, 6), dtype=np.uint16)
     yield "uint16 colour", rng.integers(0, 65536, (5, 6, 3), dtype=np.uint16)
@@ -54,7 +58,7 @@ def test_same_picture_in_every_dtype_gives_one_signal():
 
 
 def test_every_uint8_colour_equals_numpy():
-    # the uint8 colour path reads its channel products from tables: every (R, G, B) triple
+    # the uint8 colour path (vector code, 8 pixels at a time): every (R, G, B) triple
     codes = np.arange(2**24, dtype=np.uint32).reshape(4096, 4096)
     image = np.stack([codes >> 16, (codes >> 8) & 255, codes & 255], axis=-1).astype(np.uint8)
     np.testing.assert_array_equal(padded_signal(image, 0), matching_signal(image))
