@@ -970,6 +970,37 @@ def test_dc_on_bands_equals_the_row_kernel(seed):
     assert accepted > 0
 
 
+@pytest.mark.parametrize("steps", [12, 16])
+def test_dc_on_bands_scales_ser_as_the_row_kernel(steps):
+    # SER divides the variances by the SSD over steps**2: for a power of two the band path
+    # multiplies the variances by steps**2 instead (one division fewer), for 12 it divides;
+    # both give the row kernel's pairs and SERs. (The signal keeps its 16 steps: only the
+    # tests' scale changes.)
+    rng = np.random.default_rng(60)
+    texture = rng.integers(0, 256, (12, 56)).astype(np.uint8)
+    left = texture[:, 2:50]
+    noise = rng.integers(-6, 7, left.shape)  # finite SERs
+    right = np.clip(texture[:, 6:54].astype(int) + noise, 0, 255).astype(np.uint8)  # d = 4
+    kw = dict(max_disparity=7, window=5)
+    with mock.patch.object(api, "SIGNAL_STEPS", steps):
+        expected = dc_by_rows(left, right, **kw)
+        got = dc_in_mode(2, left, right, **kw)
+    assert_same_dc(expected, got)
+    assert len(got.features) > 20
+
+
+def test_ser_scaled_by_a_power_of_two_is_one_division():
+    # what the band path relies on: t / (y / s) == (t * s) / y when s is a power of two
+    # (both scalings exact), on SSDs and variance sums of the matching signal's sizes;
+    # with s = 144 the two forms differ somewhere
+    rng = np.random.default_rng(61)
+    total = rng.random(200_000) * 1e7
+    ssd = rng.integers(1, 2**40, 200_000).astype(np.float64)
+    for s in (1.0, 4.0, 256.0, 65536.0):
+        assert np.array_equal(total / (ssd / s), (total * s) / ssd)
+    assert not np.array_equal(total / (ssd / 144.0), (total * 144.0) / ssd)
+
+
 @pytest.mark.dataset
 @pytest.mark.slow
 @pytest.mark.parametrize("scene", ["tsukuba", "venus", "teddy", "cones"])

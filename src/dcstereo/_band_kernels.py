@@ -2090,6 +2090,10 @@ def band_row_features(
     for p in range(radius, width - radius):
         cand_x[m] = p
         m += keep[p * nr + r]
+    # SER's scaled SSD: with steps**2 a power of two, total / (ssd / scale) is
+    # (total * scale) / ssd exactly (both scalings are exact), one division fewer
+    scale = float(steps * steps)
+    exact_scale = (steps * steps) & (steps * steps - 1) == 0
     n = 0
     for q in range(m):
         p = cand_x[q]
@@ -2100,9 +2104,13 @@ def band_row_features(
         vs = _variance_similarity(v_l, v_r, vs_relative)
         if not vs <= vs_max:
             continue
-        ssd = _window_ssd(left_p, right_p, y, p, j, radius) / float(steps * steps)
+        ssd = _window_ssd(left_p, right_p, y, p, j, radius)
         total = v_l + v_r
-        ser = total / ssd if ssd > 0 else np.inf
+        if exact_scale:
+            ser = (total * scale) / ssd if ssd > 0 else np.inf
+        else:
+            ssd = ssd / scale
+            ser = total / ssd if ssd > 0 else np.inf
         if not ser >= ser_min:
             continue
         cand_x[n] = p
