@@ -798,8 +798,9 @@ def band_lane_variance(sig_t, width, radius, steps, incremental, colsum, colsq, 
     window's pixels, ``S`` the largest signal magnitude): for the matching signal (``S =
     4080``) at every window up to ``params.MAX_WINDOW``. The variance's numerator
     ``n * sq - sm**2`` is exact in float64 while ``n * sq < 2**53`` (``sm**2 <= n * sq``),
-    which holds below some 150 pixels a side; past it (the largest ``n * sq`` says) the
-    numerators are made again from the same sums in int64, as ``window_variance_row`` does.
+    which holds below some 150 pixels a side; where a window passes it (a flag set in the
+    same loop) the numerators are made again from the same sums in int64, as
+    ``window_variance_row`` makes them.
     (int64 sums had cost three multiplications per square and a scalar conversion per
     pixel on AVX2, which has no 64-bit vector multiply or conversion to float64.)
     """

@@ -77,8 +77,9 @@ def _rgb_pixels(image, y, x0, steps, out, yp, o_out):
     """Write ``_LANES`` pixels ``x0..`` of a ``uint8`` RGB row to ``out[yp, o_out + ..]``.
 
     The values of ``_row_tables``: the products ``v * LUMA[i]`` (the tables hold exactly
-    these float64 products), summed in the same order. Compiled code runs
-    ``_rgb_pixels_vector`` for C-contiguous images of three channels.
+    these float64 products), summed in the same order. ``image`` has three channels (the
+    caller's test: the vector form takes a pixel as three bytes). Compiled code runs
+    ``_rgb_pixels_vector`` for C-contiguous images.
     """
     for i in range(_LANES):
         x = x0 + i
@@ -170,7 +171,7 @@ def _rgb_pixels_compiled(image, y, x0, steps, out, yp, o_out):
 
 
 @nb.njit(cache=True, inline="always")
-def _row_rgb(image, y, tables, steps, out, yp, radius):
+def _row_rgb(image, y, steps, out, yp, radius):
     """``_row_tables`` of a three-channel image ``_LANES`` pixels at a time (at least that wide).
 
     A last block that would pass the row's end is taken ``_LANES`` pixels back from it: it
@@ -201,7 +202,7 @@ def padded_signal(image, mode, steps, radius, out):
         y = min(max(yp - radius, 0), height - 1)
         if colour:
             if mode == MODE_UINT8 and image.shape[2] == 3 and image.shape[1] >= _LANES:
-                _row_rgb(image, y, tables, steps, out, yp, radius)
+                _row_rgb(image, y, steps, out, yp, radius)
             elif mode == MODE_UINT8:
                 _row_tables(image, y, tables, steps, out, yp, radius)
             elif mode == MODE_UINT16:
