@@ -14,6 +14,9 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from llvmlite import ir
+from numba.core import types
+from numba.extending import intrinsic
 
 import dcstereo
 from dcstereo import _band_kernels, _kernels, api
@@ -792,6 +795,40 @@ def test_window_ssd_vector_code_equals_its_twin_and_numpy(seed):
             expected = float((diff * diff).sum())
             assert _band_kernels._window_ssd(left, right, y, x, j, radius) == expected
             assert compiled(left, right, y, x, j, radius) == expected
+
+
+def _transposer(n):
+    """Compiled: transpose an ``n x n`` int32 block in place with ``_transpose_block``."""
+
+    @intrinsic
+    def transpose(typingctx, block):
+        def codegen(context, builder, sig, args):
+            data = context.make_array(sig.args[0])(context, builder, args[0]).data
+            vtype = ir.VectorType(ir.IntType(32), n)
+            rows = [
+                builder.bitcast(builder.gep(data, [ir.Constant(ir.IntType(64), r * n)]),
+                                vtype.as_pointer())
+                for r in range(n)
+            ]  # fmt: skip
+            loaded = [builder.load(p, align=4) for p in rows]  # numpy's data: 4-byte aligned
+            out = _band_kernels._transpose_block(builder, loaded)
+            for value, pointer in zip(out, rows, strict=True):
+                builder.store(value, pointer, align=4)
+            return context.get_dummy_value()
+
+        return types.void(block), codegen
+
+    return numba.njit(lambda block: transpose(block))
+
+
+@pytest.mark.parametrize("n", [2, 4, 8, 16])
+def test_transpose_block_of_any_power_of_two(n):
+    # the 8 x 8 shuffles of the lanes' rows (BAND_ROWS) and the generic rounds for the
+    # other sizes
+    block = np.random.default_rng(n).integers(-(2**31), 2**31, (n, n)).astype(np.int32)
+    got = block.copy()
+    _transposer(n)(got)
+    assert (got == block.T).all()
 
 
 @pytest.mark.parametrize("dtype", [np.int32, np.int64])

@@ -242,13 +242,17 @@ _lane_rows_loop = nb.njit(cache=True, inline="always")(_lane_rows_copy)
 
 
 def _transpose_block(builder, vectors):
-    """Return the transpose of ``R`` vectors of ``R`` lanes (``vectors[r][c]`` -> ``[c][r]``)."""
-    mask_type = ir.VectorType(ir.IntType(32), BAND_ROWS)
+    """Return the transpose of ``n`` vectors of ``n`` lanes (``vectors[r][c]`` -> ``[c][r]``).
+
+    ``n`` (``R`` in the band kernels) is a power of two; the tests run other sizes too.
+    """
+    n = len(vectors)
+    mask_type = ir.VectorType(ir.IntType(32), n)
 
     def shuffle(a, b, lanes):
         return builder.shuffle_vector(a, b, ir.Constant(mask_type, lanes))
 
-    if BAND_ROWS == 8:
+    if n == 8:
         # 24 shuffles that AVX2 has as single instructions (the generic rounds below cross
         # the 128-bit halves every time: 48): pairs of lanes interleaved within each half
         # (rows 2i, 2i + 1), then pairs of pairs (a column's four rows of a half), then the
@@ -265,12 +269,12 @@ def _transpose_block(builder, vectors):
         # u[c] (c < 4): column c of rows 0-3 in its low half, column c + 4 in its high half
         low, high = [0, 1, 2, 3, 8, 9, 10, 11], [4, 5, 6, 7, 12, 13, 14, 15]
         return [shuffle(u[c % 4], u[c % 4 + 4], low if c < 4 else high) for c in range(8)]
-    # any other R (a power of two): log2 R rounds of interleaving rows i and i + R / 2,
-    # each of which rotates the bits of a value's (row, column) index by one place
-    half = BAND_ROWS // 2
-    low = [i // 2 + (BAND_ROWS if i % 2 else 0) for i in range(BAND_ROWS)]
-    high = [half + i // 2 + (BAND_ROWS if i % 2 else 0) for i in range(BAND_ROWS)]
-    for _ in range(BAND_ROWS.bit_length() - 1):
+    # any other n: log2 n rounds of interleaving rows i and i + n / 2, each of which
+    # rotates the bits of a value's (row, column) index by one place
+    half = n // 2
+    low = [i // 2 + (n if i % 2 else 0) for i in range(n)]
+    high = [half + i // 2 + (n if i % 2 else 0) for i in range(n)]
+    for _ in range(n.bit_length() - 1):
         out = []
         for i in range(half):
             out.append(shuffle(vectors[i], vectors[i + half], low))
