@@ -905,6 +905,154 @@ def test_column_vector_code_equals_its_plain_python_twin(seed):
         assert (moved[0][2][nr:-nr] != -1.0).all() and (moved[0][2][:nr] == -1.0).all()
 
 
+def check_moved_costs_keyed(ndisp, left_t, right_t, vs, hsum, width_p):
+    """``_moved_costs_keyed`` (twin and vector code) against ``_moved_costs`` and the naive
+    block match of the column it made; nothing outside the column's ``R`` matches written."""
+    nr = _band_kernels.BAND_ROWS
+    n = ndisp * nr
+    shift = _band_kernels._key_shift(ndisp)
+    offsets = np.uint64(nr), np.uint64(0), np.uint64(2 * n), np.uint64(0), np.uint64(nr)
+    plain = vs.copy(), hsum.copy(), np.full(n + 2 * nr, -1.0)
+    _band_kernels._moved_costs(left_t, right_t, *plain, *offsets, np.uint64(n), width_p)
+    column = plain[2][nr : nr + n].reshape(ndisp, nr)
+    assert (column >= 0).all() and ((column + 1) * 2**shift < 2**31).all()  # the keys fit
+    expected_k, expected_ratio = naive_block_match(column)
+    compiled = _compiled(_band_kernels._moved_costs_keyed)
+    for run in (_band_kernels._moved_costs_keyed, compiled):
+        arrays = vs.copy(), hsum.copy(), np.full(n + 2 * nr, -1.0)
+        wta_k = np.full(3 * nr, 99, dtype=np.int64)
+        wta_ratio = np.full(3 * nr, -5.0)
+        run(left_t, right_t, *arrays, *offsets, np.uint64(n), width_p, shift, wta_k, wta_ratio,
+            np.uint64(nr))  # fmt: skip
+        for a, b in zip(arrays, plain, strict=True):
+            assert a.tobytes() == b.tobytes()
+        assert list(wta_k[nr : 2 * nr]) == expected_k
+        np.testing.assert_array_equal(wta_ratio[nr : 2 * nr], expected_ratio)
+        assert (wta_k[:nr] == 99).all() and (wta_k[2 * nr :] == 99).all()
+        assert (wta_ratio[:nr] == -5.0).all() and (wta_ratio[2 * nr :] == -5.0).all()
+    return column
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_moved_costs_keyed_makes_the_costs_and_their_block_match(seed):
+    # the cost pass's column made and matched at once (keys (h << shift) | (k + 1) in 32
+    # bits, the four least kept per lane): the costs of _moved_costs and the block match of
+    # band_block_match, on costs of the matching signal's size, on few values (ties and
+    # zeros) and on costs whose keys come within a few units of 2**31; fewer than four
+    # disparities too (the four least then hold "none")
+    rng = np.random.default_rng(830 + seed)
+    nr = _band_kernels.BAND_ROWS
+    zeros = ties = near = 0
+    for ndisp in (1, 2, 3, 4, 5, 7, 16, 33, 62):
+        n = ndisp * nr
+        shift = _band_kernels._key_shift(ndisp)
+        assert 2**shift > ndisp + 2 >= 2 ** (shift - 1)  # as _key_scale's scale
+        width_p = int(rng.integers(3, 9))
+        # the matching signal: costs up to some 2**18, all different
+        left_t = rng.integers(0, 4081, 2 * width_p * nr).astype(np.int32)
+        right_t = rng.integers(0, 4081, 2 * width_p * nr + n).astype(np.int32)
+        vs = rng.integers(0, 40000, 3 * n).astype(np.int32)
+        hsum = rng.integers(40000, 200000, n).astype(np.int32)
+        check_moved_costs_keyed(ndisp, left_t, right_t, vs, hsum, width_p)
+        # equal signals, few sums: ties, zero costs (ratio inf or 1) and equal neighbours
+        flat = np.zeros(2 * width_p * nr + n, dtype=np.int32)
+        vs = (rng.integers(0, 3, 3 * n) * 5).astype(np.int32)
+        vs[:n] = 0  # the leaving column (o_sub 0): h = hsum + the entering one (o_add 2n)
+        hsum = (rng.integers(0, 2, n) * 5).astype(np.int32)
+        column = check_moved_costs_keyed(ndisp, flat[:-n], flat, vs, hsum, width_p)
+        zeros += (column == 0).sum()
+        ties += sum(len(set(lane)) < ndisp for lane in column.T)
+        # the largest costs whose keys fit: (h + 1) << shift just below 2**31
+        # (the entering sums add up to 10)
+        hsum = ((2**31 >> shift) - 12 - rng.integers(0, 10, n) * 5).astype(np.int32)
+        column = check_moved_costs_keyed(ndisp, flat[:-n], flat, vs, hsum, width_p)
+        near += (column + 1 >= (2**31 >> shift) - 2).sum()
+    assert zeros > 0 and ties > 0 and near > 0
+
+
+def test_keys_fit_says_whether_every_key_is_below_two_to_the_31():
+    # the cost pass matches its columns only where (span * win**2 + 1) << shift < 2**31
+    # (every key below the "none" of 2**31 - 1); exact at the edge, no overflow far past it
+    for span in (0, 1, 4080, 65535, 2**20, 2**31, 2**40):
+        for radius in (0, 1, 2, 31, 32, 362):
+            for shift in (1, 2, 5, 7, 9, 12, 30, 31, 40):
+                win = 2 * radius + 1
+                expected = (span * win * win + 1) << shift < 2**31
+                assert _band_kernels._keys_fit(span, radius, shift) == expected
+                if expected:  # the edge: a cost one higher would not fit
+                    limit = (2**31 >> shift) - 1  # the largest h + 1
+                    assert _band_kernels._keys_fit(limit - 1, 0, shift)
+                    assert not _band_kernels._keys_fit(limit, 0, shift)
+    assert not _band_kernels._keys_fit(-1, 2, 5)
+    assert _band_kernels._keys_fit(4080, 2, _band_kernels._key_shift(256))  # dc's defaults
+
+
+def test_lane_costs_match_the_columns_they_move():
+    # band_lane_costs given the block match's outputs makes the same costs, matches the
+    # columns inside the range that it moves down a row (done 1) as band_block_match does
+    # on its array, and leaves every other column's outputs alone (done 0), band after band
+    rng = np.random.default_rng(14)
+    nr = _band_kernels.BAND_ROWS
+    matched = 0
+    for dmin, ndisp, radius, width, height in (
+        (-3, 7, 2, 30, 19), (4, 6, 1, 29, 24), (0, 12, 3, 25, 17), (-9, 4, 0, 16, 17),
+        (0, 30, 2, 40, 20), (2, 5, 1, 1, 9),
+    ):  # fmt: skip
+        left = (rng.integers(0, 6, (height, width)) * 800).astype(np.int32)  # ties
+        right = (rng.integers(0, 6, (height, width)) * 800).astype(np.int32)
+        left_p, right_p = padded(left, radius), padded(right, radius)
+        win = 2 * radius + 1
+        nk = (ndisp + 2) * nr
+        x_lo, x_hi = _band_kernels._integer_columns(width, dmin, ndisp, radius)
+        shift = _band_kernels._key_shift(ndisp)
+        left_t = np.empty(max(win, 2) * (width + 2 * radius) * nr, dtype=np.int32)
+        right_t = np.empty_like(left_t)
+        rows = np.empty(max(win, 2) * nr, dtype=np.int64)
+        spread = np.empty(2 * ndisp * nr, dtype=np.int32)
+        vs_plain, vs_fused = (np.empty(width * ndisp * nr, dtype=np.int32) for _ in range(2))
+        hsum = np.empty(ndisp * nr, dtype=np.int32)
+        out, fused = np.empty(width * nk), np.empty(width * nk)
+        pre, suf = np.empty(nk), np.empty(nk)
+        wta_k, k_fused = (np.empty(width * nr, dtype=np.int64) for _ in range(2))
+        wta_ratio, r_fused = np.empty(width * nr), np.empty(width * nr)
+        done = np.full(width, 7, dtype=np.uint8)
+        run = -(-height // nr)
+        for t in range(run):
+            load_band_signals(left_p, right_p, t, run, height, radius, rows, left_t, right_t)
+            _band_kernels.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread,
+                                          vs_plain, int(t > 0), hsum, out)  # fmt: skip
+            _band_kernels.band_block_match(out, width, ndisp, x_lo, x_hi, pre, suf, wta_k,
+                                           wta_ratio)  # fmt: skip
+            k_fused[:] = -99
+            r_fused[:] = -5.0
+            _band_kernels.band_lane_costs(
+                left_t, right_t, width, dmin, ndisp, radius, spread, vs_fused, int(t > 0), hsum,
+                fused, (x_lo, x_hi, shift, k_fused, r_fused, done),
+            )  # fmt: skip
+            assert fused.tobytes() == out.tobytes()
+            assert vs_fused.tobytes() == vs_plain.tobytes()
+            movable = [
+                x_lo <= x < x_hi
+                and _band_kernels._movable(x + radius, x - radius - 1, width, dmin, ndisp, t > 0)
+                for x in range(width)
+            ]
+            np.testing.assert_array_equal(done, np.array(movable, dtype=np.uint8))
+            for x in range(width):
+                lanes = slice(x * nr, (x + 1) * nr)
+                if done[x]:
+                    np.testing.assert_array_equal(k_fused[lanes], wta_k[lanes])
+                    assert r_fused[lanes].tobytes() == wta_ratio[lanes].tobytes()
+                else:
+                    assert (k_fused[lanes] == -99).all() and (r_fused[lanes] == -5.0).all()
+            matched += done.sum()
+            # band_block_match told which columns are done fills in exactly the others
+            _band_kernels.band_block_match(fused, width, ndisp, x_lo, x_hi, pre, suf, k_fused,
+                                           r_fused, None, None, done)  # fmt: skip
+            np.testing.assert_array_equal(k_fused, wta_k)
+            assert r_fused.tobytes() == wta_ratio.tobytes()
+    assert matched > 100
+
+
 def naive_feature_mask(var_l, wta_k, wta_ratio, width, dmin, radius, var_floor, uniq, guard):
     """The cheap up-front tests of ``divide_row``, one pixel at a time: the twin of the mask."""
     nr = _band_kernels.BAND_ROWS
@@ -1003,8 +1151,31 @@ def test_dc_on_bands_equals_the_row_kernel(seed):
         for mode in (2,) if options.get("lr_check") else (2, 3):
             got = dc_in_mode(mode, left, right, **kw)
             assert_same_dc(expected, got)
+        # one chunk: its bands after the first move the sums down a row, and the cost pass
+        # block-matches the columns it moves (with 8 chunks these rows are one band each)
+        with mock.patch.object(api, "_band_chunks", lambda height: 1):
+            assert_same_dc(expected, dc_in_mode(2, left, right, **kw))
         accepted += len(got.features)
     assert accepted > 0
+
+
+@pytest.mark.parametrize("window", [63, 65])
+def test_dc_on_bands_with_keys_too_wide_for_32_bits(window):
+    # at 62 disparities (64 blocks: keys (h << 7) | j) a window of 63 of the matching
+    # signal's 4080 still fits the cost pass's 32-bit keys and one of 65 does not, so the
+    # separate block match takes every column; both give the row kernel's results
+    rng = np.random.default_rng(62 + window)
+    texture = rng.integers(0, 256, (66, 190)).astype(np.uint8)
+    texture[0, :2] = 0, 255  # the signal's whole span, 0 .. 4080
+    left, right = texture[:, 8:178], texture[:, 20:]  # d = 12
+    shift = _band_kernels._key_shift(62)
+    assert _band_kernels._keys_fit(4080, window // 2, shift) == (window == 63)
+    kw = dict(max_disparity=61, window=window, feature_floor=0.0)
+    expected = dc_by_rows(left, right, **kw)
+    with mock.patch.object(api, "_band_chunks", lambda height: 1):
+        got = dc_in_mode(2, left, right, **kw)
+    assert_same_dc(expected, got)
+    assert len(got.features) > 0
 
 
 @pytest.mark.parametrize("steps", [12, 16])

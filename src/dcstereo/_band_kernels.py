@@ -490,25 +490,71 @@ def _moved_costs(left_t, right_t, vs, hsum, out, o_left, o_right, o_add, o_sub, 
         out[o_out + i] = h
 
 
-@intrinsic
-def _moved_costs_vector(typingctx, left_t, right_t, vs, hsum, out, o_left, o_right, o_add, o_sub,
-                        o_out, n, width_p):  # fmt: skip
-    if not (
-        all(_contiguous(a, types.int32) for a in (left_t, right_t, vs, hsum))
-        and _contiguous(out, types.float64)
-        and _words(o_left, o_right, o_add, o_sub, o_out, n, width_p)
-    ):
-        return None
-    signature = types.void(
-        left_t, right_t, vs, hsum, out, o_left, o_right, o_add, o_sub, o_out, n, width_p
-    )
+def _moved_costs_keyed(left_t, right_t, vs, hsum, out, o_left, o_right, o_add, o_sub, o_out, n,
+                       width_p, shift, wta_k, wta_ratio, i0):  # fmt: skip
+    """``_moved_costs``, then the block match of the column it made, for ``band_lane_costs``.
+
+    The column's ``n / R`` disparities are blocks ``j = k + 1``; lane ``r``'s key of block
+    ``j`` is ``(h << shift) | j`` (``h`` its cost, ``2**shift`` above the blocks), an
+    integer ordered as ``(h, j)``. ``wta_k[i0 + r]`` and ``wta_ratio[i0 + r]`` get the
+    values of ``band_block_match`` on the column: the block of the least key, and the
+    least cost over ``|j - b| >= 2`` over the least (no such block: inf). The caller
+    ensures that every key is below ``2**31 - 1`` (``_keys_fit``). Compiled code runs
+    ``_moved_costs_keyed_vector``: the keys in 32-bit lanes, kept as the four least of
+    each lane while the costs are made, the column never read back.
+    """
+    _moved_costs(left_t, right_t, vs, hsum, out, o_left, o_right, o_add, o_sub, o_out, n, width_p)
+    nr = BAND_ROWS
+    nblocks = np.uint64(n) // np.uint64(nr)
+    for r in range(nr):
+        least = 2**63 - 1
+        for k in range(nblocks):
+            h = np.int64(out[o_out + k * np.uint64(nr) + r])
+            least = min(least, (h << shift) | np.int64(k + 1))
+        b = least & ((1 << shift) - 1)
+        second = np.inf
+        for k in range(nblocks):
+            if abs(np.int64(k + 1) - b) >= 2:
+                second = min(second, out[o_out + k * np.uint64(nr) + r])
+        best = float(least >> shift)
+        wta_k[i0 + r] = b - 1
+        if best > 0:
+            wta_ratio[i0 + r] = second / best
+        else:
+            wta_ratio[i0 + r] = np.inf if second > 0 else 1.0
+
+
+@nb.njit(cache=True, inline="always")
+def _keys_fit(span, radius, shift):
+    """Whether ``_moved_costs_keyed``'s keys fit: ``(h + 1) << shift < 2**31`` for every cost.
+
+    ``span`` bounds the absolute difference of two signal values; a cost is a window of
+    ``(2 radius + 1)**2`` of them.
+    """
+    win = 2 * radius + 1
+    # (h + 1) << shift < 2**31 as h + 1 < 2**(31 - shift), which cannot overflow
+    return 0 <= span and shift < 31 and span * win * win + 1 < np.int64(1) << (31 - shift)
+
+
+@nb.njit(cache=True, inline="always")
+def _key_shift(ndisp):
+    """Return ``shift``: ``2**shift`` is the least power of two above the ``ndisp + 2`` blocks."""
+    shift = 0
+    while (1 << shift) <= ndisp + 2:
+        shift += 1
+    return shift
+
+
+def _moved_costs_codegen(keyed):
+    """Return the vector code of ``_moved_costs`` (``keyed``: of ``_moved_costs_keyed``)."""
 
     def codegen(context, builder, sig, args):
         left, right, sums, running, costs = (
             _array_data(context, builder, sig, args, i) for i in range(5)
         )
-        o_left, o_right, o_add, o_sub, o_out, n, width_p = args[5:]
+        o_left, o_right, o_add, o_sub, o_out, n, width_p = args[5:12]
         step = builder.mul(width_p, ir.Constant(_I64, BAND_ROWS))
+        no_poison = ir.Constant(ir.IntType(1), 0)
         abs32 = cgutils.get_or_insert_function(
             builder.module,
             ir.FunctionType(_VEC_I32, [_VEC_I32, ir.IntType(1)]),
@@ -519,8 +565,18 @@ def _moved_costs_vector(typingctx, left_t, right_t, vs, hsum, out, o_left, o_rig
             return _load_vector(builder, array, index, _VEC_I32)
 
         def dist(a, b):
-            return builder.call(abs32, [builder.sub(a, b), ir.Constant(ir.IntType(1), 0)])
+            return builder.call(abs32, [builder.sub(a, b), no_poison])
 
+        def signed(op, a, b):  # the signed minimum or maximum of two int32 vectors
+            return builder.select(builder.icmp_signed(op, a, b), a, b)
+
+        if keyed:
+            # the four least keys of each lane, in order (an insertion: min and max down
+            # the four), and the next block's number; "none" is above every key
+            shift = _broadcast(builder, builder.trunc(args[12], ir.IntType(32)), _VEC_I32)
+            none = _vector_of(2**31 - 1, _VEC_I32)
+            least = [cgutils.alloca_once_value(builder, none) for _ in range(4)]
+            number = cgutils.alloca_once_value(builder, _vector_of(1, _VEC_I32))
         leave = load(left, o_left)
         enter = load(left, builder.add(o_left, step))
         blocks = builder.udiv(n, ir.Constant(_I64, BAND_ROWS))
@@ -539,9 +595,80 @@ def _moved_costs_vector(typingctx, left_t, right_t, vs, hsum, out, o_left, o_rig
             h = builder.add(load(running, i), builder.sub(moved, load(sums, builder.add(o_sub, i))))
             _store_vector(builder, h, running, i)
             _store_vector(builder, builder.sitofp(h, _VEC_F64), costs, builder.add(o_out, i))
+            if keyed:
+                j = builder.load(number)
+                builder.store(builder.add(j, _vector_of(1, _VEC_I32)), number)
+                key = builder.or_(builder.shl(h, shift), j)
+                for place, slot in enumerate(least):
+                    old = builder.load(slot)
+                    builder.store(signed("<", old, key), slot)
+                    if place < len(least) - 1:
+                        key = signed(">", old, key)
+        if not keyed:
+            return context.get_dummy_value()
+        # the match: the least key's block b; the second cost: the first of the next three
+        # keys whose block is at least two from b (at most two of them are b's neighbours)
+        keys = [builder.load(slot) for slot in least]
+        low_bits = builder.sub(builder.shl(_vector_of(1, _VEC_I32), shift), _vector_of(1, _VEC_I32))
+        block = builder.and_(keys[0], low_bits)
+        second = none
+        for key in reversed(keys[1:]):
+            apart = builder.icmp_signed(
+                ">=", dist(builder.and_(key, low_bits), block), _vector_of(2, _VEC_I32)
+            )
+            second = builder.select(builder.and_(apart, builder.icmp_signed("<", key, none)), key,
+                                    second)  # fmt: skip
+        inf = _vector_of(float("inf"), _VEC_F64)
+        zero = _vector_of(0.0, _VEC_F64)
+        best = builder.sitofp(builder.ashr(keys[0], shift), _VEC_F64)
+        second = builder.select(
+            builder.icmp_signed("<", second, none),
+            builder.sitofp(builder.ashr(second, shift), _VEC_F64),
+            inf,
+        )
+        ratio = builder.select(
+            builder.fcmp_ordered(">", best, zero),
+            builder.fdiv(second, best),
+            builder.select(builder.fcmp_ordered(">", second, zero), inf, _vector_of(1.0, _VEC_F64)),
+        )
+        match = builder.sub(builder.sext(block, _VEC_I64), _vector_of(1, _VEC_I64))
+        _store_vector(builder, match, _array_data(context, builder, sig, args, 13), args[15])
+        _store_vector(builder, ratio, _array_data(context, builder, sig, args, 14), args[15])
         return context.get_dummy_value()
 
-    return signature, codegen
+    return codegen
+
+
+def _moved_arguments_ok(left_t, right_t, vs, hsum, out, offsets):
+    return (
+        all(_contiguous(a, types.int32) for a in (left_t, right_t, vs, hsum))
+        and _contiguous(out, types.float64)
+        and _words(*offsets)
+    )
+
+
+@intrinsic
+def _moved_costs_vector(typingctx, left_t, right_t, vs, hsum, out, o_left, o_right, o_add, o_sub,
+                        o_out, n, width_p):  # fmt: skip
+    offsets = (o_left, o_right, o_add, o_sub, o_out, n, width_p)
+    if not _moved_arguments_ok(left_t, right_t, vs, hsum, out, offsets):
+        return None
+    signature = types.void(left_t, right_t, vs, hsum, out, *offsets)
+    return signature, _moved_costs_codegen(False)
+
+
+@intrinsic
+def _moved_costs_keyed_vector(typingctx, left_t, right_t, vs, hsum, out, o_left, o_right, o_add,
+                              o_sub, o_out, n, width_p, shift, wta_k, wta_ratio, i0):  # fmt: skip
+    offsets = (o_left, o_right, o_add, o_sub, o_out, n, width_p)
+    if not (
+        _moved_arguments_ok(left_t, right_t, vs, hsum, out, offsets + (shift, i0))
+        and _contiguous(wta_k, types.int64)
+        and _contiguous(wta_ratio, types.float64)
+    ):
+        return None
+    signature = types.void(left_t, right_t, vs, hsum, out, *offsets, shift, wta_k, wta_ratio, i0)
+    return signature, _moved_costs_codegen(True)
 
 
 @overload(_moved_costs)
@@ -558,24 +685,46 @@ def _moved_costs_compiled(left_t, right_t, vs, hsum, out, o_left, o_right, o_add
     return run
 
 
-@nb.njit(cache=True, inline="always")
-def _moved_column(
-    left_t, right_t, vs, hsum, out, add, sub, width, width_p, dmin, ndisp, radius, incremental,
-    o_sub, o_out,
-):  # fmt: skip
-    """Make a bulk column by ``_moved_costs`` where it applies; return whether it did.
+@overload(_moved_costs_keyed)
+def _moved_costs_keyed_compiled(left_t, right_t, vs, hsum, out, o_left, o_right, o_add, o_sub,
+                                o_out, n, width_p, shift, wta_k, wta_ratio, i0):  # fmt: skip
+    if not all(_contiguous(a, types.int32) for a in (left_t, right_t, vs, hsum)):
+        return _moved_costs_keyed  # the tests' int64 arrays: the loops
 
-    It applies where the column's sums move down a row (``incremental`` 1), the window's
-    entering column ``add`` and leaving column ``sub`` are inside the image, and every
-    disparity of ``add`` has its right pixel inside the image.
+    def run(left_t, right_t, vs, hsum, out, o_left, o_right, o_add, o_sub, o_out, n, width_p,
+            shift, wta_k, wta_ratio, i0):  # fmt: skip
+        _moved_costs_keyed_vector(
+            left_t, right_t, vs, hsum, out, o_left, o_right, o_add, o_sub, o_out, n, width_p,
+            shift, wta_k, wta_ratio, i0,
+        )  # fmt: skip
+
+    return run
+
+
+@nb.njit(cache=True, inline="always")
+def _movable(add, sub, width, dmin, ndisp, incremental):
+    """Whether ``_moved_costs`` makes the column whose window gains ``add`` and loses ``sub``.
+
+    Where the column's sums move down a row (``incremental`` 1), the window's entering
+    column ``add`` and leaving column ``sub`` are inside the image, and every disparity of
+    ``add`` has its right pixel inside the image.
     """
-    if not (
+    return (
         incremental == 1
         and add < width
         and sub >= 0
         and add - dmin - (width - 1) <= 0
         and add - dmin >= ndisp - 1
-    ):
+    )
+
+
+@nb.njit(cache=True, inline="always")
+def _moved_column(
+    left_t, right_t, vs, hsum, out, add, sub, width, width_p, dmin, ndisp, radius, incremental,
+    o_sub, o_out,
+):  # fmt: skip
+    """Make a bulk column by ``_moved_costs`` where ``_movable``; return whether it did."""
+    if not _movable(add, sub, width, dmin, ndisp, incremental):
         return False
     nr = BAND_ROWS
     nkc = np.uint64(ndisp * nr)
@@ -589,7 +738,7 @@ def _moved_column(
 
 @nb.njit(cache=True)
 def band_lane_costs(
-    left_t, right_t, width, dmin, ndisp, radius, spread, vs, incremental, hsum, out
+    left_t, right_t, width, dmin, ndisp, radius, spread, vs, incremental, hsum, out, match=None
 ):
     """Windowed SAD of eq. 4 of a band into ``out[x * nk + (k + 1) * R + r]``.
 
@@ -616,6 +765,14 @@ def band_lane_costs(
     case for the first column and leaves the inf and rescaled cells to passes after it,
     measured 7-20 % faster for the band's array than the column form or a helper shared by
     both (both are checked against ``row_costs`` bit for bit).
+
+    ``match`` None: the costs only. Otherwise ``(x_lo, x_hi, shift, wta_k, wta_ratio,
+    done)``: the columns ``x_lo <= x < x_hi`` that ``_moved_costs`` makes (moved down a
+    row, every window and disparity inside the image) are block-matched as they are made
+    (``_moved_costs_keyed``, keys ``(h << shift) | (k + 1)``; the caller checks
+    ``_keys_fit``), into ``wta_k`` and ``wta_ratio`` as ``band_block_match`` would, and
+    ``done[x]`` is 1 for them, 0 for every other column. The range must lie inside
+    ``_integer_columns``.
     """
     nr = BAND_ROWS
     win = 2 * radius + 1
@@ -625,6 +782,10 @@ def band_lane_costs(
     inf = np.inf
     for i in range(nkc):
         hsum[i] = 0
+    if match is not None:
+        done = match[5]
+        for x in range(width):
+            done[x] = 0
     for c in range(min(radius, width - 1) + 1):
         o_c = _column_sums(
             left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, vs, incremental
@@ -638,6 +799,17 @@ def band_lane_costs(
         sub = x - radius - 1
         o_out = np.uint64(x * nk + nr)
         o_sub = np.uint64(max(sub, 0) * nkc)
+        if match is not None:
+            x_lo, x_hi, shift, wta_k, wta_ratio, done = match
+            if x_lo <= x < x_hi and _movable(add, sub, width, dmin, ndisp, incremental):
+                # made and matched at once
+                _moved_costs_keyed(
+                    left_t, right_t, vs, hsum, out, np.uint64((add + radius) * nr),
+                    np.uint64((width_p - 1 - (add - dmin + radius)) * nr), np.uint64(add) * nkc,
+                    o_sub, o_out, nkc, width_p, shift, wta_k, wta_ratio, np.uint64(x * nr),
+                )  # fmt: skip
+                done[x] = 1
+                continue
         if _moved_column(
             left_t, right_t, vs, hsum, out, add, sub, width, width_p, dmin, ndisp, radius,
             incremental, o_sub, o_out,
@@ -1676,7 +1848,7 @@ def _keyed_column_compiled(cost, o, nblocks, scale, numbers, wta_k, wta_ratio, i
 @nb.njit(cache=True)
 def band_block_match(
     cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio, make_costs=None,
-    wanted=None,
+    wanted=None, done=None,
 ):  # fmt: skip
     """Whole-band block match of every left pixel of the ``R`` rows of a band.
 
@@ -1712,6 +1884,9 @@ def band_block_match(
     only ones the feature tests read (``band_feature_mask``: a candidate's own column and
     its guard columns); the others get -1 and 0, as an empty column (their costs are
     still made).
+
+    ``done`` None: every column. Otherwise (uint8, ``width``) the columns with ``done[x]``
+    are left as they are: ``band_lane_costs`` matched them as it made them.
     """
     nr = BAND_ROWS
     unr = np.uint64(nr)
@@ -1722,6 +1897,9 @@ def band_block_match(
     scale = _key_scale(nblocks)
     numbers = np.arange(nblocks).astype(np.float64)  # _keyed_column's j
     for x in range(width):
+        if done is not None:
+            if done[x]:
+                continue
         if make_costs is None:
             o = np.uint64(x) * unk
         else:
@@ -2226,8 +2404,9 @@ def band_row_features(
 # --------------------------------------------------------------------------- drivers
 
 #: The stages of ``match_band_rows`` that its ``clock`` times, in that order (``costs``:
-#: the band's cost array, made before the search; in free mode the forward pass makes the
-#: costs, in mode 3 the block match and the forward pass do; ``block match``: with
+#: the band's cost array, made before the search, and in ``dc`` the block match of the
+#: columns it moves down a row; in free mode the forward pass makes the costs, in mode 3
+#: the block match and the forward pass do; ``block match``: the other columns', with
 #: ``band_strong_counts``; ``search``: the feature pairs of the band's rows, or its pins
 #: read from ``partner``, and the pinned columns).
 CLOCK_STAGES = (
@@ -2430,13 +2609,16 @@ def match_band_rows(
     segment-by-segment DP through its pins, with the five- or three-step model (``five``).
     2: ``dc``: the pins are the reliable feature pairs of ``band_row_features`` (``tests``;
     the window variances of the two views from ``band_lane_variance``; ``partner`` is not
-    used), and then as 1. Row ``y``'s ``counts[y]`` pairs are ``pairs[y, :counts[y]]``
-    (float32 ``(height, width, 4)``: ``x``, ``j``, SER, VS, in increasing ``x``; the rest
-    of each row is scratch). 3: as 2, without the band's cost array (for wide images
-    and disparity ranges, whose band costs leave the caches): the block match makes the
-    costs a column at a time (``band_block_match``'s ``make_costs``) and the DP pass
-    makes them again from the vertical sums it left. The search then has no costs to
-    read: the left-right check (``tests[4]``) must be off.
+    used), and then as 1; the cost pass block-matches the columns it moves down a row as
+    it makes them (``band_lane_costs``' ``match``) where the signals' span lets 32-bit keys
+    hold every cost (``_keys_fit``), ``band_block_match`` the rest. Row ``y``'s
+    ``counts[y]`` pairs are ``pairs[y, :counts[y]]`` (float32 ``(height, width, 4)``:
+    ``x``, ``j``, SER, VS, in increasing ``x``; the rest of each row is scratch). 3: as
+    2, without the band's cost array (for wide images and disparity ranges, whose band
+    costs leave the caches): the block match makes the costs a column at a time
+    (``band_block_match``'s ``make_costs``) and the DP pass makes them again from the
+    vertical sums it left. The search then has no costs to read: the left-right check
+    (``tests[4]``) must be off.
 
     ``tests`` None (with ``pin_mode`` 0 only): the search and the band cost array are
     left out of the compiled function (numba prunes the ``tests is not None`` branches),
@@ -2452,6 +2634,14 @@ def match_band_rows(
     nk = (ndisp + 2) * nr
     # the columns band_block_match's keyed search may take
     x_int_lo, x_int_hi = _integer_columns(width, dmin, ndisp, radius)
+    # dc with the band's cost array: the cost pass block-matches these columns as it makes
+    # them (those it moves down a row), where the 32-bit keys hold every cost
+    key_shift = _key_shift(ndisp)
+    fused_hi = x_int_lo  # none
+    if tests is not None and pin_mode == 2:
+        span = np.int64(max(left_p.max(), right_p.max())) - min(left_p.min(), right_p.min())
+        if _keys_fit(span, radius, key_shift):
+            fused_hi = x_int_hi
     for ch in nb.prange(nchunks):
         # the chunk's rows; lane r takes rows y_a + r * run + t at band step t
         y_a, n, run = _chunk_lanes(height, nchunks, ch)
@@ -2491,6 +2681,7 @@ def match_band_rows(
         fwork = _placed(4 * nwork, np.float64, 25).reshape((4, nwork))
         stack = _placed((nwork + 2) * 6, np.int64, 26).reshape((nwork + 2, 6))
         strong = _placed(nwork + 1, np.int64, 8)
+        done = _placed(width, np.uint8, 27)  # columns the cost pass matched
         for t in range(run):
             mark = _clock_mark(clock)
             nt = _lane_rows(t, y_a, run, n, radius, height_p, rows)
@@ -2499,7 +2690,7 @@ def match_band_rows(
             if tests is not None and not made:  # the search and pins read them before the DP
                 band_lane_costs(
                     left_t, right_t, width, dmin, ndisp, radius, spread, vs, int(t > 0), hsum,
-                    cost,
+                    cost, (x_int_lo, fused_hi, key_shift, wta_k, wta_ratio, done),
                 )  # fmt: skip
                 mark = _clock_add(clock, ch, _CLOCK_COSTS, mark)
             if tests is not None and search:
@@ -2523,7 +2714,7 @@ def match_band_rows(
                 else:
                     band_block_match(
                         cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio, None,
-                        wanted,
+                        wanted, done,
                     )  # fmt: skip
                 mark = _clock_add(clock, ch, _CLOCK_BLOCK, mark)
                 band_feature_mask(var_band[0], wta_k, wta_ratio, width, dmin, radius, tests, keep)
