@@ -910,7 +910,7 @@ def check_moved_costs_keyed(ndisp, left_t, right_t, vs, hsum, width_p):
     block match of the column it made; nothing outside the column's ``R`` matches written."""
     nr = _band_kernels.BAND_ROWS
     n = ndisp * nr
-    shift = _band_kernels._key_shift(ndisp)
+    shift = _band_kernels._key_shift(ndisp + 2)
     offsets = np.uint64(nr), np.uint64(0), np.uint64(2 * n), np.uint64(0), np.uint64(nr)
     plain = vs.copy(), hsum.copy(), np.full(n + 2 * nr, -1.0)
     _band_kernels._moved_costs(left_t, right_t, *plain, *offsets, np.uint64(n), width_p)
@@ -945,7 +945,7 @@ def test_moved_costs_keyed_makes_the_costs_and_their_block_match(seed):
     zeros = ties = near = 0
     for ndisp in (1, 2, 3, 4, 5, 7, 16, 33, 62):
         n = ndisp * nr
-        shift = _band_kernels._key_shift(ndisp)
+        shift = _band_kernels._key_shift(ndisp + 2)
         assert 2**shift > ndisp + 2 >= 2 ** (shift - 1)  # as _key_scale's scale
         width_p = int(rng.integers(3, 9))
         # the matching signal: costs up to some 2**18, all different
@@ -984,7 +984,7 @@ def test_keys_fit_says_whether_every_key_is_below_two_to_the_31():
                     assert _band_kernels._keys_fit(limit - 1, 0, shift)
                     assert not _band_kernels._keys_fit(limit, 0, shift)
     assert not _band_kernels._keys_fit(-1, 2, 5)
-    assert _band_kernels._keys_fit(4080, 2, _band_kernels._key_shift(256))  # dc's defaults
+    assert _band_kernels._keys_fit(4080, 2, _band_kernels._key_shift(258))  # 256 disparities
 
 
 def test_lane_costs_match_the_columns_they_move():
@@ -1004,7 +1004,7 @@ def test_lane_costs_match_the_columns_they_move():
         win = 2 * radius + 1
         nk = (ndisp + 2) * nr
         x_lo, x_hi = _band_kernels._integer_columns(width, dmin, ndisp, radius)
-        shift = _band_kernels._key_shift(ndisp)
+        shift = _band_kernels._key_shift(ndisp + 2)
         left_t = np.empty(max(win, 2) * (width + 2 * radius) * nr, dtype=np.int32)
         right_t = np.empty_like(left_t)
         rows = np.empty(max(win, 2) * nr, dtype=np.int64)
@@ -1168,7 +1168,7 @@ def test_dc_on_bands_with_keys_too_wide_for_32_bits(window):
     texture = rng.integers(0, 256, (66, 190)).astype(np.uint8)
     texture[0, :2] = 0, 255  # the signal's whole span, 0 .. 4080
     left, right = texture[:, 8:178], texture[:, 20:]  # d = 12
-    shift = _band_kernels._key_shift(62)
+    shift = _band_kernels._key_shift(64)
     assert _band_kernels._keys_fit(4080, window // 2, shift) == (window == 63)
     kw = dict(max_disparity=61, window=window, feature_floor=0.0)
     expected = dc_by_rows(left, right, **kw)

@@ -537,10 +537,14 @@ def _keys_fit(span, radius, shift):
 
 
 @nb.njit(cache=True, inline="always")
-def _key_shift(ndisp):
-    """Return ``shift``: ``2**shift`` is the least power of two above the ``ndisp + 2`` blocks."""
+def _key_shift(nblocks):
+    """Return ``shift``: ``2**shift`` is the least power of two above ``nblocks``.
+
+    The keys' scale, as a shift for the integer keys (``_moved_costs_keyed``) and as a
+    float64 for the others (``_key_scale``).
+    """
     shift = 0
-    while (1 << shift) <= ndisp + 2:
+    while (1 << shift) <= nblocks:
         shift += 1
     return shift
 
@@ -719,6 +723,14 @@ def _movable(add, sub, width, dmin, ndisp, incremental):
 
 
 @nb.njit(cache=True, inline="always")
+def _moved_offsets(add, dmin, radius, width_p, nkc):
+    """Return ``_moved_costs``' ``(o_left, o_right, o_add)`` for the column that gains ``add``."""
+    nr = BAND_ROWS
+    o_right = np.uint64((width_p - 1 - (add - dmin + radius)) * nr)
+    return np.uint64((add + radius) * nr), o_right, np.uint64(add) * nkc
+
+
+@nb.njit(cache=True, inline="always")
 def _moved_column(
     left_t, right_t, vs, hsum, out, add, sub, width, width_p, dmin, ndisp, radius, incremental,
     o_sub, o_out,
@@ -726,13 +738,9 @@ def _moved_column(
     """Make a bulk column by ``_moved_costs`` where ``_movable``; return whether it did."""
     if not _movable(add, sub, width, dmin, ndisp, incremental):
         return False
-    nr = BAND_ROWS
-    nkc = np.uint64(ndisp * nr)
-    o_right = np.uint64((width_p - 1 - (add - dmin + radius)) * nr)
-    _moved_costs(
-        left_t, right_t, vs, hsum, out, np.uint64((add + radius) * nr), o_right,
-        np.uint64(add) * nkc, o_sub, o_out, nkc, width_p,
-    )  # fmt: skip
+    nkc = np.uint64(ndisp * BAND_ROWS)
+    o_left, o_right, o_add = _moved_offsets(add, dmin, radius, width_p, nkc)
+    _moved_costs(left_t, right_t, vs, hsum, out, o_left, o_right, o_add, o_sub, o_out, nkc, width_p)
     return True
 
 
@@ -803,10 +811,10 @@ def band_lane_costs(
             x_lo, x_hi, shift, wta_k, wta_ratio, done = match
             if x_lo <= x < x_hi and _movable(add, sub, width, dmin, ndisp, incremental):
                 # made and matched at once
+                o_left, o_right, o_add = _moved_offsets(add, dmin, radius, width_p, nkc)
                 _moved_costs_keyed(
-                    left_t, right_t, vs, hsum, out, np.uint64((add + radius) * nr),
-                    np.uint64((width_p - 1 - (add - dmin + radius)) * nr), np.uint64(add) * nkc,
-                    o_sub, o_out, nkc, width_p, shift, wta_k, wta_ratio, np.uint64(x * nr),
+                    left_t, right_t, vs, hsum, out, o_left, o_right, o_add, o_sub, o_out, nkc,
+                    width_p, shift, wta_k, wta_ratio, np.uint64(x * nr),
                 )  # fmt: skip
                 done[x] = 1
                 continue
@@ -1682,10 +1690,7 @@ def _key_blocks(ndisp, blocks):
 @nb.njit(cache=True, inline="always")
 def _key_scale(nblocks):
     """Return the least power of two above ``nblocks``: the keys' scale (``_key_blocks``)."""
-    scale = 1.0
-    while scale <= nblocks:
-        scale *= 2.0
-    return scale
+    return float(1 << _key_shift(nblocks))
 
 
 # The keyed columns' least key and second key are one reduction per lane along the
@@ -2636,7 +2641,7 @@ def match_band_rows(
     x_int_lo, x_int_hi = _integer_columns(width, dmin, ndisp, radius)
     # dc with the band's cost array: the cost pass block-matches these columns as it makes
     # them (those it moves down a row), where the 32-bit keys hold every cost
-    key_shift = _key_shift(ndisp)
+    key_shift = _key_shift(ndisp + 2)
     fused_hi = x_int_lo  # none
     if tests is not None and pin_mode == 2:
         span = np.int64(max(left_p.max(), right_p.max())) - min(left_p.min(), right_p.min())
