@@ -489,6 +489,14 @@ def test_lane_variance_of_wide_windows_equals_the_integer_one(radius):
             assert var.reshape(width, nr)[:, r].tobytes() == var_row.tobytes(), (t, r)
 
 
+def lane_cost_scratch(width, ndisp, radius):
+    """int32 ``left_t``, ``right_t``, ``spread`` and the int64 ``rows`` of a band's cost pass."""
+    nr = _band_kernels.BAND_ROWS
+    left_t = np.empty(max(2 * radius + 1, 2) * (width + 2 * radius) * nr, dtype=np.int32)
+    rows = np.empty(max(2 * radius + 1, 2) * nr, dtype=np.int64)
+    return left_t, np.empty_like(left_t), rows, np.empty(2 * ndisp * nr, dtype=np.int32)
+
+
 def test_block_match_on_made_costs_equals_the_one_on_the_band_array():
     # band_block_match making each column's costs (make_costs), then matching them, gives
     # band_block_match on band_lane_costs' array, bit for bit, band after band, and leaves
@@ -504,13 +512,9 @@ def test_block_match_on_made_costs_equals_the_one_on_the_band_array():
         left = (rng.integers(0, 6, (height, width)) * 800).astype(np.int32)
         right = (rng.integers(0, 6, (height, width)) * 800).astype(np.int32)
         left_p, right_p = padded(left, radius), padded(right, radius)
-        win = 2 * radius + 1
         nk = (ndisp + 2) * nr
         x_int_lo, x_int_hi = _band_kernels._integer_columns(width, dmin, ndisp, radius)
-        left_t = np.empty(max(win, 2) * (width + 2 * radius) * nr, dtype=np.int32)
-        right_t = np.empty_like(left_t)
-        rows = np.empty(max(win, 2) * nr, dtype=np.int64)
-        spread = np.empty(2 * ndisp * nr, dtype=np.int32)
+        left_t, right_t, rows, spread = lane_cost_scratch(width, ndisp, radius)
         vs_array, vs_made = (np.empty(width * ndisp * nr, dtype=np.int32) for _ in range(2))
         hsum = np.empty(ndisp * nr, dtype=np.int32)
         out, again = np.empty(width * nk), np.empty(width * nk)
@@ -1001,14 +1005,10 @@ def test_lane_costs_match_the_columns_they_move():
         left = (rng.integers(0, 6, (height, width)) * 800).astype(np.int32)  # ties
         right = (rng.integers(0, 6, (height, width)) * 800).astype(np.int32)
         left_p, right_p = padded(left, radius), padded(right, radius)
-        win = 2 * radius + 1
         nk = (ndisp + 2) * nr
         x_lo, x_hi = _band_kernels._integer_columns(width, dmin, ndisp, radius)
         shift = _band_kernels._key_shift(ndisp + 2)
-        left_t = np.empty(max(win, 2) * (width + 2 * radius) * nr, dtype=np.int32)
-        right_t = np.empty_like(left_t)
-        rows = np.empty(max(win, 2) * nr, dtype=np.int64)
-        spread = np.empty(2 * ndisp * nr, dtype=np.int32)
+        left_t, right_t, rows, spread = lane_cost_scratch(width, ndisp, radius)
         vs_plain, vs_fused = (np.empty(width * ndisp * nr, dtype=np.int32) for _ in range(2))
         hsum = np.empty(ndisp * nr, dtype=np.int32)
         out, fused = np.empty(width * nk), np.empty(width * nk)
