@@ -1159,6 +1159,39 @@ def test_dc_on_bands_equals_the_row_kernel(seed):
     assert accepted > 0
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_dc_on_bands_rejects_crossing_pairs_as_the_row_kernel(seed):
+    # a left patch copied into the right view far left of its true match: its pixels match
+    # the copy exactly (SER inf), and the textured pixels left of the patch match their
+    # true pixels, to the right of the copy. Those pairs cross, so the search of each row
+    # must reject some, where a row in order accepts every candidate at once; both as the
+    # row kernel
+    rng = np.random.default_rng(90 + seed)
+    height, width = 24, 64
+    texture = rng.integers(0, 256, (height, width + 40)).astype(np.uint8)
+    left = texture[:, 20 : 20 + width]
+    right = texture[:, 16 : 16 + width].astype(int) + rng.integers(-4, 5, (height, width))
+    a, size, offset = int(rng.integers(28, 40)), int(rng.integers(7, 11)), 16
+    right[:, a - offset : a - offset + size] = left[:, a : a + size]  # d = 16 for the patch
+    right = np.clip(right, 0, 255).astype(np.uint8)  # d = -4 elsewhere
+    kw = dict(max_disparity=24, min_disparity=-6, window=3)
+    expected = dc_by_rows(left, right, **kw)
+    pairs = expected.features
+    crossing = 0
+    for y in range(height):
+        row = pairs[pairs[:, 0] == y]
+        copy = row[row[:, 1] - row[:, 2] == offset]  # pairs on the patch
+        true = row[(row[:, 1] < a) & (row[:, 1] - row[:, 2] == -4)]
+        crossing += len(copy) > 0 and len(true) > 0 and true[:, 2].max() >= copy[:, 2].min()
+    assert crossing == 0  # the reference keeps the order, and
+    on_patch = pairs[pairs[:, 1] - pairs[:, 2] == offset]
+    assert len(np.unique(on_patch[:, 0])) >= 3  # the patch is matched in some rows
+    for chunks in (1, 8):
+        with mock.patch.object(api, "_band_chunks", lambda height: chunks):
+            assert_same_dc(expected, dc_in_mode(2, left, right, **kw))
+    assert_same_dc(expected, dc_in_mode(3, left, right, **kw))
+
+
 @pytest.mark.parametrize("window", [63, 65])
 def test_dc_on_bands_with_keys_too_wide_for_32_bits(window):
     # at 62 disparities (64 blocks: keys (h << 7) | j) a window of 63 of the matching

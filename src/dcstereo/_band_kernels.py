@@ -2252,7 +2252,9 @@ def band_row_features(
     the outcome of the variance floor, uniqueness, range and guard tests, and VS and SER
     are tested here, on the survivors. The search takes the strongest candidate of each
     interval that lies in its ordering range and passes the left-right test, and splits
-    the interval at it. Pair ``x <-> j`` is written to ``pins[x * R + r]`` (which must
+    the interval at it; a row whose candidates' matches already increase with ``x``
+    (with the left-right check off) accepts them all without it, which relies on the
+    mask's range test (every match at least ``radius`` inside the image). Pair ``x <-> j`` is written to ``pins[x * R + r]`` (which must
     hold -1). Returns the number of pairs ``n``, whose ``(x, j, SER, VS)`` are
     ``pairs_row[:n]`` in increasing ``x`` (float32, ``(width, 4)``; rows from ``n`` on
     may be overwritten). No fill: the pinned band DP does it. Scratch:
@@ -2282,6 +2284,11 @@ def band_row_features(
     # (total * scale) / ssd exactly (both scalings are exact), one division fewer
     scale = float(steps * steps)
     exact_scale = (steps * steps) & (steps * steps - 1) == 0
+    # whether the candidates that pass VS and SER are in order: their right pixels
+    # strictly increasing with x (the mask's range test put each inside the windows), and
+    # no left-right check, which can hold a candidate back
+    ordered = not lr_check
+    j_last = -1
     n = 0
     for q in range(m):
         p = cand_x[q]
@@ -2306,9 +2313,26 @@ def band_row_features(
         cand_ser[n] = ser
         cand_vs[n] = vs
         cand_var[n] = v_l
-        cand_live[n] = v_l
-        lr_j[n] = -1
+        ordered &= j > j_last
+        j_last = j
         n += 1
+    if ordered:
+        # then the search accepts every candidate, and none is tried twice: each is the
+        # strongest of the interval between the stronger pairs around it, whose right
+        # pixels bound its own on both sides (no sparse table, no work list: most rows of
+        # the Middlebury scenes with the default tests, where a row rejects 0.1 on average)
+        for i in range(n):
+            p = cand_x[i]
+            j = p - dmin - cand_k[i]
+            pins[p * nr + r] = j
+            pairs_row[i, 0] = p
+            pairs_row[i, 1] = j
+            pairs_row[i, 2] = cand_ser[i]
+            pairs_row[i, 3] = cand_vs[i]
+        return n
+    for i in range(n):
+        cand_live[i] = cand_var[i]
+        lr_j[i] = -1
     _sparse_build(cand_var, n, sparse)
     # the work list holds only intervals with room and candidates: each push writes the
     # next entry and keeps it only then (no branch; an empty interval was a push, a pop
