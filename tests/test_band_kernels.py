@@ -1187,7 +1187,7 @@ def test_dc_on_bands_rejects_crossing_pairs_as_the_row_kernel(seed):
     on_patch = pairs[pairs[:, 1] - pairs[:, 2] == offset]
     assert len(np.unique(on_patch[:, 0])) >= 3  # the patch is matched in some rows
     for chunks in (1, 8):
-        with mock.patch.object(api, "_band_chunks", lambda height: chunks):
+        with mock.patch.object(api, "_band_chunks", lambda height, c=chunks: c):
             assert_same_dc(expected, dc_in_mode(2, left, right, **kw))
     assert_same_dc(expected, dc_in_mode(3, left, right, **kw))
 
