@@ -2255,7 +2255,8 @@ def band_row_features(
     the interval at it; a row whose candidates' matches already increase with ``x``
     (with the left-right check off) accepts them all without it, which relies on the
     mask's range test (every match at least ``radius`` inside the image). Pair
-    ``x <-> j`` is written to ``pins[x * R + r]`` (which must hold -1). Returns the number of pairs ``n``, whose ``(x, j, SER, VS)`` are
+    ``x <-> j`` is written to ``pins[x * R + r]`` (which must hold -1). Returns the
+    number of pairs ``n``, whose ``(x, j, SER, VS)`` are
     ``pairs_row[:n]`` in increasing ``x`` (float32, ``(width, 4)``; rows from ``n`` on
     may be overwritten). No fill: the pinned band DP does it. Scratch:
     ``iwork`` (int64, (6 + levels, width), ``2**(levels - 1) >= width``), ``fwork``
