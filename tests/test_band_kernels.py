@@ -909,6 +909,64 @@ def test_column_vector_code_equals_its_plain_python_twin(seed):
         assert (moved[0][2][nr:-nr] != -1.0).all() and (moved[0][2][:nr] == -1.0).all()
 
 
+@pytest.mark.parametrize("seed", range(3))
+def test_pinned_cells_in_the_vector_code_restart_the_column_and_block_the_e_step(seed):
+    # _cells5_chain's pins (e_off, pin_k), vector code and twin, against what band_forward
+    # stored before: the pinned lanes' prev2 set to inf (the e-step guard), the anchor
+    # column's pinned lanes set to 0 at the anchor, occ2, 2 occ2, ... below, inf above
+    rng = np.random.default_rng(820 + seed)
+    for ndisp in (1, 2, 3, 7, 16, 33):
+        check_pinned_cells(rng, ndisp)
+
+
+def check_pinned_cells(rng, ndisp):
+    nr = _band_kernels.BAND_ROWS
+    run5 = _band_kernels._cells5_chain
+    nk = (ndisp + 2) * nr
+    k_lo = int(rng.integers(0, ndisp))
+    k_hi = int(rng.integers(k_lo, ndisp))
+    ring = rng.integers(0, 6, (3, nk)).astype(np.float64)
+    ring[rng.random(ring.shape) < 0.15] = np.inf
+    ring[0, (k_hi + 2) * nr :] = np.inf  # above the range: inf, as band_forward leaves it
+    cost = rng.integers(0, 4, 3 * nk).astype(np.float64)
+    cost[rng.random(cost.shape) < 0.1] = np.inf
+    fixed = (cost, np.uint64(2 * nk), np.uint64(nk))  # the costs, o_here, o_left
+    o_steps, occ2, slant2 = np.uint64(ndisp + 2), 2.0, 1.0
+    guarded = rng.random(nr) < 0.5
+    e_off = np.where(guarded, np.inf, 0.0)
+    pinned = rng.random(nr) < 0.5
+    pin_k = np.where(pinned, rng.integers(k_lo, k_hi + 1, nr), -1).astype(np.float64)
+
+    def cells(run, prev2, *pins):
+        cur = ring[0].copy()
+        steps = np.zeros(3 * (ndisp + 2), dtype=np.uint32)
+        run(cur, ring[1], prev2, *fixed, steps, o_steps, k_lo, k_hi, occ2, slant2, *pins)
+        return cur.reshape(ndisp + 2, nr), steps
+
+    def restart(values):
+        out = values.copy()
+        for r in np.flatnonzero(pinned):
+            k_a = int(pin_k[r])
+            for k in range(k_lo, k_hi + 1):
+                out[k + 1, r] = (k_a - k) * occ2 if k <= k_a else np.inf
+        return out
+
+    blocked = ring[2].copy().reshape(ndisp + 2, nr)
+    blocked[:, guarded] = np.inf
+    guarded_values, guarded_steps = cells(run5, blocked.ravel())
+    free_values = cells(run5, ring[2].copy())[0]
+    for pins, want in (
+        ((e_off, None), guarded_values),
+        ((None, pin_k), restart(free_values)),
+        ((e_off, pin_k), restart(guarded_values)),
+    ):
+        for run in (run5, _compiled(run5)):
+            values, steps = cells(run, ring[2].copy(), *pins)
+            np.testing.assert_array_equal(values, want)
+            if pins[1] is None:  # the guard alone: the steps of prev2 at inf, too
+                np.testing.assert_array_equal(steps, guarded_steps)
+
+
 def check_moved_costs_keyed(ndisp, left_t, right_t, vs, hsum, width_p):
     """``_moved_costs_keyed`` (twin and vector code) against ``_moved_costs`` and the naive
     block match of the column it made; nothing outside the column's ``R`` matches written."""
