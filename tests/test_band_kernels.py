@@ -501,7 +501,8 @@ def test_block_match_on_made_costs_equals_the_one_on_the_band_array():
     # band_block_match making each column's costs (make_costs), then matching them, gives
     # band_block_match on band_lane_costs' array, bit for bit, band after band, and leaves
     # the vertical sums of band_lane_costs, from which band_lane_costs with SUMS_READY
-    # makes the same array
+    # makes the same array; the same with the moved columns made and matched at once
+    # (fused: _moved_costs_keyed)
     rng = np.random.default_rng(13)
     nr = _band_kernels.BAND_ROWS
     for dmin, ndisp, radius, width, height in (
@@ -515,13 +516,18 @@ def test_block_match_on_made_costs_equals_the_one_on_the_band_array():
         nk = (ndisp + 2) * nr
         x_int_lo, x_int_hi = _band_kernels._integer_columns(width, dmin, ndisp, radius)
         left_t, right_t, rows, spread = lane_cost_scratch(width, ndisp, radius)
-        vs_array, vs_made = (np.empty(width * ndisp * nr, dtype=np.int32) for _ in range(2))
+        vs_array, vs_made, vs_fused = (
+            np.empty(width * ndisp * nr, dtype=np.int32) for _ in range(3)
+        )
+        shift = _band_kernels._key_shift(ndisp + 2)
+        assert _band_kernels._keys_fit(4000, radius, shift)
+        fused = (x_int_lo, x_int_hi, shift)
         hsum = np.empty(ndisp * nr, dtype=np.int32)
         out, again = np.empty(width * nk), np.empty(width * nk)
         col = np.empty(nk)
         pre, suf = np.empty(nk), np.empty(nk)
-        k_array, k_made = (np.empty(width * nr, dtype=np.int64) for _ in range(2))
-        r_array, r_made = np.empty(width * nr), np.empty(width * nr)
+        k_array, k_made, k_fused = (np.empty(width * nr, dtype=np.int64) for _ in range(3))
+        r_array, r_made, r_fused = (np.empty(width * nr) for _ in range(3))
         run = -(-height // nr)
         for t in range(run):
             load_band_signals(left_p, right_p, t, run, height, radius, rows, left_t, right_t)
@@ -533,9 +539,15 @@ def test_block_match_on_made_costs_equals_the_one_on_the_band_array():
                 col, width, ndisp, x_int_lo, x_int_hi, pre, suf, k_made, r_made,
                 (left_t, right_t, dmin, radius, spread, vs_made, int(t > 0), hsum),
             )  # fmt: skip
-            np.testing.assert_array_equal(k_made, k_array)
-            assert r_made.tobytes() == r_array.tobytes()
-            assert vs_made.tobytes() == vs_array.tobytes()
+            _band_kernels.band_block_match(
+                col, width, ndisp, x_int_lo, x_int_hi, pre, suf, k_fused, r_fused,
+                (left_t, right_t, dmin, radius, spread, vs_fused, int(t > 0), hsum), None, None,
+                fused,
+            )  # fmt: skip
+            for k_got, r_got, vs_got in ((k_made, r_made, vs_made), (k_fused, r_fused, vs_fused)):
+                np.testing.assert_array_equal(k_got, k_array)
+                assert r_got.tobytes() == r_array.tobytes()
+                assert vs_got.tobytes() == vs_array.tobytes()
             ready = _band_kernels.SUMS_READY
             _band_kernels.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread,
                                           vs_made, ready, hsum, again)  # fmt: skip
@@ -1209,10 +1221,12 @@ def test_dc_on_bands_equals_the_row_kernel(seed):
         for mode in (2,) if options.get("lr_check") else (2, 3):
             got = dc_in_mode(mode, left, right, **kw)
             assert_same_dc(expected, got)
-        # one chunk: its bands after the first move the sums down a row, and the cost pass
-        # block-matches the columns it moves (with 8 chunks these rows are one band each)
+        # one chunk: its bands after the first move the sums down a row, and the pass that
+        # makes the costs (mode 2: the cost pass; mode 3: the block match) block-matches
+        # the columns it moves (with 8 chunks these rows are one band each)
         with mock.patch.object(api, "_band_chunks", lambda height: 1):
-            assert_same_dc(expected, dc_in_mode(2, left, right, **kw))
+            for mode in (2,) if options.get("lr_check") else (2, 3):
+                assert_same_dc(expected, dc_in_mode(mode, left, right, **kw))
         accepted += len(got.features)
     assert accepted > 0
 

@@ -1929,7 +1929,7 @@ def _keyed_column_compiled(cost, o, nblocks, scale, numbers, wta_k, wta_ratio, i
 @nb.njit(cache=True)
 def band_block_match(
     cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio, make_costs=None,
-    wanted=None, done=None,
+    wanted=None, done=None, fused=None,
 ):  # fmt: skip
     """Whole-band block match of every left pixel of the ``R`` rows of a band.
 
@@ -1968,6 +1968,13 @@ def band_block_match(
 
     ``done`` None: every column. Otherwise (uint8, ``width``) the columns with ``done[x]``
     are left as they are: ``band_lane_costs`` matched them as it made them.
+
+    ``fused`` (with ``make_costs`` only) None: each column is made, then matched.
+    Otherwise ``(x_lo, x_hi, shift)``: the columns ``x_lo <= x < x_hi`` that
+    ``_moved_costs`` makes are made and matched at once by ``_moved_costs_keyed``, as
+    ``band_lane_costs``' ``match`` does for the band's array (the caller checks
+    ``_keys_fit``); they are matched whether ``wanted`` or not (the same values: the
+    feature tests read only the wanted columns).
     """
     nr = BAND_ROWS
     unr = np.uint64(nr)
@@ -1986,6 +1993,21 @@ def band_block_match(
         else:
             o = np.uint64(0)
             left_t, right_t, dmin, radius, spread, vs, incremental, hsum = make_costs
+            if fused is not None:
+                x_lo, x_hi, shift = fused
+                add = x + radius
+                sub = x - radius - 1
+                if x_lo <= x < x_hi and _movable(add, sub, width, dmin, ndisp, incremental):
+                    # made and matched at once
+                    width_p = width + 2 * radius
+                    nkc = np.uint64(ndisp * nr)
+                    o_left, o_right, o_add = _moved_offsets(add, dmin, radius, width_p, nkc)
+                    _moved_costs_keyed(
+                        left_t, right_t, vs, hsum, cost, o_left, o_right, o_add,
+                        np.uint64(sub) * nkc, unr, nkc, width_p, shift, wta_k, wta_ratio,
+                        np.uint64(x) * unr,
+                    )  # fmt: skip
+                    continue
             _cost_column(
                 left_t, right_t, x, width, dmin, ndisp, radius, spread, vs, incremental, hsum,
                 cost, o,
@@ -2718,8 +2740,9 @@ def match_band_rows(
     ``x``, ``j``, SER, VS, in increasing ``x``; the rest of each row is scratch). 3: as
     2, without the band's cost array (for wide images and disparity ranges, whose band
     costs leave the caches): the block match makes the costs a column at a time
-    (``band_block_match``'s ``make_costs``) and the DP pass makes them again from the
-    vertical sums it left. The search then has no costs to read: the left-right check
+    (``band_block_match``'s ``make_costs``; the columns it moves down a row made and
+    matched at once where the keys fit, its ``fused``) and the DP pass makes them again
+    from the vertical sums it left. The search then has no costs to read: the left-right check
     (``tests[4]``) must be off.
 
     ``tests`` None (with ``pin_mode`` 0 only): the search and the band cost array are
@@ -2736,11 +2759,12 @@ def match_band_rows(
     nk = (ndisp + 2) * nr
     # the columns band_block_match's keyed search may take
     x_int_lo, x_int_hi = _integer_columns(width, dmin, ndisp, radius)
-    # dc with the band's cost array: the cost pass block-matches these columns as it makes
-    # them (those it moves down a row), where the 32-bit keys hold every cost
+    # dc: the pass that makes the costs (with the band's cost array, the cost pass; without,
+    # the block match) block-matches these columns as it makes them (those it moves down a
+    # row), where the 32-bit keys hold every cost
     key_shift = _key_shift(ndisp + 2)
     fused_hi = x_int_lo  # none
-    if tests is not None and pin_mode == 2:
+    if tests is not None and (pin_mode == 2 or pin_mode == 3):
         span = np.int64(max(left_p.max(), right_p.max())) - min(left_p.min(), right_p.min())
         if _keys_fit(span, radius, key_shift):
             fused_hi = x_int_hi
@@ -2812,6 +2836,7 @@ def match_band_rows(
                     band_block_match(
                         cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio,
                         (left_t, right_t, dmin, radius, spread, vs, int(t > 0), hsum), wanted,
+                        None, (x_int_lo, fused_hi, key_shift),
                     )  # fmt: skip
                 else:
                     band_block_match(
