@@ -1121,7 +1121,7 @@ def _cells5_chain(
       the b chain leaves the anchor at 0, the cells below it at ``occ2``, ``2 occ2``, ...
       (the sums in that order) and inf above it: the column restarts at the anchor.
       Its step words are those of these values; the backtrack never reads them
-      (``_trace_segment`` stops on reaching an anchor's column).
+      (``band_backtrack_row`` ends a segment on reaching an anchor's column).
     """
     nr = np.uint64(BAND_ROWS)
     top = np.uint64((k_hi + 2) * BAND_ROWS - 1)
@@ -1404,7 +1404,8 @@ def band_forward(
     ``anchor_total[x * R + r]`` and the step into it (the first of c, d, e that reaches
     its value; ``STEP_NONE`` if none does) to ``anchor_steps[x * R + r]``. The column of
     an anchor then holds only the anchor (0) and the b steps below it (their step bits are
-    not read: the backtrack stops on reaching the anchor's column, ``_trace_segment``);
+    not read: the backtrack ends a segment on reaching the anchor's column,
+    ``band_backtrack_row``);
     the e step over an anchor, from column ``x - 2`` to ``x``, reads inf. With the five
     steps, the cells' vector code does both (``_cells5_chain``'s ``pin_k`` and ``e_off``,
     in the columns that need them), instead of a strided store per cell of each pinned
@@ -1568,66 +1569,6 @@ def band_forward(
 
 
 @nb.njit(cache=True)
-def _trace_segment(
-    steps,
-    nwords,
-    r,
-    dmin,
-    x_lo,
-    anchor_start,
-    end_x,
-    end_k,
-    end_step,
-    disp_row,
-    flag_row,
-):
-    """Backtrack one segment of band row ``r`` from its end node and write its pixels.
-
-    The segment starts at the anchor in column ``x_lo`` (``anchor_start``) or at the free
-    start (then ``x_lo = 0``); ``end_step`` is the step into the end node (from
-    ``anchor_steps`` for an anchored end), the others come from ``steps`` (``nwords``
-    words a column, see ``band_forward``). The writes are those of ``apply_path``, in its
-    order. A path that reaches the starting anchor's column is at the anchor or below it,
-    and from there only b steps lead to it (``band_forward`` keeps the other cells of that
-    column at inf, and no e step crosses it), which write nothing: the walk stops there.
-    """
-    x = end_x
-    k = end_k
-    s = end_step
-    while True:
-        if anchor_start and x == x_lo:
-            break  # the rest are b steps up the anchor's column, which write nothing
-        d = dmin + k
-        if s == STEP_C or s == STEP_D:
-            disp_row[x] = d
-            flag_row[x] = 0
-        elif s == STEP_E:
-            disp_row[x] = d
-            flag_row[x] = 0
-            disp_row[x - 1] = d - 0.5
-            flag_row[x - 1] = 0
-        elif s == STEP_A:
-            disp_row[x] = np.nan
-            flag_row[x] = FLAG_OCCLUDED
-        if s == STEP_C:
-            x -= 1
-        elif s == STEP_A:
-            x -= 1
-            k -= 1
-        elif s == STEP_B:
-            k += 1
-        elif s == STEP_D:
-            x -= 1
-            k += 1
-        else:  # STEP_E (and, as in scanline_dp, STEP_NONE)
-            x -= 2
-            k -= 1
-        if not anchor_start and (x == -1 or x - dmin - k == -1):
-            break
-        s = _cell_step(steps, x * nwords + k + 1, r)
-
-
-@nb.njit(cache=True)
 def band_backtrack_row(
     steps,
     ends,
@@ -1645,82 +1586,107 @@ def band_backtrack_row(
 ):
     """Paths of band row ``r`` after ``band_forward``: write disparities, flags; return the total.
 
-    Segment by segment, as ``gcp_row``: each segment that ends at an anchor (from the
-    free start or the anchor before) is traced from it when its value is finite, then the
-    anchor pixel is written (``x - j``, flag 0); the last segment ends free (skipped when
-    the last anchor is the row's last pixel). The total is the sum of the segment totals
-    in order (inf when a segment has no path). The anchors are the columns
-    ``anchor_x[:nanchors]``, increasing (those with ``pins[x * R + r] >= 0``; none in
-    free mode). ``disp_row``/``flag_row`` must hold NaN/border.
+    As ``gcp_row``, segment by segment: each segment that ends at an anchor (from the free
+    start or the anchor before) is traced from it when its value is finite, and the anchor
+    pixel gets ``x - j``, flag 0; the last segment ends free (none when the last anchor is
+    the row's last pixel). The total is the sum of the segment totals in order (inf when a
+    segment has no path). The anchors are the columns ``anchor_x[:nanchors]``, increasing
+    (those with ``pins[x * R + r] >= 0``; none in free mode). ``disp_row``/``flag_row``
+    must hold NaN/border.
+
+    One walk down the row from its end, segment after segment: a segment writes only its
+    own columns (after its starting anchor, up to its end), so the order in which the
+    segments are traced changes nothing, and a walk that reaches the starting anchor's
+    column goes on from that anchor, without a call and a loop exit per segment. The
+    steps are those of ``steps`` (``ndisp + 2`` words a column, see ``band_forward``),
+    and into an anchor ``anchor_steps``; the writes are those of ``apply_path``. A path
+    that reaches the starting anchor's column is at the anchor or below it, and from
+    there only b steps lead to it (``band_forward`` keeps the other cells of that column
+    at inf, and no e step crosses it), which write nothing: the segment ends there.
     """
     nr = BAND_ROWS
     nwords = ndisp + 2
     inf = np.inf
     total = 0.0
+    for i in range(nanchors):
+        total += anchor_total[anchor_x[i] * nr + r]
+    anchored = nanchors > 0  # the segment being walked starts at an anchor
     x_lo = 0
     j_lo = 0
-    anchor_start = False
-    for i in range(nanchors):
+    if anchored:
+        x_lo = anchor_x[nanchors - 1]
+        j_lo = pins[x_lo * nr + r]
+    # the free end: nodes with x == width - 1, then nodes with j == width - 1
+    walking = False
+    x = k = s = -1
+    if not (anchored and x_lo == width - 1):
+        value = inf
+        for kk in range(ndisp):
+            j = width - 1 - dmin - kk
+            if j_lo <= j <= width - 1:
+                v = ends[(ndisp + kk) * nr + r]
+                if v < value:
+                    value = v
+                    x = width - 1
+                    k = kk
+        for kk in range(ndisp):
+            xx = width - 1 + dmin + kk
+            if x_lo <= xx < width - 1:
+                v = ends[kk * nr + r]
+                if v < value:
+                    value = v
+                    x = xx
+                    k = kk
+        total += value
+        if value < inf:
+            walking = True
+            s = _cell_step(steps, x * nwords + k + 1, r)
+    i = nanchors  # the segment being walked ends at anchor i (nanchors: the free end)
+    while True:
+        while walking:
+            if anchored and x == x_lo:
+                break  # the rest are b steps up the anchor's column, which write nothing
+            d = dmin + k
+            if s == STEP_C or s == STEP_D:
+                disp_row[x] = d
+                flag_row[x] = 0
+            elif s == STEP_E:
+                disp_row[x] = d
+                flag_row[x] = 0
+                disp_row[x - 1] = d - 0.5
+                flag_row[x - 1] = 0
+            elif s == STEP_A:
+                disp_row[x] = np.nan
+                flag_row[x] = FLAG_OCCLUDED
+            if s == STEP_C:
+                x -= 1
+            elif s == STEP_A:
+                x -= 1
+                k -= 1
+            elif s == STEP_B:
+                k += 1
+            elif s == STEP_D:
+                x -= 1
+                k += 1
+            else:  # STEP_E (and, as in scanline_dp, STEP_NONE)
+                x -= 2
+                k -= 1
+            if not anchored and (x == -1 or x - dmin - k == -1):
+                break
+            s = _cell_step(steps, x * nwords + k + 1, r)
+        # the next segment down ends at anchor i - 1
+        i -= 1
+        if i < 0:
+            break
         x = anchor_x[i]
         j = pins[x * nr + r]
-        value = anchor_total[x * nr + r]
-        if value < inf:
-            _trace_segment(
-                steps,
-                nwords,
-                r,
-                dmin,
-                x_lo,
-                anchor_start,
-                x,
-                x - j - dmin,
-                anchor_steps[x * nr + r],
-                disp_row,
-                flag_row,
-            )
-        total += value
         disp_row[x] = x - j
         flag_row[x] = 0
-        x_lo = x
-        j_lo = j
-        anchor_start = True
-    if anchor_start and x_lo == width - 1:
-        return total
-    # the free end: nodes with x == width - 1, then nodes with j == width - 1
-    end_x = -1
-    end_k = -1
-    value = inf
-    for k in range(ndisp):
-        j = width - 1 - dmin - k
-        if j_lo <= j <= width - 1:
-            v = ends[(ndisp + k) * nr + r]
-            if v < value:
-                value = v
-                end_x = width - 1
-                end_k = k
-    for k in range(ndisp):
-        x = width - 1 + dmin + k
-        if x_lo <= x < width - 1:
-            v = ends[k * nr + r]
-            if v < value:
-                value = v
-                end_x = x
-                end_k = k
-    if value < inf:
-        _trace_segment(
-            steps,
-            nwords,
-            r,
-            dmin,
-            x_lo,
-            anchor_start,
-            end_x,
-            end_k,
-            _cell_step(steps, end_x * nwords + end_k + 1, r),
-            disp_row,
-            flag_row,
-        )
-    total += value
+        walking = anchor_total[x * nr + r] < inf
+        k = x - j - dmin
+        s = anchor_steps[x * nr + r]
+        anchored = i > 0
+        x_lo = anchor_x[i - 1] if anchored else 0
     return total
 
 
