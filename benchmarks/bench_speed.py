@@ -671,6 +671,24 @@ def markdown_report(payload):
     return "\n".join(parts) + "\n"
 
 
+#: The line that ends the tables in ``--markdown``'s file: what an existing file has after
+#: it (docs/SPEED.md: the notes on each speed change) is kept when the tables are rewritten.
+NOTES_MARKER = "<!-- bench_speed.py writes the tables above this line and keeps what is below -->"
+
+
+def kept_notes(path, report):
+    """``report`` with the marker, then what the file at ``path`` has after its marker."""
+    text = report.rstrip("\n") + "\n\n" + NOTES_MARKER + "\n"
+    try:
+        old = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return text
+    _, found, notes = old.partition(NOTES_MARKER)
+    if not found or not notes.strip():
+        return text
+    return text + "\n" + notes.lstrip("\n")
+
+
 def comma_list(text):
     return [part.strip() for part in text.split(",") if part.strip()]
 
@@ -939,7 +957,7 @@ def measure(args, cases, methods, threads, notes, workdir, cv2):
         write_atomic(args.json, json.dumps(payload, indent=2) + "\n")
         print(f"\nwrote {args.json}")
     if args.markdown:
-        write_atomic(args.markdown, markdown_report(payload))
+        write_atomic(args.markdown, kept_notes(args.markdown, markdown_report(payload)))
         print(f"wrote {args.markdown}")
     return 0
 

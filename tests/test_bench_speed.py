@@ -240,6 +240,24 @@ def test_rounds_in_the_run_and_the_markdown(bench, tmp_path):
     assert "the fastest of 2 (the whole sweep ran 2 times" in markdown
 
 
+def test_markdown_keeps_the_notes_below_the_marker(bench, tmp_path):
+    # the tables are rewritten, the hand-written notes after the marker kept (docs/SPEED.md)
+    path = tmp_path / "SPEED.md"
+    assert bench.kept_notes(path, "# tables\n") == f"# tables\n\n{bench.NOTES_MARKER}\n"
+    path.write_text(f"# old tables\n\n{bench.NOTES_MARKER}\n\n## A change\n\nmeasured\n")
+    written = bench.kept_notes(path, "# new tables\n")
+    assert written == f"# new tables\n\n{bench.NOTES_MARKER}\n\n## A change\n\nmeasured\n"
+    assert "old tables" not in written
+    path.write_text("# a file without the marker\n")
+    assert "without" not in bench.kept_notes(path, "# tables\n")
+    # through main: a second run keeps the notes a person added below the first run's tables
+    _, first = run_tiny(bench, tmp_path, ["block"])
+    assert first.endswith(bench.NOTES_MARKER + "\n")
+    (tmp_path / "speed.md").write_text(first + "\n## Notes on a change\n")
+    _, second = run_tiny(bench, tmp_path, ["block"])
+    assert second.count(bench.NOTES_MARKER) == 1 and second.endswith("\n## Notes on a change\n")
+
+
 def test_bad_rounds_fail_cleanly(bench, capsys):
     assert bench.main(["--rounds", "0", "--scenes", "none"]) == 2
     assert "--rounds" in capsys.readouterr().err

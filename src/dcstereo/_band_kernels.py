@@ -1409,9 +1409,9 @@ def band_forward(
     the e step over an anchor, from column ``x - 2`` to ``x``, reads inf. With the five
     steps, the cells' vector code does both (``_cells5_chain``'s ``pin_k`` and ``e_off``,
     in the columns that need them), instead of a strided store per cell of each pinned
-    row, which the next column's vector loads then waited on: ``dc`` 0.96-0.99 of its
-    time on the Middlebury scenes, 0.83-0.90 on the 3000 x 2000 x 256 pair (A/B in one
-    process). The three-step DP and the first column store them as before.
+    row: ``dc`` 0.93-0.99 of its time on tsukuba and venus, 0.97-1.03 on teddy and cones,
+    0.83 on the 3000 x 2000 x 256 pair (A/B in one process, docs/SPEED.md). The
+    three-step DP and the first column store them as before.
     """
     nr = BAND_ROWS
     nk = (ndisp + 2) * nr
