@@ -949,11 +949,35 @@ def check_pinned_cells(rng, ndisp):
     pinned = rng.random(nr) < 0.5
     pin_k = np.where(pinned, rng.integers(k_lo, k_hi + 1, nr), -1).astype(np.float64)
 
-    def cells(run, prev2, *pins):
+    def cells(run, prev2, *pins, anchors=None):
         cur = ring[0].copy()
         steps = np.zeros(3 * (ndisp + 2), dtype=np.uint32)
-        run(cur, ring[1], prev2, *fixed, steps, o_steps, k_lo, k_hi, occ2, slant2, *pins)
+        more = () if anchors is None else (*anchors, nr)  # written at o_pin = R
+        run(cur, ring[1], prev2, *fixed, steps, o_steps, k_lo, k_hi, occ2, slant2, *pins, *more)
         return cur.reshape(ndisp + 2, nr), steps
+
+    def anchor_values(guard):
+        # band_forward's scalar form: each pinned lane's anchor by a match step (c, d, e;
+        # no a, no b) and the first of them that reaches it; sentinels elsewhere
+        total = np.full(3 * nr, -7.0)
+        codes = np.full(3 * nr, -7, dtype=np.int64)
+        cost, o_here, o_left = fixed
+        prev, prev2 = ring[1], ring[2]
+        for r in np.flatnonzero(pinned):
+            q = (int(pin_k[r]) + 1) * nr + r
+            h2 = 2.0 * cost[int(o_here) + q]
+            u = h2 + cost[int(o_left) + q] + slant2
+            c = prev[q] + h2
+            d = prev[q + nr] + cost[int(o_here) + q + nr] + u
+            e = (prev2[q - nr] + e_off[r] if guard else prev2[q - nr]) + cost[
+                int(o_left) + q - nr
+            ] + u
+            best = min(min(c, d), e)
+            total[nr + r] = best
+            step = _band_kernels.STEP_E if e == best else _band_kernels.STEP_NONE
+            step = _band_kernels.STEP_D if d == best else step
+            codes[nr + r] = _band_kernels.STEP_C if c == best else step
+        return total, codes
 
     def restart(values):
         out = values.copy()
@@ -973,10 +997,17 @@ def check_pinned_cells(rng, ndisp):
         ((e_off, pin_k), restart(guarded_values)),
     ):
         for run in (run5, _compiled(run5)):
-            values, steps = cells(run, ring[2].copy(), *pins)
-            np.testing.assert_array_equal(values, want)
-            if pins[1] is None:  # the guard alone: the steps of prev2 at inf, too
+            if pins[1] is None:
+                values, steps = cells(run, ring[2].copy(), *pins)
+                # the guard alone: the steps of prev2 at inf, too
                 np.testing.assert_array_equal(steps, guarded_steps)
+            else:  # the pinned lanes' anchor values and steps, the others' untouched
+                anchors = np.full(3 * nr, -7.0), np.full(3 * nr, -7, dtype=np.int64)
+                values, steps = cells(run, ring[2].copy(), *pins, anchors=anchors)
+                expected = anchor_values(pins[0] is not None)
+                np.testing.assert_array_equal(anchors[0], expected[0])
+                np.testing.assert_array_equal(anchors[1], expected[1])
+            np.testing.assert_array_equal(values, want)
 
 
 def check_moved_costs_keyed(ndisp, left_t, right_t, vs, hsum, width_p):

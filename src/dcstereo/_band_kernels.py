@@ -1099,7 +1099,7 @@ def _set_cell_steps(steps, o, r, c, d, e, a):
 
 def _cells5_chain(
     cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2, slant2, e_off=None,
-    pin_k=None,
+    pin_k=None, pin_total=None, pin_steps=None, o_pin=0,
 ):  # fmt: skip
     """Five-step cells ``k_lo..k_hi`` of one column, in one descending loop.
 
@@ -1121,7 +1121,12 @@ def _cells5_chain(
       the b chain leaves the anchor at 0, the cells below it at ``occ2``, ``2 occ2``, ...
       (the sums in that order) and inf above it: the column restarts at the anchor.
       Its step words are those of these values; the backtrack never reads them
-      (``band_backtrack_row`` ends a segment on reaching an anchor's column).
+      (``band_backtrack_row`` ends a segment on reaching an anchor's column). With
+      ``pin_k``, ``pin_total[o_pin + r]`` (float64) gets the anchor's value by a match
+      step, ``min(min(c, d), e)`` of its cell (the total of the segment it ends), and
+      ``pin_steps[o_pin + r]`` (int64) the first of c, d, e that reaches it (``STEP_C``,
+      ``STEP_D``, ``STEP_E``; ``STEP_NONE`` if none does); the unpinned lanes' entries
+      are not written. Every pinned lane's ``k`` must lie in ``k_lo..k_hi``.
     """
     nr = np.uint64(BAND_ROWS)
     top = np.uint64((k_hi + 2) * BAND_ROWS - 1)
@@ -1138,7 +1143,15 @@ def _cells5_chain(
         a = prev[p - nr] + occ2
         cell = min(min(c, d), min(e, a))
         if pin_k is not None and pin_k[p % nr] >= 0:
-            cell = 0.0 if pin_k[p % nr] == np.float64(p // nr - 1) else np.inf
+            at = pin_k[p % nr] == np.float64(p // nr - 1)
+            if at:
+                i_pin = int(o_pin) + int(p % nr)  # ints: np.int64 + np.uint64 is float
+                best = min(min(c, d), e)
+                pin_total[i_pin] = best
+                step = STEP_E if e == best else STEP_NONE
+                step = STEP_D if d == best else step
+                pin_steps[i_pin] = STEP_C if c == best else step
+            cell = 0.0 if at else np.inf
         v = min(cell, cur[p + nr] + occ2)
         cur[p] = v
         _set_cell_steps(steps, o_steps + p // nr, int(p % nr), c == v, d == v, e == v, a == v)
@@ -1231,6 +1244,9 @@ def _cells_codegen(five, guarded=False, pinning=False):
             pinned_lanes = builder.fcmp_ordered(">=", pin_k_vec, _vector_of(0.0, _VEC_F64))
             inf_vec = _vector_of(float("inf"), _VEC_F64)
             zero_vec = _vector_of(0.0, _VEC_F64)
+            # the match steps c, d, e of each pinned lane's anchor cell, kept as the loop
+            # passes it (a select each), for the anchor's value and step after the loop
+            at_anchor = [cgutils.alloca_once_value(builder, inf_vec) for _ in range(3)]
         if five:
             slant2_vec = _broadcast(builder, slant2, _VEC_F64)
             prev_up = cgutils.alloca_once_value(builder, _load_vector(builder, prev, above))
@@ -1268,6 +1284,8 @@ def _cells_codegen(five, guarded=False, pinning=False):
                     k_here = builder.sub(builder.udiv(p, width), ir.Constant(_I64, 1))
                     k_vec = _broadcast(builder, builder.sitofp(k_here, ir.DoubleType()), _VEC_F64)
                     at = builder.fcmp_ordered("==", pin_k_vec, k_vec)
+                    for slot, step_value in zip(at_anchor, (c, d, e), strict=True):
+                        builder.store(builder.select(at, step_value, builder.load(slot)), slot)
                     pin_value = builder.select(at, zero_vec, inf_vec)
                     cell = builder.select(pinned_lanes, pin_value, cell)
             else:
@@ -1289,9 +1307,36 @@ def _cells_codegen(five, guarded=False, pinning=False):
                 builder.store(here, cost_up)
                 builder.store(left_below, left_here)
             builder.store(prev_below, prev_here)
+        if pinning:
+            _store_anchors(context, builder, sig, args, [builder.load(s) for s in at_anchor],
+                           pinned_lanes)  # fmt: skip
         return context.get_dummy_value()
 
     return codegen
+
+
+def _store_anchors(context, builder, sig, args, match_steps, pinned_lanes):
+    """The pinned lanes' anchor values and steps (``_cells5_chain``'s ``pin_total``,
+    ``pin_steps``) from the match steps ``(c, d, e)`` at their anchors: masked stores."""
+    c, d, e = match_steps
+    best = _vector_min(builder, _vector_min(builder, c, d), e)
+    step = _vector_of(STEP_NONE, _VEC_I64)
+    for value, code in ((e, STEP_E), (d, STEP_D), (c, STEP_C)):  # the first that reaches it
+        step = builder.select(builder.fcmp_ordered("==", value, best), _vector_of(code, _VEC_I64),
+                              step)  # fmt: skip
+    o_pin = args[16]
+    for value, index in ((best, 14), (step, 15)):
+        data = _array_data(context, builder, sig, args, index)
+        masked_store = cgutils.get_or_insert_function(
+            builder.module,
+            ir.FunctionType(
+                ir.VoidType(),
+                [value.type, value.type.as_pointer(), ir.IntType(32), pinned_lanes.type],
+            ),
+            f"llvm.masked.store.v{BAND_ROWS}{'f64' if index == 14 else 'i64'}.p0",
+        )
+        pointer = builder.bitcast(builder.gep(data, [o_pin]), value.type.as_pointer())
+        builder.call(masked_store, [value, pointer, ir.Constant(ir.IntType(32), 8), pinned_lanes])
 
 
 def _cells_arguments_ok(arrays, offsets, floats):
@@ -1310,19 +1355,25 @@ def _absent(arg_type):
 
 @intrinsic
 def _cells5_vector(typingctx, cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi,
-                   occ2, slant2, e_off, pin_k):  # fmt: skip
+                   occ2, slant2, e_off, pin_k, pin_total, pin_steps, o_pin):  # fmt: skip
     guarded, pinning = not _absent(e_off), not _absent(pin_k)
     if not (
         _cells_arguments_ok(
             (cur, prev, prev2, cost, steps), (o_here, o_left, o_steps, k_lo, k_hi), (occ2, slant2)
         )
         and (not guarded or _contiguous(e_off, types.float64))
-        and (not pinning or _contiguous(pin_k, types.float64))
+        and (
+            not pinning
+            or _contiguous(pin_k, types.float64)
+            and _contiguous(pin_total, types.float64)
+            and _contiguous(pin_steps, types.int64)
+            and _words(o_pin)
+        )
     ):
         return None
     signature = types.void(
         cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2, slant2, e_off,
-        pin_k,
+        pin_k, pin_total, pin_steps, o_pin,
     )  # fmt: skip
     return signature, _cells_codegen(True, guarded, pinning)
 
@@ -1337,12 +1388,13 @@ def _cells3_vector(typingctx, cur, prev, cost, o_here, steps, o_steps, k_lo, k_h
 
 @overload(_cells5_chain)
 def _cells5_compiled(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2,
-                     slant2, e_off=None, pin_k=None):  # fmt: skip
+                     slant2, e_off=None, pin_k=None, pin_total=None, pin_steps=None,
+                     o_pin=0):  # fmt: skip
     def run(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2, slant2,
-            e_off=None, pin_k=None):  # fmt: skip
+            e_off=None, pin_k=None, pin_total=None, pin_steps=None, o_pin=0):  # fmt: skip
         _cells5_vector(
             cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2, slant2,
-            e_off, pin_k,
+            e_off, pin_k, pin_total, pin_steps, np.int64(o_pin),
         )  # fmt: skip
 
     return run
@@ -1410,8 +1462,12 @@ def band_forward(
     steps, the cells' vector code does both (``_cells5_chain``'s ``pin_k`` and ``e_off``,
     in the columns that need them), instead of a strided store per cell of each pinned
     row: ``dc`` 0.93-0.99 of its time on tsukuba and venus, 0.97-1.03 on teddy and cones,
-    0.83 on the 3000 x 2000 x 256 pair (A/B in one process, docs/SPEED.md). The
-    three-step DP and the first column store them as before.
+    0.83 on the 3000 x 2000 x 256 pair (A/B in one process, docs/SPEED.md). It also
+    makes the anchors' values and steps (``pin_total``, ``pin_steps``: a select per block
+    of the three match steps, masked stores after the column) instead of a scalar pass
+    over the pinned rows that read the anchor cell's neighbours again: ``dc`` 0.97 of its
+    time on tsukuba and venus, 1.00-1.01 on teddy and cones. The three-step DP and the
+    first column do both in scalar code, as before.
     """
     nr = BAND_ROWS
     nk = (ndisp + 2) * nr
@@ -1493,10 +1549,11 @@ def band_forward(
             # Four spelled-out calls: the arguments passed as one tuple (*cells) made dc
             # 1.06-1.09x slower on tsukuba and venus (A/B in one process)
             fused_pins = slant_ok and pin_here
+            o_pin = np.int64(x * nr)
             if slant_ok and guard and pin_here:
                 _cells5_chain(
                     cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2,
-                    slant2, e_off, pin_k,
+                    slant2, e_off, pin_k, anchor_total, anchor_steps, o_pin,
                 )  # fmt: skip
             elif slant_ok and guard:
                 _cells5_chain(
@@ -1506,7 +1563,7 @@ def band_forward(
             elif slant_ok and pin_here:
                 _cells5_chain(
                     cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2,
-                    slant2, None, pin_k,
+                    slant2, None, pin_k, anchor_total, anchor_steps, o_pin,
                 )  # fmt: skip
             elif slant_ok:
                 _cells5_chain(
@@ -1515,7 +1572,7 @@ def band_forward(
                 )  # fmt: skip
             else:
                 _cells3_chain(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2)
-            if pin_here:
+            if pin_here and not fused_pins:  # (fused: the vector code made the anchors)
                 for r in range(nr):
                     j = pins[x * nr + r]
                     if j < 0:
@@ -1542,12 +1599,11 @@ def band_forward(
                     # ... and starts the next one: the column holds only the anchor (0)
                     # and the b steps below it (the values of clearing it and running the
                     # b-chain), which the backtrack of that segment takes without reading
-                    # their steps (the vector code has made them where fused_pins)
-                    if not fused_pins:
-                        for k in range(k_lo, k_a + 1):
-                            cur[(k + 1) * nr + r] = b_run[k_a - k]
-                        for k in range(k_a + 1, k_hi + 1):
-                            cur[(k + 1) * nr + r] = inf
+                    # their steps
+                    for k in range(k_lo, k_a + 1):
+                        cur[(k + 1) * nr + r] = b_run[k_a - k]
+                    for k in range(k_a + 1, k_hi + 1):
+                        cur[(k + 1) * nr + r] = inf
         # the free end's nodes: j == width - 1 before the last column, then the last column
         k_end = x - (width - 1) - dmin
         if x < width - 1 and 0 <= k_end < ndisp:
