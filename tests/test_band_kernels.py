@@ -969,9 +969,11 @@ def check_pinned_cells(rng, ndisp):
             u = h2 + cost[int(o_left) + q] + slant2
             c = prev[q] + h2
             d = prev[q + nr] + cost[int(o_here) + q + nr] + u
-            e = (prev2[q - nr] + e_off[r] if guard else prev2[q - nr]) + cost[
-                int(o_left) + q - nr
-            ] + u
+            e = (
+                (prev2[q - nr] + e_off[r] if guard else prev2[q - nr])
+                + cost[int(o_left) + q - nr]
+                + u
+            )
             best = min(min(c, d), e)
             total[nr + r] = best
             step = _band_kernels.STEP_E if e == best else _band_kernels.STEP_NONE

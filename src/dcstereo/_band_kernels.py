@@ -1316,8 +1316,11 @@ def _cells_codegen(five, guarded=False, pinning=False):
 
 
 def _store_anchors(context, builder, sig, args, match_steps, pinned_lanes):
-    """The pinned lanes' anchor values and steps (``_cells5_chain``'s ``pin_total``,
-    ``pin_steps``) from the match steps ``(c, d, e)`` at their anchors: masked stores."""
+    """Store the pinned lanes' anchor values and steps (masked stores).
+
+    ``_cells5_chain``'s ``pin_total`` and ``pin_steps``, from the match steps
+    ``(c, d, e)`` at the anchors.
+    """
     c, d, e = match_steps
     best = _vector_min(builder, _vector_min(builder, c, d), e)
     step = _vector_of(STEP_NONE, _VEC_I64)
