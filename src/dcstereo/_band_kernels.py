@@ -2357,6 +2357,7 @@ def band_row_features(
     fwork,
     stack,
     pins,
+    pinned,
     pairs_row,
 ):
     """Find the reliable feature pairs of band row ``r`` (image row ``y``), as ``divide_row``.
@@ -2373,7 +2374,8 @@ def band_row_features(
     the interval at it; a row whose candidates' matches already increase with ``x``
     (with the left-right check off) accepts them all without it, which relies on the
     mask's range test (every match at least ``radius`` inside the image). Pair
-    ``x <-> j`` is written to ``pins[x * R + r]`` (which must hold -1). Returns the
+    ``x <-> j`` is written to ``pins[x * R + r]`` (which must hold -1), and
+    ``pinned[x]`` set (the band's columns with a pin; ``band_forward``). Returns the
     number of pairs ``n``, whose ``(x, j, SER, VS)`` are
     ``pairs_row[:n]`` in increasing ``x`` (float32, ``(width, 4)``; rows from ``n`` on
     may be overwritten). No fill: the pinned band DP does it. Scratch:
@@ -2444,6 +2446,7 @@ def band_row_features(
         for i in range(n):
             p = cand_x[i]
             pins[p * nr + r] = p - dmin - cand_k[i]
+            pinned[p] = True
     else:
         for i in range(n):
             cand_live[i] = cand_var[i]
@@ -2514,6 +2517,7 @@ def band_row_features(
                     nheld += 1
                     continue
             pins[p * nr + r] = j
+            pinned[p] = True
             stack[top, 0] = a
             stack[top, 1] = p
             stack[top, 2] = b
@@ -2868,6 +2872,8 @@ def match_band_rows(
                 mark = _clock_add(clock, ch, _CLOCK_MASK, mark)
                 for i in range(width * nr):
                     pins[i] = -1
+                for x in range(width):
+                    pinned[x] = False
                 for r in range(nr):
                     if r * run + t >= n:
                         continue
@@ -2891,18 +2897,19 @@ def match_band_rows(
                         fwork,
                         stack,
                         pins,
+                        pinned,
                         pairs[y],
                     )
             elif anchored:
                 for x in range(width):
                     for r in range(nr):
                         pins[x * nr + r] = partner[y_a + r * run + t, x] if r * run + t < n else -1
-            if anchored:
                 for x in range(width):
                     pinned[x] = False
                     for r in range(nr):
                         if pins[x * nr + r] >= 0:
                             pinned[x] = True
+            if anchored:
                 mark = _clock_add(clock, ch, _CLOCK_SEARCH, mark)
             # two call sites: the forward pass with the band's costs, and the one that
             # makes them (a None or a tuple argument: two compiled versions); after the
