@@ -1328,7 +1328,7 @@ def _store_anchors(context, builder, sig, args, match_steps, pinned_lanes):
         step = builder.select(builder.fcmp_ordered("==", value, best), _vector_of(code, _VEC_I64),
                               step)  # fmt: skip
     o_pin = args[16]
-    for value, index in ((best, 14), (step, 15)):
+    for value, index, kind in ((best, 14, "f64"), (step, 15, "i64")):
         data = _array_data(context, builder, sig, args, index)
         masked_store = cgutils.get_or_insert_function(
             builder.module,
@@ -1336,7 +1336,7 @@ def _store_anchors(context, builder, sig, args, match_steps, pinned_lanes):
                 ir.VoidType(),
                 [value.type, value.type.as_pointer(), ir.IntType(32), pinned_lanes.type],
             ),
-            f"llvm.masked.store.v{BAND_ROWS}{'f64' if index == 14 else 'i64'}.p0",
+            f"llvm.masked.store.v{BAND_ROWS}{kind}.p0",
         )
         pointer = builder.bitcast(builder.gep(data, [o_pin]), value.type.as_pointer())
         builder.call(masked_store, [value, pointer, ir.Constant(ir.IntType(32), 8), pinned_lanes])
@@ -1522,7 +1522,7 @@ def band_forward(
         k_lo = max(0, x - (width - 1) - dmin)
         k_hi = min(ndisp - 1, x - dmin)
         pin_here = anchored and pinned[x]
-        guard = anchored and x >= 1 and pinned[x - 1]
+        guard = anchored and five and x >= 1 and pinned[x - 1]  # (the e step's)
         if guard:
             # rows pinned at x - 1: no e step from x - 2 over the anchor
             for r in range(nr):
@@ -1551,7 +1551,6 @@ def band_forward(
             # it needs (e_off, pin_k or both cost a vector operation or three per block).
             # Four spelled-out calls: the arguments passed as one tuple (*cells) made dc
             # 1.06-1.09x slower on tsukuba and venus (A/B in one process)
-            fused_pins = slant_ok and pin_here
             o_pin = np.int64(x * nr)
             if slant_ok and guard and pin_here:
                 _cells5_chain(
@@ -1575,30 +1574,19 @@ def band_forward(
                 )  # fmt: skip
             else:
                 _cells3_chain(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2)
-            if pin_here and not fused_pins:  # (fused: the vector code made the anchors)
+            if pin_here and not slant_ok:
+                # the three-step cells (and the first column): the pins in scalar code (the
+                # five-step vector code makes the anchors and the restart itself)
                 for r in range(nr):
                     j = pins[x * nr + r]
                     if j < 0:
                         continue
-                    # the anchor ends a segment: its value by a match step (no a, no b),
-                    # from the columns before ...
+                    # the anchor ends a segment: its value by the match step c, the only
+                    # one of the three steps (no a, no b), from the column before ...
                     k_a = x - j - dmin
                     p = int((k_a + 1) * nr + r)  # an int: np.uint64 + np.int64 is float
-                    h2 = 2.0 * cost[o_here + p]
-                    c = prev[p] + h2
-                    best = c
-                    d = e = inf
-                    if slant_ok:
-                        u = h2 + cost[o_left + p] + slant2
-                        d = prev[p + nr] + cost[o_here + p + nr] + u
-                        e2 = prev2[p - nr] + e_off[r] if guard else prev2[p - nr]
-                        e = e2 + cost[o_left + p - nr] + u
-                        best = min(min(best, d), e)
-                    anchor_total[x * nr + r] = best
-                    # the first match step that reaches it, in the order of preference
-                    step = STEP_E if e == best else STEP_NONE
-                    step = STEP_D if d == best else step
-                    anchor_steps[x * nr + r] = STEP_C if c == best else step
+                    anchor_total[x * nr + r] = prev[p] + 2.0 * cost[o_here + p]
+                    anchor_steps[x * nr + r] = STEP_C
                     # ... and starts the next one: the column holds only the anchor (0)
                     # and the b steps below it (the values of clearing it and running the
                     # b-chain), which the backtrack of that segment takes without reading
