@@ -244,3 +244,61 @@ def test_datasets_list_and_fetch(tmp_path, http_server, monkeypatch):  # noqa: F
     assert [p for p in (tmp_path / "c2").rglob("*") if p.is_file()] == []
     result = invoke("datasets", "fetch", "art-2005-third", "--cache", tmp_path / "c3")
     assert result.exit_code == 1 and "not verified" in result.output
+
+
+def test_eval_json_no_estimates_prints_null_not_nan(tmp_path):
+    write_v2_scene(tmp_path / "toy")
+    io.write_pfm(tmp_path / "empty.pfm", np.full((HEIGHT, WIDTH), np.nan, np.float32))
+    result = invoke("eval", tmp_path / "empty.pfm", tmp_path / "toy", "--json")
+    assert result.exit_code == 0, result.output
+    assert "NaN" not in result.output
+    scores = json.loads(result.output, parse_constant=pytest.fail)["scores"]["all"]
+    assert scores["mae"] is None and scores["rms"] is None and scores["density"] == 0.0
+
+
+def test_eval_broken_meta_json_names_the_file(tmp_path, monkeypatch):
+    truth = write_v2_scene(tmp_path / "sc_badjson")
+    (tmp_path / "sc_badjson" / "meta.json").write_text("{scale: 4}")
+    io.write_pfm(tmp_path / "gt.pfm", truth)
+    monkeypatch.chdir(tmp_path)
+    result = invoke("eval", "gt.pfm", "sc_badjson")
+    assert result.exit_code == 1
+    assert result.output == (
+        "Error: cannot read sc_badjson/meta.json: invalid JSON (line 1 column 2)\n"
+    )
+
+
+def test_bench_broken_scene_fails_before_any_run(tmp_path):
+    write_v2_scene(tmp_path / "data" / "a", seed=5)
+    write_v2_scene(tmp_path / "data" / "b", seed=6)
+    (tmp_path / "data" / "b" / "meta.json").write_text("{scale: 4}")
+    result = CliRunner().invoke(main, ["bench", str(tmp_path / "data"), "--methods", "block"])
+    assert result.exit_code == 1
+    assert result.output.count("\n") == 1 and "Traceback" not in result.output
+    assert "1 of 2 scene folders" in result.output
+    assert f"cannot read {tmp_path / 'data' / 'b' / 'meta.json'}: invalid JSON" in result.output
+    assert " ms" not in result.output  # nothing ran, not even scene a
+
+
+def test_eval_scale_options(tmp_path):
+    truth = write_v2_scene(tmp_path / "toy")
+    gray = np.where(np.isfinite(truth), np.rint(4 * np.nan_to_num(truth)), 0).astype(np.uint8)
+    Image.fromarray(gray).save(tmp_path / "pred8.png")
+    result = invoke("eval", tmp_path / "pred8.png", tmp_path / "toy", "--json")
+    assert result.exit_code == 1 and "needs a scale" in result.output
+    result = invoke("eval", tmp_path / "pred8.png", tmp_path / "toy", "--json", "--scale", 4)
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.output)["scores"]["all"]["bad-0.5"] == 0.0
+    # A 2005/2006 scene of no standard size: the ground truth's scale is --gt-scale.
+    from test_datasets import write_2005_scene
+
+    _, _, gray, _ = write_2005_scene(tmp_path / "s05", height=20)
+    io.write_pfm(tmp_path / "o1.pfm", np.where(gray > 0, gray / 3.0, np.nan).astype(np.float32))
+    result = invoke("eval", tmp_path / "o1.pfm", tmp_path / "s05")
+    assert result.exit_code == 1 and "--gt-scale" in result.output
+    result = invoke("eval", tmp_path / "o1.pfm", tmp_path / "s05", "--gt-scale", 3, "--json")
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.output)["scores"]["nonocc"]["bad-0.5"] == 0.0
+    result = invoke("eval", tmp_path / "pred8.png", tmp_path / "toy", "--scale", 4, "--gt-scale", 4)
+    assert result.exit_code == 1 and "2005/2006 scenes only" in result.output
+    assert "--scale" in invoke("eval", "--help").output

@@ -1,4 +1,5 @@
 import json
+import re
 
 import numpy as np
 import pytest
@@ -439,3 +440,25 @@ def test_fetch_refuses_unverified_and_unknown(tmp_path, http_server):
             "gone", "2014", (RemoteFile(f"{base}/no.zip"),), "", "", ""
         )
         fetch("gone", cache=tmp_path / "c2", registry=registry, allow_unverified=True)
+
+
+def test_broken_meta_json_names_the_file_and_the_place(tmp_path):
+    folder = tmp_path / "sc_badjson"
+    write_scene(folder)
+    (folder / "meta.json").write_text('{"scale": 4,\n "ndisp" 8}')
+    message = f"cannot read {folder / 'meta.json'}: invalid JSON (line 2 column 10)"
+    with pytest.raises(ValueError, match=re.escape(message)):
+        load_middlebury(folder)
+    (folder / "meta.json").write_bytes(b'{"name": "\xff"}')
+    with pytest.raises(ValueError, match="meta.json: it is not UTF-8 text"):
+        load_middlebury(folder)
+
+
+def test_scene_of_a_gray_left_and_a_colour_right_loads(tmp_path):
+    folder = tmp_path / "mixed"
+    files = write_scene(folder)
+    Image.fromarray(files["left.png"][:, :, 0]).save(folder / "left.png")
+    scene = load_middlebury(folder)
+    assert scene.left.shape == (5, 6) and scene.right.shape == (5, 6, 3)
+    with pytest.raises(ValueError, match="differ in shape"):
+        StereoScene("x", scene.left, scene.right[:, :-1], scene.disparity, {}, 3)

@@ -151,3 +151,17 @@ def test_opencv_validates_and_names_the_extra(monkeypatch):
     monkeypatch.setitem(sys.modules, "cv2", None)
     with pytest.raises(ImportError, match=r"pip install \"dcstereo\[opencv\]\""):
         match_opencv(image, image, max_disparity=8)
+
+
+def test_to_json_writes_null_for_non_finite_values():
+    import json
+
+    from dcstereo.evaluation import to_json
+
+    payload = {"a": [1.5, float("nan"), np.float64("inf")], "b": {"c": -np.inf, "d": "x"}}
+    assert json.loads(to_json(payload)) == {"a": [1.5, None, None], "b": {"c": None, "d": "x"}}
+    scene = toy_scene()
+    rows = bench([scene], ["block"])
+    rows[0]["sparse"] = score(np.full(scene.shape, np.nan, np.float32), scene)
+    text = to_json(json_rows(rows + mean_rows(rows)))
+    assert "NaN" not in text and json.loads(text)[0]["sparse"]["all"]["mae"] is None

@@ -300,3 +300,48 @@ def test_bad_parameters(options, error, message):
     left, right = good_pair()
     with pytest.raises(error, match=message):
         dcstereo.match(left, right, **options)
+
+
+def layouts(gray, rng, layout):
+    """``gray`` (H, W) uint8 in ``layout``: gray, or an RGB/RGBA image with other channels."""
+    if layout == "gray":
+        return gray
+    noise = rng.integers(-6, 7, gray.shape + (3,))
+    colour = np.clip(gray[..., None].astype(int) + noise, 0, 255).astype(np.uint8)
+    if layout == "rgba":
+        colour = np.concatenate([colour, rng.integers(0, 256, gray.shape + (1,), np.uint8)], -1)
+    return colour
+
+
+@pytest.mark.parametrize(("left_layout", "right_layout"), [("gray", "rgb"), ("rgba", "gray")])
+def test_gray_and_colour_pair_of_one_size_is_accepted(left_layout, right_layout):
+    from dcstereo.evaluation import available_methods, run_method
+    from dcstereo.explore import dsi_row
+    from dcstereo.signal import intensity, matching_signal
+    from dcstereo.tiling import match_tiled
+
+    rng = np.random.default_rng(17)
+    left, right, _ = synthetic.object_pair(rng, 30, 40, 2, 6, (12, 26))
+    left, right = layouts(left, rng, left_layout), layouts(right, rng, right_layout)
+    # the reference: each image turned to gray by the library's own conversion
+    gray_left, gray_right = intensity(left) / 255.0, intensity(right) / 255.0
+    for image, gray in ((left, gray_left), (right, gray_right)):
+        np.testing.assert_array_equal(matching_signal(gray), matching_signal(image))
+    for method in available_methods():
+        mixed = run_method(method, left, right, max_disparity=8)
+        plain = run_method(method, gray_left, gray_right, max_disparity=8)
+        np.testing.assert_array_equal(mixed.disparity, plain.disparity, err_msg=method)
+        np.testing.assert_array_equal(mixed.flags, plain.flags, err_msg=method)
+    tiled = match_tiled(left, right, tile_rows=8, max_disparity=8, method="dsi5")
+    plain = dcstereo.match(gray_left, gray_right, max_disparity=8, method="dsi5")
+    np.testing.assert_array_equal(tiled.disparity, plain.disparity)
+    np.testing.assert_array_equal(
+        dsi_row(left, right, 7, max_disparity=8), dsi_row(gray_left, gray_right, 7, max_disparity=8)
+    )
+
+
+def test_gray_and_colour_pair_of_other_sizes_differ_in_shape():
+    left, right = good_pair()
+    colour = np.stack([right[:, :-1]] * 3, axis=-1)
+    with pytest.raises(ValueError, match=r"differ in shape: \(10, 20\) vs \(10, 19, 3\)"):
+        dcstereo.match(left, colour, max_disparity=4)

@@ -9,7 +9,7 @@ from . import _band_kernels, _kernels
 from .params import MatchParams
 from .redert import match_redert as _match_redert
 from .result import FLAG_FEATURE, DisparityResult
-from .signal import SIGNAL_STEPS, check_image, padded_signal
+from .signal import SIGNAL_STEPS, check_pair, padded_signal
 
 
 def match(
@@ -29,8 +29,9 @@ def match(
     Parameters
     ----------
     left, right : ndarray, shape (H, W) or (H, W, 3|4)
-        Rectified pair, ``uint8``, ``uint16`` or float in ``[0, 1]``; colour becomes luma
-        (see :mod:`dcstereo.signal`).
+        Rectified pair of one height and width, ``uint8``, ``uint16`` or float in
+        ``[0, 1]``; colour becomes luma (see :mod:`dcstereo.signal`), each image on its
+        own, so a gray and a colour image may be paired.
     max_disparity, min_disparity : int
         Inclusive search range in pixels.
     method : str
@@ -70,10 +71,7 @@ def match(
     params = MatchParams(
         max_disparity=max_disparity, min_disparity=min_disparity, method=method, **options
     )
-    left = check_image(left, "left")
-    right = check_image(right, "right")
-    if left.shape != right.shape:
-        raise ValueError(f"left and right images differ in shape: {left.shape} vs {right.shape}")
+    left, right = check_pair(left, right)
     params.check_image_size(*left.shape[:2])
     result = _METHODS[params.method](left, right, params)
     return result.filled() if params.fill else result

@@ -62,7 +62,7 @@ class StereoScene:
     name : str
         Scene name, for example ``"tsukuba"``.
     left, right : ndarray of uint8, shape (H, W, 3) or (H, W)
-        The pair as read from disk.
+        The pair as read from disk, of one height and width (each gray or colour).
     disparity : ndarray of float32, shape (H, W)
         Ground-truth disparity of the left view in pixels (``x_right = x_left - d``); NaN
         where unknown.
@@ -87,7 +87,8 @@ class StereoScene:
     meta: dict = field(default_factory=dict, repr=False)
 
     def __post_init__(self):
-        if self.left.shape != self.right.shape:
+        # a gray and a colour view may pair: every method reduces each to its own intensity
+        if self.left.shape[:2] != self.right.shape[:2]:
             raise ValueError(
                 f"scene {self.name!r}: left and right images differ in shape: "
                 f"{self.left.shape} vs {self.right.shape}"
@@ -205,6 +206,18 @@ def _scene_folder(name_or_path, root) -> Path:
     return folder
 
 
+def _read_meta(path: Path):
+    """Parse a scene's ``meta.json``; a broken file is a one-line error naming it."""
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as err:
+        raise ValueError(
+            f"cannot read {path}: invalid JSON (line {err.lineno} column {err.colno})"
+        ) from None
+    except UnicodeDecodeError:
+        raise ValueError(f"cannot read {path}: it is not UTF-8 text") from None
+
+
 def load_middlebury(
     name_or_path: str | os.PathLike, root: str | os.PathLike | None = None
 ) -> StereoScene:
@@ -230,7 +243,8 @@ def load_middlebury(
     ------
     ValueError
         When the scene does not exist (the message lists the available ones), a file is
-        missing, ``meta.json`` lacks ``scale`` or ``ndisp``, or the files differ in size.
+        missing, ``meta.json`` is not valid JSON or lacks ``scale`` or ``ndisp``, or the
+        files differ in size.
 
     Examples
     --------
@@ -243,7 +257,7 @@ def load_middlebury(
     missing = [f for f in needed if not (folder / f).is_file()]
     if missing:
         raise ValueError(f"Middlebury scene folder {folder} lacks {', '.join(missing)}")
-    meta = json.loads((folder / "meta.json").read_text(encoding="utf-8"))
+    meta = _read_meta(folder / "meta.json")
     try:
         scale = float(meta["scale"])
         ndisp = int(meta["ndisp"])
@@ -251,9 +265,9 @@ def load_middlebury(
         raise ValueError(
             f"{folder / 'meta.json'} must give a numeric 'scale' and an integer 'ndisp'"
         ) from None
-    if not scale > 0 or ndisp < 1:
+    if not (math.isfinite(scale) and scale > 0) or ndisp < 1:
         raise ValueError(
-            f"{folder / 'meta.json'}: scale must be positive and ndisp at least 1, "
+            f"{folder / 'meta.json'}: scale must be positive and finite and ndisp at least 1, "
             f"got scale={scale} and ndisp={ndisp}"
         )
 
@@ -499,7 +513,8 @@ def _load_2005(folder: Path, scale: float | None) -> StereoScene:
             sizes = ", ".join(f"{h} (scale {s})" for h, s in SCALE_BY_HEIGHT_2005.items())
             raise ValueError(
                 f"cannot infer the disparity scale of {folder}: its images are {height} "
-                f"pixels high, not one of the Middlebury 2005/2006 sizes {sizes}; give scale"
+                f"pixels high, not one of the Middlebury 2005/2006 sizes {sizes}; give the scale "
+                "(load_scene(..., scale=S); dcstereo eval --gt-scale S)"
             )
     elif not (np.isfinite(scale) and scale > 0):
         raise ValueError(f"scale must be a positive number, got {scale}")

@@ -9,6 +9,8 @@ to every method alike, OpenCV's included.
 """
 
 import io
+import json
+import math
 import os
 import platform
 import time
@@ -154,7 +156,8 @@ def score(
     -------
     dict
         ``{mask: {"bad-0.5": %, ..., "mae": px, "rms": px, "density": %}}``, masks in the
-        order of :data:`MASK_ORDER`.
+        order of :data:`MASK_ORDER`; ``mae`` and ``rms`` are NaN where the map has no
+        estimate in the mask (``null`` in :func:`to_json`).
 
     Raises
     ------
@@ -172,7 +175,13 @@ def score(
     return evaluate(disparity, scene.disparity, {m: scene.masks[m] for m in names}, thresholds)
 
 
-def evaluate_file(prediction: str | os.PathLike, scene_dir: str | os.PathLike) -> dict:
+def evaluate_file(
+    prediction: str | os.PathLike,
+    scene_dir: str | os.PathLike,
+    *,
+    scale: float | None = None,
+    truth_scale: float | None = None,
+) -> dict:
     """Score a disparity file (PFM, or 16-bit PNG of ``d * 256``) against a scene folder.
 
     Parameters
@@ -181,6 +190,14 @@ def evaluate_file(prediction: str | os.PathLike, scene_dir: str | os.PathLike) -
         The disparity map of the scene's left view.
     scene_dir : path-like
         A scene folder of any layout (:func:`dcstereo.datasets.load_scene`).
+    scale : float, optional
+        Stored value per pixel of disparity of the prediction
+        (:func:`dcstereo.io.read_disparity`): required for an 8-bit image, 256 for a
+        16-bit one by default.
+    truth_scale : float, optional
+        The ``scale`` of :func:`~dcstereo.datasets.load_scene`: the ground truth's stored
+        gray value per pixel of disparity, for a 2005/2006 scene of no standard size
+        (other layouts refuse it: their files give the scale).
 
     Returns
     -------
@@ -190,12 +207,18 @@ def evaluate_file(prediction: str | os.PathLike, scene_dir: str | os.PathLike) -
     """
     from .io import read_disparity
 
-    scene = load_scene(scene_dir)
-    disparity = read_disparity(prediction)
+    scene = load_scene(scene_dir, scale=truth_scale)
+    layout = scene.meta.get("layout", "")
+    if truth_scale is not None and layout != "2005/2006":
+        raise ValueError(
+            f"a ground-truth scale applies to 2005/2006 scenes only; {scene_dir} is a "
+            f"{layout} scene, whose files give the scale"
+        )
+    disparity = read_disparity(prediction, scale=scale)
     return {
         "prediction": str(prediction),
         "scene": scene.name,
-        "layout": scene.meta.get("layout", ""),
+        "layout": layout,
         "size": [scene.shape[1], scene.shape[0]],
         "scores": score(disparity, scene),
     }
@@ -287,14 +310,31 @@ def bench(
 def bench_folder(data_dir: str | os.PathLike, methods: Sequence[str], **kwargs) -> list[dict]:
     """:func:`bench` over every scene folder under ``data_dir`` (:func:`find_scenes`).
 
+    :func:`find_scenes` knows a scene by its file names only, so every scene is loaded
+    once before any method runs (and again, one at a time, by :func:`bench`): a broken
+    one fails the bench up front rather than after the scenes before it.
+
     Raises
     ------
     ValueError
-        When there is no scene under ``data_dir``.
+        When there is no scene under ``data_dir``, or a scene cannot be loaded (the
+        message lists every such scene).
     """
     folders = find_scenes(data_dir)
     if not folders:
         raise ValueError(f"no scene folder (of any known layout) under {data_dir}")
+    problems = []
+    for folder in folders:
+        try:
+            load_scene(folder)
+        except (ValueError, OSError) as err:
+            text = str(err).strip()
+            problems.append(text.splitlines()[0] if text else f"{folder}: {type(err).__name__}")
+    if problems:
+        raise ValueError(
+            f"{len(problems)} of {len(folders)} scene folders under {data_dir} cannot be "
+            f"benched: {'; '.join(problems)}"
+        )
     return bench(folders, methods, **kwargs)
 
 
@@ -402,8 +442,39 @@ def render(table, width: int = 120) -> str:
 
 
 def json_rows(rows: Sequence[dict]) -> list[dict]:
-    """Rows of :func:`bench` without the results, ready for :func:`json.dumps`."""
+    """Rows of :func:`bench` without the results, ready for :func:`to_json`."""
     return [{k: v for k, v in row.items() if k != "result"} for row in rows]
+
+
+def _finite_or_none(value):
+    if isinstance(value, dict):
+        return {key: _finite_or_none(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite_or_none(item) for item in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def to_json(payload, *, indent: int | None = 1) -> str:
+    """Strict JSON text of scores: every NaN or infinite float becomes ``null``.
+
+    A score over no estimate is NaN (``mae`` and ``rms`` of an empty map), which
+    :func:`json.dumps` would write as ``NaN``, a token JSON does not have;
+    ``allow_nan=False`` makes any value this misses an error instead.
+
+    Parameters
+    ----------
+    payload : dict or list
+        Plain Python values (nested dicts, lists, str, int, float, bool, None).
+    indent : int, optional
+        As for :func:`json.dumps`.
+
+    Returns
+    -------
+    str
+    """
+    return json.dumps(_finite_or_none(payload), indent=indent, allow_nan=False)
 
 
 def machine_description() -> dict:

@@ -13,7 +13,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from . import viz
-from .signal import check_image, intensity
+from .signal import check_image, check_pair, intensity
 
 #: Methods of :func:`compare_methods` and :func:`scanline` by default (the paper's Fig. 4).
 PAPER_METHODS = ("dsi3", "dsi5", "dc")
@@ -199,10 +199,7 @@ def dsi_row(
     -------
     ndarray of float64, shape (max_disparity - min_disparity + 1, W)
     """
-    left = check_image(left, "left")
-    right = check_image(right, "right")
-    if left.shape != right.shape:
-        raise ValueError(f"left and right images differ in shape: {left.shape} vs {right.shape}")
+    left, right = check_pair(left, right)
     height, width = left.shape[:2]
     if not 0 <= row < height:
         raise ValueError(f"row must be in 0..{height - 1}, got {row}")

@@ -294,7 +294,7 @@ def read_disparity(path: str | os.PathLike, *, scale: float | None = None) -> np
     if stored.dtype == np.uint8 and scale is None:
         raise ValueError(
             f"cannot read disparity '{path}': an 8-bit disparity image needs a scale "
-            "(stored value per pixel of disparity)"
+            "(stored value per pixel of disparity: scale=, or dcstereo eval --scale)"
         )
     if scale is None:
         scale = 256.0

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .result import FLAG_OCCLUDED, DisparityResult
-from .signal import check_image, intensity
+from .signal import check_pair, intensity
 
 #: OpenCV methods, by the names the benchmark uses.
 OPENCV_METHODS = {"opencv-sgbm": "sgbm", "opencv-bm": "bm"}
@@ -178,10 +178,7 @@ def match_opencv(
         raise ValueError(f"OpenCV's block matcher needs window >= 5, got {window}")
     if method == "sgbm" and mode not in _MODES:
         raise ValueError(f"mode must be one of {', '.join(_MODES)}, got {mode!r}")
-    left = check_image(left, "left")
-    right = check_image(right, "right")
-    if left.shape != right.shape:
-        raise ValueError(f"left and right images differ in shape: {left.shape} vs {right.shape}")
+    left, right = check_pair(left, right)
     cv2 = _import_cv2()
 
     gray_left = np.clip(np.rint(intensity(left)), 0, 255).astype(np.uint8)

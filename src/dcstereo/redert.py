@@ -89,7 +89,7 @@ import numpy as np
 from . import _redert_kernels
 from .params import MatchParams
 from .result import DisparityResult
-from .signal import SIGNAL_STEPS, check_image, padded_signal
+from .signal import SIGNAL_STEPS, check_pair, padded_signal
 
 
 def redert_cost_scale(window: int, steps: int) -> float:
@@ -168,10 +168,7 @@ def match_redert(
     >>> float(np.nanmedian(result.disparity))
     2.0
     """
-    left = check_image(left, "left")
-    right = check_image(right, "right")
-    if left.shape != right.shape:
-        raise ValueError(f"left and right images differ in shape: {left.shape} vs {right.shape}")
+    left, right = check_pair(left, right)
     params.check_image_size(*left.shape[:2])
     radius = params.window // 2
     left_p = padded_signal(left, radius)

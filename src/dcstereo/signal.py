@@ -57,6 +57,26 @@ def check_image(image: np.ndarray, name: str) -> np.ndarray:
     return array
 
 
+def check_pair(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Validate a stereo pair: each image as :func:`check_image`, both of the same H x W.
+
+    The two may differ in channel layout (gray, RGB, RGBA) and dtype: every method turns
+    each image into its own intensity (:func:`intensity`, :func:`padded_signal`) before
+    comparing them, so a gray left and a colour right match as the gray left and the
+    colour right's luma.
+
+    Returns
+    -------
+    left, right : ndarray
+        As :func:`check_image` returns them.
+    """
+    left = check_image(left, "left")
+    right = check_image(right, "right")
+    if left.shape[:2] != right.shape[:2]:
+        raise ValueError(f"left and right images differ in shape: {left.shape} vs {right.shape}")
+    return left, right
+
+
 def intensity(image: np.ndarray) -> np.ndarray:
     """Return the float64 intensity (0..255 scale, luma for colour) of a checked image."""
     array = np.asarray(image)

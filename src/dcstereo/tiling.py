@@ -16,7 +16,7 @@ import numpy as np
 from .api import match
 from .params import MatchParams
 from .result import DisparityResult
-from .signal import check_image
+from .signal import check_pair
 
 
 @dataclass(frozen=True)
@@ -127,10 +127,7 @@ def match_tiled(
     if "max_disparity" not in match_kwargs:
         raise TypeError("match_tiled() needs the keyword argument max_disparity")
     params = MatchParams(**match_kwargs)  # validate once, before any band runs
-    left = check_image(left, "left")
-    right = check_image(right, "right")
-    if left.shape != right.shape:
-        raise ValueError(f"left and right images differ in shape: {left.shape} vs {right.shape}")
+    left, right = check_pair(left, right)
     height, width = left.shape[:2]
     params.check_image_size(height, width)
     bands = row_bands(height, tile_rows, params.window)

@@ -1,7 +1,5 @@
 """``dcstereo bench``: run methods over every scene under a folder and tabulate the scores."""
 
-import json
-
 import click
 
 from ._common import check_output_paths, one_line_errors, set_threads
@@ -30,7 +28,8 @@ from ._common import check_output_paths, one_line_errors, set_threads
 def bench(data_dir, methods, window, json_out, threads, quiet):
     """Run METHODS on every scene folder under DATA_DIR and print a table.
 
-    Scene folders of any layout are found at any depth (v2, 2005/2006, 2014). The table
+    Scene folders of any layout are found at any depth (v2, 2005/2006, 2014); all are
+    loaded before any method runs, and one that cannot be read stops the bench. The table
     gives bad-1.0 (%) of the filled (dense) maps in the nonocc, all and disc masks, the
     density of the raw map and the time per run, then the mean of each method.
     """
@@ -42,6 +41,7 @@ def bench(data_dir, methods, window, json_out, threads, quiet):
         machine_description,
         parse_methods,
         render,
+        to_json,
     )
 
     check_output_paths(json_out)
@@ -57,4 +57,4 @@ def bench(data_dir, methods, window, json_out, threads, quiet):
     if json_out is not None:
         payload = {"machine": machine_description(), "window": window, "rows": json_rows(rows)}
         with io.atomic_write(json_out) as tmp:
-            tmp.write_text(json.dumps(payload, indent=1), encoding="utf-8")
+            tmp.write_text(to_json(payload, indent=1), encoding="utf-8")

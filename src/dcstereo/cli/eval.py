@@ -1,7 +1,5 @@
 """``dcstereo eval``: score one disparity file against a scene folder of any layout."""
 
-import json
-
 import click
 
 from ._common import one_line_errors
@@ -10,20 +8,35 @@ from ._common import one_line_errors
 @click.command("eval")
 @click.argument("prediction", type=click.Path(dir_okay=False))
 @click.argument("scene_dir", type=click.Path(file_okay=False))
-@click.option("--json", "as_json", is_flag=True, help="Print the scores as JSON.")
+@click.option(
+    "--scale",
+    type=float,
+    default=None,
+    help="Stored value per pixel of disparity of a PNG PREDICTION: needed for an 8-bit PNG "
+    "(Middlebury's own maps: 16 for tsukuba, 8 for venus, 4 for teddy and cones); 256 for a "
+    "16-bit PNG by default.",
+)
+@click.option(
+    "--gt-scale",
+    type=float,
+    default=None,
+    help="Stored gray value per pixel of disparity of the ground truth of a 2005/2006 scene "
+    "whose size is not a standard one (default: 1, 2 or 3 from the image height).",
+)
+@click.option("--json", "as_json", is_flag=True, help="Print the scores as JSON (null: no value).")
 @one_line_errors
-def eval_command(prediction, scene_dir, as_json):
+def eval_command(prediction, scene_dir, scale, gt_scale, as_json):
     """Score PREDICTION (PFM, or 16-bit PNG of d * 256) against the scene in SCENE_DIR.
 
     Bad-pixel rates at 0.5, 1, 2 and 4 pixels, mean absolute and RMS error and density,
     for each mask of the scene (nonocc, all, and disc where the layout has it). Pixels
     without an estimate count as bad; the denominator is the masked pixels with known
-    ground truth.
+    ground truth. MAE and RMS have no value when the map has no estimate in the mask.
     """
-    from ..evaluation import evaluate_file, render, scores_table
+    from ..evaluation import evaluate_file, render, scores_table, to_json
 
-    result = evaluate_file(prediction, scene_dir)
+    result = evaluate_file(prediction, scene_dir, scale=scale, truth_scale=gt_scale)
     if as_json:
-        click.echo(json.dumps(result, indent=2))
+        click.echo(to_json(result, indent=2))
     else:
         click.echo(render(scores_table(result)), nl=False)
