@@ -1,5 +1,6 @@
 """Options and error handling shared by the subcommands."""
 
+import contextlib
 import functools
 from pathlib import Path
 
@@ -47,6 +48,65 @@ def check_output_paths(*paths):
             raise CommandError(f"cannot write '{path}': directory '{parent}' does not exist")
         if path.is_dir():
             raise CommandError(f"cannot write '{path}': it is a directory")
+
+
+def check_png_suffix(option, path):
+    """Fail unless PATH, the value of OPTION (a picture), is None or ends in ``.png``."""
+    if path is None:
+        return
+    suffix = Path(path).suffix.lower()
+    if suffix != ".png":
+        raise CommandError(
+            f"cannot write {option} '{path}': unsupported suffix '{suffix}', use .png"
+        )
+
+
+def check_distinct_paths(inputs, outputs):
+    """Fail before any work when an output is an input or two outputs are the same file.
+
+    Parameters
+    ----------
+    inputs : dict of str to path or None
+        What each input is (``"the left input"``) and its path; None entries are skipped.
+    outputs : dict of str to path or None
+        The option of each output (``"--preview"``) and its path; None entries are skipped.
+    """
+    read = {Path(path).resolve(): what for what, path in inputs.items() if path is not None}
+    written = {}
+    for option, path in outputs.items():
+        if path is None:
+            continue
+        resolved = Path(path).resolve()
+        if resolved in read:
+            raise CommandError(f"{option} '{path}' is {read[resolved]}")
+        if resolved in written:
+            raise CommandError(f"{option} and {written[resolved]} are the same file '{path}'")
+        written[resolved] = option
+
+
+@contextlib.contextmanager
+def staged_outputs():
+    """Write a command's outputs to temporary files and rename them only if all succeed.
+
+    Yields ``write(writer, path, *args, **kwargs)``, which calls ``writer(temporary,
+    *args, **kwargs)`` with a hidden temporary file next to ``path`` (see
+    :func:`dcstereo.io.atomic_write`). When the block ends without an error, every
+    temporary file is renamed onto its path; on any error all of them are removed, so a
+    failed command leaves no partial set of outputs and pre-existing files untouched.
+    """
+    from .. import io
+
+    with contextlib.ExitStack() as stack:
+
+        def write(writer, path, *args, **kwargs):
+            temporary = stack.enter_context(io.atomic_write(path))
+            try:
+                writer(temporary, *args, **kwargs)
+            except (ValueError, TypeError, OSError) as exc:
+                # the writer's message names the temporary file; the user knows the output
+                raise ValueError(str(exc).replace(str(temporary), str(path))) from None
+
+        yield write
 
 
 def output_folder(output) -> Path:

@@ -2,13 +2,22 @@
 
 import click
 
-from ._common import check_output_paths, disparity_range_options, one_line_errors, set_threads
+from ._common import (
+    check_distinct_paths,
+    check_output_paths,
+    check_png_suffix,
+    disparity_range_options,
+    one_line_errors,
+    set_threads,
+)
 
 
 @click.command()
 @click.argument("left", type=click.Path(dir_okay=False))
 @click.argument("right", type=click.Path(dir_okay=False))
-@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="PNG.")
+@click.option(
+    "-o", "--output", required=True, type=click.Path(dir_okay=False), help="The figure, .png."
+)
 @disparity_range_options
 @click.option(
     "--gt",
@@ -17,7 +26,12 @@ from ._common import check_output_paths, disparity_range_options, one_line_error
     help="Ground truth: a scene folder (any layout; its nonocc mask is scored) or a "
     "disparity file (PFM, 16-bit PNG, or 8-bit PNG with --gt-scale).",
 )
-@click.option("--gt-scale", type=float, default=None, help="Gray value per pixel of disparity.")
+@click.option(
+    "--gt-scale",
+    type=float,
+    default=None,
+    help="Gray value per pixel of disparity of the --gt file.",
+)
 @click.option(
     "--methods",
     default="dsi3,dsi5,dc",
@@ -43,7 +57,14 @@ def compare(
     from ..evaluation import parse_methods
     from ..explore import compare_figure, compare_methods
 
+    if gt_scale is not None and gt is None:
+        raise click.UsageError("--gt-scale needs --gt")
+    check_png_suffix("--output", output)
     check_output_paths(output)
+    check_distinct_paths(
+        {"the left input": left, "the right input": right, "the --gt file": gt},
+        {"--output": output},
+    )
     names = parse_methods(methods)
     set_threads(threads)
     left_image = io.read_image(left)

@@ -4,7 +4,13 @@ import time
 
 import click
 
-from ._common import matching_options, one_line_errors, output_folder, set_threads
+from ._common import (
+    matching_options,
+    one_line_errors,
+    output_folder,
+    set_threads,
+    staged_outputs,
+)
 
 
 @click.command()
@@ -52,16 +58,19 @@ def demo(output, max_disparity, match_options, threads):
     dense = result.filled()
     final = dense if fill else result
 
-    io.write_disparity(folder / "disparity.pfm", final.disparity)
-    io.write_disparity(folder / "disparity.png", final.disparity)
-    io.write_mask_png(folder / "occlusion.png", result.occluded)
-    picture = preview(result.disparity, result.occluded, style="paper")
-    io.write_rgb_png(folder / "preview.png", picture)
-    if result.features is not None and len(result.features):
-        io.write_features_csv(folder / "features.csv", result.features)
-        marked = draw_points(picture, result.features[:, 1], result.features[:, 0], radius=0)
-        io.write_rgb_png(folder / "features.png", marked)
-    io.write_rgb_png(folder / "preview_color.png", preview(dense.disparity, style="color"))
+    with staged_outputs() as write:
+        write(io.write_disparity, folder / "disparity.pfm", final.disparity)
+        write(io.write_disparity, folder / "disparity.png", final.disparity)
+        write(io.write_mask_png, folder / "occlusion.png", result.occluded)
+        picture = preview(result.disparity, result.occluded, style="paper")
+        write(io.write_rgb_png, folder / "preview.png", picture)
+        if result.features is not None and len(result.features):
+            write(io.write_features_csv, folder / "features.csv", result.features)
+            marked = draw_points(picture, result.features[:, 1], result.features[:, 0], radius=0)
+            write(io.write_rgb_png, folder / "features.png", marked)
+        write(
+            io.write_rgb_png, folder / "preview_color.png", preview(dense.disparity, style="color")
+        )
 
     height, width = scene.shape
     truth, known = scene.disparity, scene.masks["all"]

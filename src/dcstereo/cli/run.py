@@ -7,12 +7,15 @@ import click
 
 from ._common import (
     FEATURE_METHODS,
+    check_distinct_paths,
     check_output_paths,
+    check_png_suffix,
     disparity_range_options,
     matching_options,
     one_line_errors,
     preview_style_option,
     set_threads,
+    staged_outputs,
 )
 
 
@@ -51,7 +54,7 @@ from ._common import (
 @click.option(
     "--draw-features",
     is_flag=True,
-    help="Mark the accepted feature pairs in red on the preview (dc methods).",
+    help="Mark the accepted feature pairs in red on the preview (dc methods; needs --preview).",
 )
 @click.option(
     "--tile-rows",
@@ -88,13 +91,26 @@ def run(
     from ..viz import preview as make_preview
 
     method = match_options["method"]
+    if draw_features and preview is None:
+        raise click.UsageError("--draw-features needs --preview")
     check_output_paths(output, occlusion_out, preview, features_out)
+    check_distinct_paths(
+        {"the left input": left, "the right input": right},
+        {
+            "--output": output,
+            "--occlusion-out": occlusion_out,
+            "--preview": preview,
+            "--features-out": features_out,
+        },
+    )
     if (features_out is not None or draw_features) and method not in FEATURE_METHODS:
         raise ValueError(
             f"feature output needs a method with features ({', '.join(FEATURE_METHODS)}), "
             f"not {method}"
         )
     io.check_disparity_suffix(output)
+    check_png_suffix("--occlusion-out", occlusion_out)
+    check_png_suffix("--preview", preview)
     set_threads(threads)
     left_image = io.read_image(left)
     right_image = io.read_image(right)
@@ -112,22 +128,23 @@ def run(
     )
     seconds = time.perf_counter() - start
 
-    io.write_disparity(output, result.disparity)
-    if occlusion_out is not None:
-        io.write_mask_png(occlusion_out, result.occluded)
-    if preview is not None:
-        picture = make_preview(result.disparity, result.occluded, style=preview_style)
-        if draw_features and len(result.features):
-            picture = draw_points(
-                picture,
-                result.features[:, 1],
-                result.features[:, 0],
-                color=(255, 0, 0),
-                radius=0,
-            )
-        io.write_rgb_png(preview, picture)
-    if features_out is not None:
-        io.write_features_csv(features_out, result.features)
+    with staged_outputs() as write:
+        write(io.write_disparity, output, result.disparity)
+        if occlusion_out is not None:
+            write(io.write_mask_png, occlusion_out, result.occluded)
+        if preview is not None:
+            picture = make_preview(result.disparity, result.occluded, style=preview_style)
+            if draw_features and len(result.features):
+                picture = draw_points(
+                    picture,
+                    result.features[:, 1],
+                    result.features[:, 0],
+                    color=(255, 0, 0),
+                    radius=0,
+                )
+            write(io.write_rgb_png, preview, picture)
+        if features_out is not None:
+            write(io.write_features_csv, features_out, result.features)
     if not quiet:
         height, width = result.disparity.shape
         valid = 100.0 * result.valid.mean()

@@ -2,7 +2,16 @@
 
 import click
 
-from ._common import check_output_paths, disparity_range_options, one_line_errors
+from ._common import (
+    check_distinct_paths,
+    check_output_paths,
+    check_png_suffix,
+    disparity_range_options,
+    one_line_errors,
+)
+
+#: Largest --width / --height: the picture is drawn in memory (4 bytes a pixel).
+MAX_SIDE = 10000
 
 
 @click.command()
@@ -10,16 +19,31 @@ from ._common import check_output_paths, disparity_range_options, one_line_error
 @click.argument("right", type=click.Path(dir_okay=False))
 @click.option("--row", "-y", required=True, type=int, help="The scanline (0 = top).")
 @disparity_range_options
-@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="PNG.")
+@click.option(
+    "-o", "--output", required=True, type=click.Path(dir_okay=False), help="The figure, .png."
+)
 @click.option(
     "--methods",
     default="dsi3,dsi5,dc",
     show_default=True,
-    help="Comma-separated dcstereo methods whose paths are drawn.",
+    help="Comma-separated dcstereo methods whose paths are drawn (a name may end in +bt "
+    "for the Birchfield-Tomasi cost).",
 )
 @click.option("--window", type=int, default=5, show_default=True, help="Odd window side.")
-@click.option("--width", type=int, default=1200, show_default=True, help="Picture width, px.")
-@click.option("--height", type=int, default=800, show_default=True, help="Picture height, px.")
+@click.option(
+    "--width",
+    type=click.IntRange(200, MAX_SIDE),
+    default=1200,
+    show_default=True,
+    help="Picture width, px.",
+)
+@click.option(
+    "--height",
+    type=click.IntRange(200, MAX_SIDE),
+    default=800,
+    show_default=True,
+    help="Picture height, px.",
+)
 @one_line_errors
 def scanline(
     left, right, row, max_disparity, min_disparity, output, methods, window, width, height
@@ -31,28 +55,29 @@ def scanline(
     the two intensity profiles.
     """
     from .. import io
-    from ..evaluation import parse_methods
+    from ..evaluation import BT_SUFFIX, parse_methods
     from ..explore import scanline as gather
     from ..explore import scanline_figure
     from ..opencv import OPENCV_METHODS
 
+    check_png_suffix("--output", output)
     check_output_paths(output)
+    check_distinct_paths({"the left input": left, "the right input": right}, {"--output": output})
     names = parse_methods(methods)
     if any(name in OPENCV_METHODS for name in names):
         raise ValueError("scanline draws dcstereo's methods only (OpenCV gives no path)")
-    if width < 200 or height < 200:
-        raise ValueError(f"--width and --height must be at least 200, got {width}x{height}")
     left_image = io.read_image(left)
     right_image = io.read_image(right)
-    data = gather(
-        left_image,
-        right_image,
-        row,
-        max_disparity=max_disparity,
-        min_disparity=min_disparity,
-        window=window,
-        methods=names,
-    )
+    options = dict(max_disparity=max_disparity, min_disparity=min_disparity, window=window)
+    plain = [name for name in names if not name.endswith(BT_SUFFIX)]
+    data = gather(left_image, right_image, row, methods=plain, **options)
+    if len(plain) < len(names):
+        # the "+bt" names: the same methods with cost="bt", drawn on the same (SAD) DSI
+        bases = [name.removesuffix(BT_SUFFIX) for name in names if name not in plain]
+        bt = gather(left_image, right_image, row, methods=bases, cost="bt", **options)
+        for key in ("paths", "features"):
+            found = {**data[key], **{m + BT_SUFFIX: v for m, v in bt[key].items()}}
+            data[key] = {name: found[name] for name in names if name in found}
     io.write_rgb_png(output, scanline_figure(data, width=width, height=height))
     pairs = sum(len(p) for p in data["features"].values())
     click.echo(f"row {row}: {', '.join(names)}, {pairs} feature pairs -> {output}")
