@@ -291,3 +291,89 @@ def test_failures_file_is_written_even_when_nothing_fails(pairs_dir, tmp_path):
     assert report.ok
     assert (tmp_path / FAILURES_FILE).read_text().strip() == "name,left,right,error"
     assert np.isfinite(io.read_pfm(tmp_path / "pair00.pfm")).mean() > 0.8
+
+
+def test_run_batch_creates_a_missing_output_folder_once_the_options_are_valid(pairs_dir, tmp_path):
+    pairs = find_pairs(pairs_dir)[:1]
+    with pytest.raises(ValueError, match="window"):
+        run_batch(pairs, tmp_path / "bad", max_disparity=MAX_DISPARITY, window=4)
+    assert not (tmp_path / "bad").exists()
+    out = tmp_path / "new" / "out"
+    assert run_batch(pairs, out, max_disparity=MAX_DISPARITY).done == ["pair00"]
+    assert output_path(out, pairs[0]).is_file()
+    (tmp_path / "file").write_text("")
+    with pytest.raises(ValueError, match=f"'{tmp_path / 'file'}': it is not a folder"):
+        run_batch(pairs, tmp_path / "file", max_disparity=MAX_DISPARITY)
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        ["--window", "4"],
+        ["--min-disparity", "9"],
+        ["--occlusion-cost", "-1"],
+        ["--scheduler", "bogus"],
+        ["--scheduler", "local:0"],
+    ],
+)
+def test_cli_option_errors_leave_no_output_folder(pairs_dir, tmp_path, options):
+    out = tmp_path / "a" / "out"
+    args = ["batch", str(pairs_dir), "-o", str(out), "--max-disparity", "8", *options]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1
+    assert len(result.output.strip().splitlines()) == 1, result.output
+    assert not (tmp_path / "a").exists()
+
+
+def test_a_damaged_output_is_redone_not_counted_complete(pairs_dir, tmp_path):
+    out = tmp_path / "out"
+    pairs = find_pairs(pairs_dir)[:3]
+    assert run_batch(pairs, out, max_disparity=MAX_DISPARITY).ok
+    cut = output_path(out, pairs[0])
+    cut.write_bytes(cut.read_bytes()[:100])
+    output_path(out, pairs[2]).write_bytes(b"Pf\n")  # header cut short
+    report = run_batch(pairs, out, max_disparity=MAX_DISPARITY)
+    assert report.done == ["pair00", "pair02"] and report.skipped == ["pair01"]
+    for pair in pairs:
+        expected = expected_pfm(pair, tmp_path, max_disparity=MAX_DISPARITY)
+        assert output_path(out, pair).read_bytes() == expected
+    cut.write_bytes(cut.read_bytes()[:100])
+    args = ["batch", str(pairs_dir), "-o", str(out), "--max-disparity", str(MAX_DISPARITY)]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 0, result.output
+    assert "4 matched, 2 already complete" in result.output
+
+
+def test_resume_refusal_names_only_the_options_that_differ(pairs_dir, tmp_path):
+    pairs = find_pairs(pairs_dir)[:1]
+    assert run_batch(pairs, tmp_path, max_disparity=MAX_DISPARITY).ok
+    with pytest.raises(ValueError) as refused:
+        run_batch(pairs, tmp_path, max_disparity=12, method="block")
+    assert str(refused.value) == (
+        f"'{tmp_path}' holds outputs made with other options: max_disparity 16 (now 12), "
+        "method dc (now block); use --no-resume (resume=False) to recompute, or another folder"
+    )
+
+
+@pytest.mark.parametrize("content", [b"{not json", b"[1, 2]", b"\xff\xfe"])
+def test_an_unreadable_batch_json_is_named_not_shown_as_none(pairs_dir, tmp_path, content):
+    pairs = find_pairs(pairs_dir)[:1]
+    assert run_batch(pairs, tmp_path, max_disparity=MAX_DISPARITY).ok
+    (tmp_path / "batch.json").write_bytes(content)
+    with pytest.raises(ValueError, match=r"^cannot read .*batch\.json: .*; remove it or use --no-"):
+        run_batch(pairs, tmp_path, max_disparity=MAX_DISPARITY)
+    args = [
+        "batch",
+        str(pairs_dir),
+        "-o",
+        str(tmp_path),
+        "--max-disparity",
+        str(MAX_DISPARITY),
+        "-q",
+    ]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"Error: cannot read {tmp_path / 'batch.json'}")
+    assert run_batch(pairs, tmp_path, max_disparity=MAX_DISPARITY, resume=False).ok
+    assert run_batch(pairs, tmp_path, max_disparity=MAX_DISPARITY).skipped == ["pair00"]

@@ -1,5 +1,6 @@
 """Stereo sequences: frame folders, a video pair and a side-by-side video, in and out."""
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -10,7 +11,7 @@ from dcstereo import io, match
 from dcstereo.batch import read_failures
 from dcstereo.cli import main
 from dcstereo.synthetic import synthetic_sequence
-from dcstereo.video import open_sequence, read_video, write_video
+from dcstereo.video import match_sequence, open_sequence, read_video, write_video
 
 MAX_DISPARITY = 16
 N_FRAMES = 5
@@ -157,9 +158,16 @@ def test_bad_sequences_are_one_line_errors(sources, tmp_path):
         result.output.strip() == f"Error: '{sources / 'left'}' holds 5 frames but '{short}' holds 1"
     )
     result = run_video(sources / "left", sources / "right.mp4", "-o", tmp_path / "o")
+    assert result.exit_code == 1
+    assert result.output.strip() == (
+        f"Error: left '{sources / 'left'}' is a folder of frames, so right "
+        f"'{sources / 'right.mp4'}' must be a folder too"
+    )
+    result = run_video(sources / "left", "-o", tmp_path / "o")
     assert result.exit_code == 1 and "give the folder of right frames" in result.output
     result = run_video(sources / "left.mp4", sources / "right", "-o", tmp_path / "o")
-    assert result.exit_code == 1 and "two of a kind" in result.output
+    assert result.exit_code == 1
+    assert "right '" + str(sources / "right") + "' must be a video too" in result.output
     odd = tmp_path / "odd.mp4"
     write_video(odd, [np.zeros((16, 33), np.uint8)] * 2)
     assert open_sequence(odd).frame_count == 2  # padded to an even width: 34
@@ -174,3 +182,79 @@ def test_frames_are_paired_in_name_order(sources):
     sequence = open_sequence(sources / "left", sources / "right")
     names = [Path(f.source.split(" | ")[0]).name for f in sequence.frames()]
     assert names == [f"img{i:03d}.png" for i in range(N_FRAMES)]
+
+
+def test_match_sequence_creates_a_missing_output_folder_once_the_options_are_valid(
+    sources, tmp_path
+):
+    sequence = open_sequence(sources / "left", sources / "right")
+    with pytest.raises(ValueError, match="window"):
+        match_sequence(sequence, tmp_path / "bad", max_disparity=MAX_DISPARITY, window=4)
+    with pytest.raises(ValueError, match="preview_style"):
+        match_sequence(sequence, tmp_path / "bad", max_disparity=MAX_DISPARITY, preview_style="x")
+    assert not (tmp_path / "bad").exists()
+    out = tmp_path / "new" / "frames"
+    report = match_sequence(sequence, out, max_disparity=MAX_DISPARITY)
+    assert report.ok and len(report.done) == N_FRAMES
+    assert (out / "frame00004-preview.png").is_file()
+
+
+def test_cli_option_errors_leave_no_output_folder(sources, tmp_path):
+    for options in (["--window", "4"], ["--scheduler", "local:0"]):
+        result = run_video(sources / "left", sources / "right", "-o", tmp_path / "o", *options)
+        assert result.exit_code == 1
+        assert len(result.output.strip().splitlines()) == 1, result.output
+        assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("disparity_format", ["pfm", "png"])
+def test_damaged_frame_outputs_are_redone(sources, frames, tmp_path, disparity_format):
+    out = tmp_path / "out"
+    args = (sources / "left", sources / "right", "-o", out, "--format", disparity_format)
+    assert run_video(*args).exit_code == 0
+    damaged = out / f"frame00001.{disparity_format}"
+    expected = damaged.read_bytes()
+    damaged.write_bytes(expected[:100])
+    preview = out / "frame00003-preview.png"
+    preview.write_bytes(preview.read_bytes()[:-20])  # lost its end chunk
+    result = CliRunner().invoke(
+        main, ["video", *map(str, args), "--max-disparity", str(MAX_DISPARITY)]
+    )
+    assert result.exit_code == 0, result.output
+    assert "2 matched, 3 already complete" in result.output
+    assert damaged.read_bytes() == expected
+    assert io.read_image(preview).shape[:2] == frames[3].left.shape
+
+
+def test_resume_with_another_preview_style_or_format_is_refused(sources, tmp_path):
+    out = tmp_path / "out"
+    args = (sources / "left", sources / "right", "-o", out)
+    assert run_video(*args).exit_code == 0
+    result = run_video(*args, "--preview-style", "color", "--format", "png")
+    assert result.exit_code == 1
+    assert result.output.strip() == (
+        f"Error: '{out}' holds outputs made with other options: disparity_format pfm (now png), "
+        "preview_style paper (now color); use --no-resume (resume=False) to recompute, or "
+        "another folder"
+    )
+    result = run_video(*args, "--preview-style", "color", "--no-resume")
+    assert result.exit_code == 0 and (out / "batch.json").read_text().count('"color"') == 1
+    assert run_video(*args, "--preview-style", "color").exit_code == 0
+    assert run_video(*args).exit_code == 1
+    # A batch.json from before these were recorded: made with the defaults.
+    recorded = json.loads((out / "batch.json").read_text())
+    del recorded["disparity_format"], recorded["preview_style"]
+    (out / "batch.json").write_text(json.dumps(recorded))
+    assert "preview_style paper (now color)" in run_video(*args, "--preview-style", "color").output
+    result = CliRunner().invoke(main, ["video", *map(str, args), "--max-disparity", "16"])
+    assert f"0 matched, {N_FRAMES} already complete" in result.output
+
+
+def test_preview_video_may_go_into_the_output_folder_it_creates(sources, tmp_path):
+    out = tmp_path / "new" / "out"
+    movie = out / "preview.mp4"
+    result = run_video(sources / "sbs.mp4", "-o", out, "--preview-video", movie)
+    assert result.exit_code == 0, result.output
+    assert len(list(read_video(movie))) == N_FRAMES
+    result = run_video(sources / "sbs.mp4", "-o", out, "--preview-video", out / "x" / "p.mp4")
+    assert result.exit_code == 1 and "does not exist" in result.output

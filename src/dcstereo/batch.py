@@ -1,8 +1,9 @@
 """Match many stereo pairs, here or on a Dask cluster, and lose nothing.
 
 * Every output is written atomically (a temporary name in the same folder, then a
-  rename), so a file that exists is complete; a rerun *resumes*: pairs whose disparity
-  file exists are skipped, the rest are redone.
+  rename); a rerun *resumes*: pairs whose disparity file exists and is complete (its
+  header parses and its size is what the header says, see :func:`output_is_complete`)
+  are skipped, the rest, a file damaged after it was written included, are redone.
 * A pair that fails (unreadable image, sizes that differ, a bad range for its size) is
   recorded with its reason, the others go on, and ``failures.csv`` lists them.
 * On Dask there is one task per pair; a task lost with its worker is run again
@@ -19,9 +20,12 @@ import dataclasses
 import glob
 import json
 import os
+import struct
 import time
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
+
+from PIL import Image
 
 from . import io
 from .api import match
@@ -235,17 +239,19 @@ def run_batch(
     pairs : iterable of Pair
         From :func:`find_pairs`, or built by hand.
     output_dir : str or os.PathLike
-        Existing folder for the outputs, ``failures.csv`` (``name,left,right,error``, a
-        header only when nothing failed) and ``batch.json`` (the options).
+        Folder for the outputs, ``failures.csv`` (``name,left,right,error``, a header
+        only when nothing failed) and ``batch.json`` (the options); created, with its
+        parents, once the pairs and options are found valid.
     max_disparity : int
         Largest disparity searched.
     client : distributed.Client, optional
         Run one task per pair on this client. None: run here, one pair after the other,
         each with all of numba's threads.
     resume : bool
-        Skip the pairs whose output exists (complete, since writes are atomic). The
-        options must then be those recorded in ``batch.json`` by the earlier run;
-        ``resume=False`` recomputes everything.
+        Skip the pairs whose output exists and is complete (:func:`output_is_complete`;
+        an incomplete one is redone and counted as done). The options must then be
+        those recorded in ``batch.json`` by the earlier run; ``resume=False``
+        recomputes everything.
     retries : int
         Dask only: times a task is run again when it raises unexpectedly (a lost
         worker is handled by the scheduler on top of this).
@@ -265,17 +271,17 @@ def run_batch(
     Raises
     ------
     ValueError
-        For options :func:`dcstereo.match` refuses, a missing output folder, or, when
-        resuming, outputs made with other options (before any pair runs).
+        For options :func:`dcstereo.match` refuses, an output folder that is a file or
+        cannot be created, or, when resuming, outputs made with other options or an
+        unreadable ``batch.json`` (before any pair runs; bad options leave no folder).
     """
     start = time.perf_counter()
     pairs = list(pairs)
     folder = Path(output_dir)
-    if not folder.is_dir():
-        raise ValueError(f"output folder '{folder}' does not exist")
     _check_names(pairs, "batch")
     params = MatchParams(max_disparity=max_disparity, **options)  # refuse bad options now
     match_kwargs = {"max_disparity": max_disparity, **options}
+    make_output_folder(folder)
     check_recorded_options(folder, dataclasses.asdict(params), resume)
     report = BatchReport()
     by_name: dict[str, PairOutcome] = {}
@@ -290,7 +296,7 @@ def run_batch(
         _remove_stale_temporaries(folder, pair)
         if pair.problem is not None:
             record(PairOutcome(pair, "failed", pair.problem))
-        elif resume and output_path(folder, pair).is_file():
+        elif resume and output_is_complete(output_path(folder, pair)):
             record(PairOutcome(pair, "skipped"))
         else:
             todo.append(pair)
@@ -364,25 +370,73 @@ def _run_on_dask(client, folder, pairs, match_kwargs, retries, threads, record):
         future.release()
 
 
-def check_recorded_options(folder: Path, params: dict, resume: bool) -> None:
+def make_output_folder(folder: Path) -> None:
+    """Create the output folder and its parents; refuse a path that is not a folder."""
+    if folder.exists() and not folder.is_dir():
+        raise ValueError(f"cannot write into '{folder}': it is not a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"cannot create output folder '{folder}': {exc.strerror or exc}") from None
+
+
+def output_is_complete(path: Path) -> bool:
+    """Return True when ``path`` is a whole output file, cheaply, without decoding it.
+
+    Outputs are written atomically, but a file can still be cut short later (a full
+    disk, an interrupted copy). A PFM is complete when its header parses and the file
+    is exactly the header plus ``width * height * channels`` float32 values; a PNG when
+    Pillow's ``verify`` (every chunk's CRC, up to the end chunk) passes.
+    """
+    try:
+        if path.suffix.lower() == ".pfm":
+            with open(path, "rb") as f:
+                header = io._PFM_HEADER.match(f.read(256))
+            if header is None:
+                return False
+            width, height = int(header[2]), int(header[3])
+            channels = 3 if header[1] == b"PF" else 1
+            return path.stat().st_size == header.end() + 4 * width * height * channels
+        with Image.open(path) as image:
+            image.verify()
+        return True
+    except (OSError, ValueError, SyntaxError, EOFError, struct.error):
+        return False  # missing, a folder, unreadable or damaged: redo it
+
+
+def check_recorded_options(
+    folder: Path, params: dict, resume: bool, assumed: dict | None = None
+) -> None:
     """Refuse to resume over outputs made with other options; record the options.
 
-    ``params`` (``dataclasses.asdict`` of :class:`~dcstereo.params.MatchParams`) is
-    compared with ``batch.json`` in ``folder`` when resuming, and written there otherwise
-    (or when there is none yet).
+    ``params`` (``dataclasses.asdict`` of :class:`~dcstereo.params.MatchParams`, plus
+    any other option that changes what is written) is compared with ``batch.json`` in
+    ``folder`` when resuming, and written there otherwise (or when there is none yet).
+    ``assumed`` gives the value of options that an older ``batch.json`` does not record
+    (what those outputs were made with, the default of the time).
     """
     recorded = folder / OPTIONS_FILE
     current = json.loads(json.dumps(params, sort_keys=True))
     if resume and recorded.is_file():
         try:
             previous = json.loads(recorded.read_text(encoding="utf-8"))
-        except (OSError, ValueError):
-            previous = None
-        if previous != current:
+            if not isinstance(previous, dict):
+                raise ValueError("not a JSON object")
+        except (OSError, ValueError) as exc:
+            reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
             raise ValueError(
-                f"'{folder}' holds outputs made with other options ({previous}, now "
-                f"{current}); recompute them with --no-resume (resume=False) or use "
-                "another folder"
+                f"cannot read {recorded}: {reason}; remove it or use --no-resume (resume=False)"
+            ) from None
+        previous = {**(assumed or {}), **previous}
+        differ = [
+            f"{key} {previous.get(key, 'not recorded')} (now {current.get(key, 'not set')})"
+            for key in sorted(previous.keys() | current.keys())
+            if previous.get(key) != current.get(key)
+        ]
+        if differ:
+            raise ValueError(
+                f"'{folder}' holds outputs made with other options: {', '.join(differ)}; "
+                "use --no-resume (resume=False) to recompute, or another folder"
             )
         return
     with io.atomic_write(recorded) as tmp:

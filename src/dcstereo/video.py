@@ -4,8 +4,9 @@ A sequence is two folders of frames (paired in name order), two videos (left and
 or one side-by-side video (left half, right half). :func:`match_sequence` writes, for
 frame ``i``, ``frame{i:05d}.pfm`` (or ``.png``, 16-bit) and ``frame{i:05d}-preview.png``,
 each atomically, resumes like :func:`dcstereo.batch.run_batch` (frames whose two files
-exist are skipped), reports frames that fail in ``failures.csv`` and goes on, and can run
-one Dask task per frame. :func:`write_video` turns the previews into a video.
+exist and are complete are skipped), reports frames that fail in ``failures.csv`` and
+goes on, and can run one Dask task per frame. :func:`write_video` turns the previews into
+a video.
 
 Videos are read and written with the ffmpeg binary that the ``imageio-ffmpeg`` wheel
 ships. Codecs are lossy: a pair that went through a video file is not bit for bit the
@@ -26,11 +27,21 @@ import numpy as np
 
 from . import io
 from .api import match
-from .batch import FailureRow, check_recorded_options, write_failures
+from .batch import (
+    FailureRow,
+    check_recorded_options,
+    make_output_folder,
+    output_is_complete,
+    write_failures,
+)
 from .params import MatchParams
 
 #: File suffixes taken as frames in a frame folder.
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".pgm", ".ppm", ".pfm")
+
+#: What a sequence's ``batch.json`` records besides the matching options, and the value
+#: assumed when it does not (one written before these were recorded): the defaults.
+WRITE_OPTIONS = {"disparity_format": "pfm", "preview_style": "paper"}
 
 _VIDEO_SIZE = re.compile(r"Stream #.*?Video:.*?(\d{2,5})x(\d{2,5})")
 
@@ -111,11 +122,15 @@ def open_sequence(left: str | os.PathLike, right: str | os.PathLike | None = Non
         if not right.exists():
             raise ValueError(f"cannot read sequence '{right}': no such file or folder")
     if left.is_dir():
-        if right is None or not right.is_dir():
+        if right is None:
             raise ValueError(f"'{left}' is a folder of frames: give the folder of right frames")
+        if not right.is_dir():
+            raise ValueError(
+                f"left '{left}' is a folder of frames, so right '{right}' must be a folder too"
+            )
         return _folder_sequence(left, right)
     if right is not None and right.is_dir():
-        raise ValueError(f"'{left}' is a file and '{right}' a folder: give two of a kind")
+        raise ValueError(f"left '{left}' is a video, so right '{right}' must be a video too")
     if right is None:
         return _side_by_side_sequence(left)
     return _video_pair_sequence(left, right)
@@ -340,15 +355,20 @@ def match_sequence(
     sequence : StereoSequence
         From :func:`open_sequence`.
     output_dir : str or os.PathLike
-        Existing folder for ``frameNNNNN.pfm|png``, ``frameNNNNN-preview.png``,
-        ``failures.csv`` and ``batch.json`` (the options, checked when resuming).
+        Folder for ``frameNNNNN.pfm|png``, ``frameNNNNN-preview.png``, ``failures.csv``
+        and ``batch.json`` (the options, ``disparity_format`` and ``preview_style``
+        included, checked when resuming; a ``batch.json`` without the last two is taken
+        as made with their defaults); created, with its parents, once the options are
+        found valid.
     max_disparity : int
         Largest disparity searched.
     client : distributed.Client, optional
         Run one task per frame on this client (frames are decoded here and sent to the
         workers; a few frames are in flight at a time). None: match here.
     resume : bool
-        Skip frames whose two outputs exist; False recomputes every frame.
+        Skip frames whose two outputs exist and are complete
+        (:func:`dcstereo.batch.output_is_complete`; an incomplete one is redone and
+        counted as done); False recomputes every frame.
     disparity_format : {"pfm", "png"}
         PFM (float32, ``inf`` = no estimate) or 16-bit PNG (``d * 256``, 0 = none).
     preview_style : {"paper", "color"}
@@ -363,17 +383,29 @@ def match_sequence(
     Returns
     -------
     SequenceReport
+
+    Raises
+    ------
+    ValueError
+        For options :func:`dcstereo.match` refuses, an unknown format or preview style,
+        an output folder that is a file or cannot be created, or, when resuming,
+        outputs made with other options or an unreadable ``batch.json`` (before any
+        frame runs; bad options leave no folder).
     """
     from .viz import preview
 
     start = time.perf_counter()
     folder = Path(output_dir)
-    if not folder.is_dir():
-        raise ValueError(f"output folder '{folder}' does not exist")
     if disparity_format not in ("pfm", "png"):
         raise ValueError(f"disparity_format must be 'pfm' or 'png', got {disparity_format!r}")
+    if preview_style not in ("paper", "color"):
+        raise ValueError(f"preview_style must be 'paper' or 'color', got {preview_style!r}")
     params = MatchParams(max_disparity=max_disparity, **options)
-    check_recorded_options(folder, dataclasses.asdict(params), resume)
+    make_output_folder(folder)
+    written = {"disparity_format": disparity_format, "preview_style": preview_style}
+    check_recorded_options(
+        folder, {**dataclasses.asdict(params), **written}, resume, assumed=WRITE_OPTIONS
+    )
     match_kwargs = {"max_disparity": max_disparity, **options}
     report = SequenceReport()
 
@@ -396,7 +428,7 @@ def match_sequence(
     def pending():
         for frame in sequence.frames():
             if resume and all(
-                p.is_file() for p in output_paths(folder, frame.index, disparity_format)
+                output_is_complete(p) for p in output_paths(folder, frame.index, disparity_format)
             ):
                 report.skipped.append(frame.name)
                 note(frame.name, "skipped")

@@ -144,11 +144,13 @@ def batch(
     the others go on; the exit code is 1 when any pair failed.
     """
     from ..batch import FAILURES_FILE, find_pairs, run_batch
+    from ..params import MatchParams
 
     folder = output_folder(output)
     pairs = find_pairs(source)
+    # Refuse bad options before a cluster starts; run_batch makes the folder once valid.
+    MatchParams(max_disparity=max_disparity, min_disparity=min_disparity, **match_options)
     apply_threads(threads, scheduler)
-    folder.mkdir(parents=True, exist_ok=True)
     with progress_bar("pairs", quiet) as bar, dask_client(scheduler) as client:
         task = None if bar is None else bar.add_task("batch", total=len(pairs))
         report = run_batch(

@@ -82,20 +82,25 @@ def video(
     code is 1 when any frame failed.
     """
     from ..batch import FAILURES_FILE
+    from ..params import MatchParams
     from ..video import match_sequence, open_sequence, output_paths, write_video
 
     folder = output_folder(output)
     if preview_video is not None:
         if Path(preview_video).suffix.lower() not in (".mp4", ".mkv", ".avi", ".mov"):
             raise CommandError(f"--preview-video '{preview_video}' must end in .mp4, .mkv, .avi")
-        parent = Path(preview_video).parent
-        if str(parent) and not parent.is_dir():
-            raise CommandError(f"cannot write '{preview_video}': '{parent}' does not exist")
+        parent = Path(preview_video).parent.resolve()
+        made = (folder.resolve(), *folder.resolve().parents)  # exist once OUTPUT is made
+        if not parent.is_dir() and parent not in made:
+            raise CommandError(
+                f"cannot write '{preview_video}': '{Path(preview_video).parent}' does not exist"
+            )
     if fps is not None and not fps > 0:
         raise CommandError(f"--fps must be positive, got {fps}")
     sequence = open_sequence(left, right)
+    # Refuse bad options before a cluster starts; match_sequence makes the folder once valid.
+    MatchParams(max_disparity=max_disparity, min_disparity=min_disparity, **match_options)
     apply_threads(threads, scheduler)
-    folder.mkdir(parents=True, exist_ok=True)
     with progress_bar("frames", quiet) as bar, dask_client(scheduler) as client:
         task = None if bar is None else bar.add_task("video", total=len(sequence))
         report = match_sequence(
