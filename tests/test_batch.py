@@ -377,3 +377,16 @@ def test_an_unreadable_batch_json_is_named_not_shown_as_none(pairs_dir, tmp_path
     assert len(lines) == 1 and lines[0].startswith(f"Error: cannot read {tmp_path / 'batch.json'}")
     assert run_batch(pairs, tmp_path, max_disparity=MAX_DISPARITY, resume=False).ok
     assert run_batch(pairs, tmp_path, max_disparity=MAX_DISPARITY).skipped == ["pair00"]
+
+
+def test_cli_refused_resume_prints_one_line_and_no_bar(pairs_dir, tmp_path):
+    args = ["batch", str(pairs_dir), "-o", str(tmp_path / "o"), "--window", "3"]
+    first = CliRunner().invoke(main, [*args, "--max-disparity", "8"])
+    assert first.exit_code == 0, first.output
+    assert "batch" in first.output and "━" in first.output  # the bar, when anything runs
+    result = CliRunner().invoke(main, [*args, "--max-disparity", "9"])
+    assert result.exit_code == 1
+    assert result.output.strip("\n").splitlines() == [
+        f"Error: '{tmp_path / 'o'}' holds outputs made with other options: max_disparity 8 "
+        "(now 9); use --no-resume (resume=False) to recompute, or another folder"
+    ]

@@ -211,6 +211,17 @@ def test_demo_runs_on_the_motorcycle_pair(tmp_path):
     assert io.read_disparity(out / "disparity.pfm").shape == (500, 741)
 
 
+def test_demo_bad_option_makes_no_folder(tmp_path):
+    pytest.importorskip("skimage")
+    out = tmp_path / "demo"
+    result = invoke("demo", "--output", out, "--max-disparity", -1, "--threads", 1)
+    assert result.exit_code == 1
+    assert result.output.strip().splitlines() == [
+        "Error: min_disparity=0 is larger than max_disparity=-1"
+    ]
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("cost", ["sad", "bt"])
 def test_run_cost_option_gives_the_library_result(pair, cost):
     import dcstereo

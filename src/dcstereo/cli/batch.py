@@ -66,10 +66,15 @@ def dask_client(scheduler):
         yield client
 
 
+@contextlib.contextmanager
 def progress_bar(unit: str, quiet: bool):
-    """Return a rich progress bar on stderr: done, rate, time left (None when quiet)."""
+    """Give a rich progress bar on stderr: done, rate, time left (None when quiet).
+
+    It is not started here but by :func:`advancer`'s first call, and stopped on leaving.
+    """
     if quiet:
-        return contextlib.nullcontext(None)
+        yield None
+        return
     from rich.console import Console
     from rich.progress import (
         BarColumn,
@@ -86,7 +91,7 @@ def progress_bar(unit: str, quiet: bool):
             speed = task.finished_speed or task.speed
             return Text("" if speed is None else f"{speed:.2f} {unit}/s")
 
-    return Progress(
+    bar = Progress(
         TextColumn("{task.description}"),
         BarColumn(),
         MofNCompleteColumn(),
@@ -95,6 +100,30 @@ def progress_bar(unit: str, quiet: bool):
         console=Console(stderr=True),
         transient=False,
     )
+    try:
+        yield bar
+    finally:
+        if bar.live.is_started:  # stop() prints a line break off a terminal, even unstarted
+            bar.stop()
+
+
+def advancer(bar, description: str, total: int):
+    """Return a callback that advances BAR's task by one (None when BAR is None).
+
+    The bar starts, with its task, at the first call, once the library has checked the
+    options and the output folder: a refusal prints its one line and no bar.
+    """
+    if bar is None:
+        return None
+    task = []
+
+    def advance(*_):
+        if not task:
+            bar.start()
+            task.append(bar.add_task(description, total=total))
+        bar.advance(task[0])
+
+    return advance
 
 
 @click.command()
@@ -152,7 +181,6 @@ def batch(
     MatchParams(max_disparity=max_disparity, min_disparity=min_disparity, **match_options)
     apply_threads(threads, scheduler)
     with progress_bar("pairs", quiet) as bar, dask_client(scheduler) as client:
-        task = None if bar is None else bar.add_task("batch", total=len(pairs))
         report = run_batch(
             pairs,
             folder,
@@ -161,7 +189,7 @@ def batch(
             resume=resume,
             retries=retries,
             threads=threads if scheduler is not None else None,
-            on_outcome=None if bar is None else (lambda _: bar.advance(task)),
+            on_outcome=advancer(bar, "batch", len(pairs)),
             min_disparity=min_disparity,
             **match_options,
         )

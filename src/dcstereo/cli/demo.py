@@ -46,12 +46,14 @@ def demo(output, max_disparity, match_options, threads):
 
     set_threads(threads)
     folder = output_folder(output)
-    folder.mkdir(parents=True, exist_ok=True)
     scene = load_motorcycle()
     # the sparse map is written and scored too: fill after matching, not in it
     options = dict(match_options, max_disparity=max_disparity)
     fill = options.pop("fill")
-    match(scene.left, scene.right, **options)  # compile (cached on disk after the first run)
+    # compile (cached on disk after the first run); it also refuses bad options before
+    # the folder is made
+    match(scene.left, scene.right, **options)
+    folder.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     result = match(scene.left, scene.right, **options)
     seconds = time.perf_counter() - start

@@ -13,7 +13,7 @@ from ._common import (
     output_folder,
     preview_style_option,
 )
-from .batch import dask_client, progress_bar, scheduler_option
+from .batch import advancer, dask_client, progress_bar, scheduler_option
 
 
 @click.command()
@@ -102,7 +102,6 @@ def video(
     MatchParams(max_disparity=max_disparity, min_disparity=min_disparity, **match_options)
     apply_threads(threads, scheduler)
     with progress_bar("frames", quiet) as bar, dask_client(scheduler) as client:
-        task = None if bar is None else bar.add_task("video", total=len(sequence))
         report = match_sequence(
             sequence,
             folder,
@@ -112,7 +111,7 @@ def video(
             disparity_format=disparity_format,
             preview_style=preview_style,
             threads=threads if scheduler is not None else None,
-            on_frame=None if bar is None else (lambda name, status: bar.advance(task)),
+            on_frame=advancer(bar, "video", len(sequence)),
             min_disparity=min_disparity,
             **match_options,
         )
