@@ -217,6 +217,20 @@ def test_scanline_data_matches_a_full_run(pair):
     assert feats.shape[1] == 2 and (feats[:, 0] - feats[:, 1] >= 0).all()
 
 
+def test_scanline_bt_names_run_with_the_bt_cost(pair):
+    import dcstereo
+    from dcstereo.explore import scanline
+
+    left, right, _ = pair
+    left, right = io.read_image(left), io.read_image(right)
+    data = scanline(left, right, 1, max_disparity=10, methods=("dsi5+bt", "dsi5"))
+    assert list(data["paths"]) == ["dsi5+bt", "dsi5"]
+    bt = dcstereo.match(left, right, max_disparity=10, method="dsi5", cost="bt")
+    sad = dcstereo.match(left, right, max_disparity=10, method="dsi5")
+    np.testing.assert_array_equal(data["paths"]["dsi5+bt"], bt.disparity[1])
+    np.testing.assert_array_equal(data["paths"]["dsi5"], sad.disparity[1])
+
+
 def test_datasets_list_and_fetch(tmp_path, http_server, monkeypatch):  # noqa: F811
     result = invoke("datasets", "list")
     assert result.exit_code == 0

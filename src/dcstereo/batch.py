@@ -2,7 +2,7 @@
 
 * Every output is written atomically (a temporary name in the same folder, then a
   rename); a rerun *resumes*: pairs whose disparity file exists and is complete (its
-  header parses and its size is what the header says, see :func:`output_is_complete`)
+  header parses and its size is what the header says, see :func:`dcstereo.io.is_complete`)
   are skipped, the rest, a file damaged after it was written included, are redone.
 * A pair that fails (unreadable image, sizes that differ, a bad range for its size) is
   recorded with its reason, the others go on, and ``failures.csv`` lists them.
@@ -20,12 +20,9 @@ import dataclasses
 import glob
 import json
 import os
-import struct
 import time
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
-
-from PIL import Image
 
 from . import io
 from .api import match
@@ -248,7 +245,7 @@ def run_batch(
         Run one task per pair on this client. None: run here, one pair after the other,
         each with all of numba's threads.
     resume : bool
-        Skip the pairs whose output exists and is complete (:func:`output_is_complete`;
+        Skip the pairs whose output exists and is complete (:func:`dcstereo.io.is_complete`;
         an incomplete one is redone and counted as done). The options must then be
         those recorded in ``batch.json`` by the earlier run; ``resume=False``
         recomputes everything.
@@ -296,7 +293,7 @@ def run_batch(
         _remove_stale_temporaries(folder, pair)
         if pair.problem is not None:
             record(PairOutcome(pair, "failed", pair.problem))
-        elif resume and output_is_complete(output_path(folder, pair)):
+        elif resume and io.is_complete(output_path(folder, pair)):
             record(PairOutcome(pair, "skipped"))
         else:
             todo.append(pair)
@@ -378,30 +375,6 @@ def make_output_folder(folder: Path) -> None:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise ValueError(f"cannot create output folder '{folder}': {exc.strerror or exc}") from None
-
-
-def output_is_complete(path: Path) -> bool:
-    """Return True when ``path`` is a whole output file, cheaply, without decoding it.
-
-    Outputs are written atomically, but a file can still be cut short later (a full
-    disk, an interrupted copy). A PFM is complete when its header parses and the file
-    is exactly the header plus ``width * height * channels`` float32 values; a PNG when
-    Pillow's ``verify`` (every chunk's CRC, up to the end chunk) passes.
-    """
-    try:
-        if path.suffix.lower() == ".pfm":
-            with open(path, "rb") as f:
-                header = io._PFM_HEADER.match(f.read(256))
-            if header is None:
-                return False
-            width, height = int(header[2]), int(header[3])
-            channels = 3 if header[1] == b"PF" else 1
-            return path.stat().st_size == header.end() + 4 * width * height * channels
-        with Image.open(path) as image:
-            image.verify()
-        return True
-    except (OSError, ValueError, SyntaxError, EOFError, struct.error):
-        return False  # missing, a folder, unreadable or damaged: redo it
 
 
 def check_recorded_options(

@@ -426,8 +426,9 @@ def load_scene(folder: str | os.PathLike, *, scale: float | None = None) -> Ster
     folder : path-like
         The scene folder.
     scale : float, optional
-        2005/2006 layout only: stored gray value per pixel of disparity; default inferred
-        from the image height (:data:`SCALE_BY_HEIGHT_2005`).
+        2005/2006 layout only (other layouts refuse it: their files give the scale): stored
+        gray value per pixel of disparity; default inferred from the image height
+        (:data:`SCALE_BY_HEIGHT_2005`).
 
     Returns
     -------
@@ -439,8 +440,8 @@ def load_scene(folder: str | os.PathLike, *, scale: float | None = None) -> Ster
     Raises
     ------
     ValueError
-        When the folder matches no layout (the message names the files looked for) or its
-        files are inconsistent.
+        When the folder matches no layout (the message names the files looked for), its
+        files are inconsistent, or ``scale`` is given for a layout other than 2005/2006.
 
     Examples
     --------
@@ -453,6 +454,11 @@ def load_scene(folder: str | os.PathLike, *, scale: float | None = None) -> Ster
     if layout is None:
         expected = "; ".join(f"{key}: {', '.join(files)}" for key, files in LAYOUTS.items())
         raise ValueError(f"{folder} is not a scene folder of a known layout ({expected})")
+    if scale is not None and layout != "2005/2006":
+        raise ValueError(
+            f"a ground-truth scale applies to 2005/2006 scenes only; {folder} is a "
+            f"{layout} scene, whose files give the scale"
+        )
     if layout == "v2":
         scene = load_middlebury(folder)
         scene.meta.setdefault("layout", "v2")

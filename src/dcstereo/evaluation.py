@@ -208,17 +208,11 @@ def evaluate_file(
     from .io import read_disparity
 
     scene = load_scene(scene_dir, scale=truth_scale)
-    layout = scene.meta.get("layout", "")
-    if truth_scale is not None and layout != "2005/2006":
-        raise ValueError(
-            f"a ground-truth scale applies to 2005/2006 scenes only; {scene_dir} is a "
-            f"{layout} scene, whose files give the scale"
-        )
     disparity = read_disparity(prediction, scale=scale)
     return {
         "prediction": str(prediction),
         "scene": scene.name,
-        "layout": layout,
+        "layout": scene.meta.get("layout", ""),
         "size": [scene.shape[1], scene.shape[0]],
         "scores": score(disparity, scene),
     }

@@ -255,7 +255,9 @@ def scanline(
     max_disparity, min_disparity, window : int
         As for :func:`dcstereo.match`.
     methods : sequence of str
-        Methods whose path is drawn; feature pairs come from the ``dc`` methods.
+        Methods whose path is drawn (names as for
+        :func:`dcstereo.evaluation.run_method`: a ``+bt`` suffix for the
+        Birchfield-Tomasi cost); feature pairs come from the ``dc`` methods.
     **options
         Passed to :func:`dcstereo.match`.
 
@@ -267,7 +269,7 @@ def scanline(
         (method -> (M, 2) array of ``(x_left, x_right)``), ``left_profile`` and
         ``right_profile`` (intensity of the row, 0..255).
     """
-    from .api import match
+    from .evaluation import run_method
 
     dsi = dsi_row(
         left,
@@ -284,12 +286,12 @@ def scanline(
     bottom = min(height, max(row + radius + 1, top + window))
     paths, features = {}, {}
     for method in methods:
-        result = match(
+        result = run_method(
+            method,
             left[top:bottom],
             right[top:bottom],
             max_disparity=max_disparity,
             min_disparity=min_disparity,
-            method=method,
             window=window,
             **options,
         )

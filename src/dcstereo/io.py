@@ -12,6 +12,7 @@ In memory a disparity map is float32 (H, W) with NaN where there is no estimate.
 import os
 import re
 import secrets
+import struct
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -180,6 +181,52 @@ def _normalise_dtype(array: np.ndarray, path: str | os.PathLike) -> np.ndarray:
     return np.ascontiguousarray(array, dtype=np.uint16)
 
 
+def _pfm_header(data: bytes, path: str | os.PathLike) -> tuple[int, int, int, float, int]:
+    """Parse the header at the start of ``data``: width, height, channels, scale, data offset.
+
+    Raises ``ValueError`` naming ``path`` when it is malformed.
+    """
+    # Four whitespace-separated fields, then exactly one whitespace byte (or CR LF).
+    header = _PFM_HEADER.match(data)
+    if header is None:
+        raise ValueError(f"cannot read PFM file '{path}': header does not start with PF or Pf")
+    magic, fields = header[1], header.group(2, 3, 4)
+    try:
+        width, height, scale = int(fields[0]), int(fields[1]), float(fields[2])
+    except ValueError:
+        raise ValueError(
+            f"cannot read PFM file '{path}': malformed width, height or scale in the header"
+        ) from None
+    if width <= 0 or height <= 0 or scale == 0 or not np.isfinite(scale):
+        raise ValueError(
+            f"cannot read PFM file '{path}': invalid header (width {width}, height {height}, "
+            f"scale {scale})"
+        )
+    return width, height, 3 if magic == b"PF" else 1, scale, header.end()
+
+
+def is_complete(path: str | os.PathLike) -> bool:
+    """Return True when ``path`` is a whole PFM or image file, cheaply, without decoding it.
+
+    Files are written atomically, but one can still be cut short later (a full disk, an
+    interrupted copy). A PFM is complete when its header parses and the file is exactly
+    the header plus its ``width * height * channels`` float32 values; any other file when
+    Pillow's ``verify`` passes (a PNG: every chunk's CRC, up to the end chunk). A missing
+    or unreadable file is not complete.
+    """
+    path = Path(path)
+    try:
+        if path.suffix.lower() == ".pfm":
+            with open(path, "rb") as f:
+                width, height, channels, _, pos = _pfm_header(f.read(256), path)
+            return path.stat().st_size == pos + 4 * width * height * channels
+        with Image.open(path) as image:
+            image.verify()
+        return True
+    except (OSError, ValueError, SyntaxError, EOFError, struct.error):
+        return False
+
+
 def read_pfm(path: str | os.PathLike) -> np.ndarray:
     """Read a Portable Float Map.
 
@@ -204,23 +251,7 @@ def read_pfm(path: str | os.PathLike) -> np.ndarray:
     """
     _check_readable(path, "PFM file")
     data = Path(path).read_bytes()
-    # Four whitespace-separated fields, then exactly one whitespace byte (or CR LF).
-    header = _PFM_HEADER.match(data)
-    if header is None:
-        raise ValueError(f"cannot read PFM file '{path}': header does not start with PF or Pf")
-    magic, fields, pos = header[1], header.group(2, 3, 4), header.end()
-    try:
-        width, height, scale = int(fields[0]), int(fields[1]), float(fields[2])
-    except ValueError:
-        raise ValueError(
-            f"cannot read PFM file '{path}': malformed width, height or scale in the header"
-        ) from None
-    if width <= 0 or height <= 0 or scale == 0 or not np.isfinite(scale):
-        raise ValueError(
-            f"cannot read PFM file '{path}': invalid header (width {width}, height {height}, "
-            f"scale {scale})"
-        )
-    channels = 3 if magic == b"PF" else 1
+    width, height, channels, scale, pos = _pfm_header(data, path)
     count = width * height * channels
     if len(data) - pos < 4 * count:
         raise ValueError(
@@ -357,6 +388,17 @@ def check_disparity_suffix(path: str | os.PathLike) -> None:
             f"cannot write disparity '{path}': unsupported suffix '{suffix}', use one of "
             f"{', '.join(_DISPARITY_SUFFIXES)}"
         )
+
+
+def check_png_suffix(path: str | os.PathLike, what: str = "picture") -> None:
+    """Raise ``ValueError`` unless ``path`` ends in ``.png``.
+
+    The PNG writers write PNG under any name; a command checks its pictures' names with
+    this before any work. ``what`` names the file in the message (a CLI option).
+    """
+    suffix = Path(path).suffix.lower()
+    if suffix != ".png":
+        raise ValueError(f"cannot write {what} '{path}': unsupported suffix '{suffix}', use .png")
 
 
 def write_features_csv(path: str | os.PathLike, features: np.ndarray) -> None:

@@ -31,7 +31,6 @@ from .batch import (
     FailureRow,
     check_recorded_options,
     make_output_folder,
-    output_is_complete,
     write_failures,
 )
 from .params import MatchParams
@@ -367,7 +366,7 @@ def match_sequence(
         workers; a few frames are in flight at a time). None: match here.
     resume : bool
         Skip frames whose two outputs exist and are complete
-        (:func:`dcstereo.batch.output_is_complete`; an incomplete one is redone and
+        (:func:`dcstereo.io.is_complete`; an incomplete one is redone and
         counted as done); False recomputes every frame.
     disparity_format : {"pfm", "png"}
         PFM (float32, ``inf`` = no estimate) or 16-bit PNG (``d * 256``, 0 = none).
@@ -392,14 +391,13 @@ def match_sequence(
         outputs made with other options or an unreadable ``batch.json`` (before any
         frame runs; bad options leave no folder).
     """
-    from .viz import preview
+    from .viz import check_preview_style, preview
 
     start = time.perf_counter()
     folder = Path(output_dir)
     if disparity_format not in ("pfm", "png"):
         raise ValueError(f"disparity_format must be 'pfm' or 'png', got {disparity_format!r}")
-    if preview_style not in ("paper", "color"):
-        raise ValueError(f"preview_style must be 'paper' or 'color', got {preview_style!r}")
+    check_preview_style(preview_style, "preview_style")
     params = MatchParams(max_disparity=max_disparity, **options)
     make_output_folder(folder)
     written = {"disparity_format": disparity_format, "preview_style": preview_style}
@@ -428,7 +426,7 @@ def match_sequence(
     def pending():
         for frame in sequence.frames():
             if resume and all(
-                output_is_complete(p) for p in output_paths(folder, frame.index, disparity_format)
+                io.is_complete(p) for p in output_paths(folder, frame.index, disparity_format)
             ):
                 report.skipped.append(frame.name)
                 note(frame.name, "skipped")

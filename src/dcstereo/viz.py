@@ -10,7 +10,17 @@ ERROR_BAD = (255, 0, 0)
 ERROR_MISSING = (0, 0, 255)
 ERROR_UNSCORED = (0, 0, 0)
 
-_STYLES = ("paper", "color")
+#: The styles of :func:`preview`.
+PREVIEW_STYLES = ("paper", "color")
+
+
+def check_preview_style(style: str, name: str = "preview style") -> None:
+    """Raise ``ValueError`` unless ``style`` is one of :data:`PREVIEW_STYLES`.
+
+    ``name`` is the argument's name in the message.
+    """
+    if style not in PREVIEW_STYLES:
+        raise ValueError(f"unknown {name} {style!r}; use one of {', '.join(PREVIEW_STYLES)}")
 
 
 def paper_display(disparity: np.ndarray, occluded: np.ndarray | None = None) -> np.ndarray:
@@ -237,14 +247,13 @@ def preview(
     -------
     ndarray of uint8
     """
+    check_preview_style(style)
     if style == "paper":
         return paper_display(disparity, occluded)
-    if style == "color":
-        d = _check_disparity(disparity)
-        if occluded is not None:
-            d = np.where(_check_mask(occluded, d.shape, "occluded"), np.nan, d)
-        return colorize(d)
-    raise ValueError(f"unknown preview style {style!r}; use one of {', '.join(_STYLES)}")
+    d = _check_disparity(disparity)
+    if occluded is not None:
+        d = np.where(_check_mask(occluded, d.shape, "occluded"), np.nan, d)
+    return colorize(d)
 
 
 def _check_disparity(disparity: np.ndarray, name: str = "disparity") -> np.ndarray:

@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from ..params import DEFAULT_OCCLUSION_COST, METHODS
+from ..viz import PREVIEW_STYLES
 
 #: Methods whose result carries feature pairs.
 FEATURE_METHODS = ("dc", "dc-linear", "dsi3-gcp")
@@ -48,17 +49,6 @@ def check_output_paths(*paths):
             raise CommandError(f"cannot write '{path}': directory '{parent}' does not exist")
         if path.is_dir():
             raise CommandError(f"cannot write '{path}': it is a directory")
-
-
-def check_png_suffix(option, path):
-    """Fail unless PATH, the value of OPTION (a picture), is None or ends in ``.png``."""
-    if path is None:
-        return
-    suffix = Path(path).suffix.lower()
-    if suffix != ".png":
-        raise CommandError(
-            f"cannot write {option} '{path}': unsupported suffix '{suffix}', use .png"
-        )
 
 
 def check_distinct_paths(inputs, outputs):
@@ -142,7 +132,7 @@ def disparity_range_options(func):
 #: ``--preview-style``: how a disparity preview is drawn.
 preview_style_option = click.option(
     "--preview-style",
-    type=click.Choice(["paper", "color"]),
+    type=click.Choice(PREVIEW_STYLES),
     default="paper",
     show_default=True,
     help="paper: histogram-equalized gray, occlusions brightest; color: turbo colour map.",

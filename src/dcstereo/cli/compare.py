@@ -5,7 +5,6 @@ import click
 from ._common import (
     check_distinct_paths,
     check_output_paths,
-    check_png_suffix,
     disparity_range_options,
     one_line_errors,
     set_threads,
@@ -59,7 +58,7 @@ def compare(
 
     if gt_scale is not None and gt is None:
         raise click.UsageError("--gt-scale needs --gt")
-    check_png_suffix("--output", output)
+    io.check_png_suffix(output, "--output")
     check_output_paths(output)
     check_distinct_paths(
         {"the left input": left, "the right input": right, "the --gt file": gt},

@@ -9,7 +9,6 @@ from ._common import (
     FEATURE_METHODS,
     check_distinct_paths,
     check_output_paths,
-    check_png_suffix,
     disparity_range_options,
     matching_options,
     one_line_errors,
@@ -109,8 +108,10 @@ def run(
             f"not {method}"
         )
     io.check_disparity_suffix(output)
-    check_png_suffix("--occlusion-out", occlusion_out)
-    check_png_suffix("--preview", preview)
+    if occlusion_out is not None:
+        io.check_png_suffix(occlusion_out, "--occlusion-out")
+    if preview is not None:
+        io.check_png_suffix(preview, "--preview")
     set_threads(threads)
     left_image = io.read_image(left)
     right_image = io.read_image(right)

@@ -5,7 +5,6 @@ import click
 from ._common import (
     check_distinct_paths,
     check_output_paths,
-    check_png_suffix,
     disparity_range_options,
     one_line_errors,
 )
@@ -55,12 +54,12 @@ def scanline(
     the two intensity profiles.
     """
     from .. import io
-    from ..evaluation import BT_SUFFIX, parse_methods
+    from ..evaluation import parse_methods
     from ..explore import scanline as gather
     from ..explore import scanline_figure
     from ..opencv import OPENCV_METHODS
 
-    check_png_suffix("--output", output)
+    io.check_png_suffix(output, "--output")
     check_output_paths(output)
     check_distinct_paths({"the left input": left, "the right input": right}, {"--output": output})
     names = parse_methods(methods)
@@ -68,16 +67,15 @@ def scanline(
         raise ValueError("scanline draws dcstereo's methods only (OpenCV gives no path)")
     left_image = io.read_image(left)
     right_image = io.read_image(right)
-    options = dict(max_disparity=max_disparity, min_disparity=min_disparity, window=window)
-    plain = [name for name in names if not name.endswith(BT_SUFFIX)]
-    data = gather(left_image, right_image, row, methods=plain, **options)
-    if len(plain) < len(names):
-        # the "+bt" names: the same methods with cost="bt", drawn on the same (SAD) DSI
-        bases = [name.removesuffix(BT_SUFFIX) for name in names if name not in plain]
-        bt = gather(left_image, right_image, row, methods=bases, cost="bt", **options)
-        for key in ("paths", "features"):
-            found = {**data[key], **{m + BT_SUFFIX: v for m, v in bt[key].items()}}
-            data[key] = {name: found[name] for name in names if name in found}
+    data = gather(
+        left_image,
+        right_image,
+        row,
+        max_disparity=max_disparity,
+        min_disparity=min_disparity,
+        window=window,
+        methods=names,
+    )
     io.write_rgb_png(output, scanline_figure(data, width=width, height=height))
     pairs = sum(len(p) for p in data["features"].values())
     click.echo(f"row {row}: {', '.join(names)}, {pairs} feature pairs -> {output}")
