@@ -72,8 +72,17 @@ def match(
         max_disparity=max_disparity, min_disparity=min_disparity, method=method, **options
     )
     left, right = check_pair(left, right)
-    params.check_image_size(*left.shape[:2])
-    result = _METHODS[params.method](left, right, params)
+    height, width = left.shape[:2]
+    params.check_image_size(height, width)
+    try:
+        result = _METHODS[params.method](left, right, params)
+    except SystemError as err:  # an allocation failed inside a parallel kernel
+        if not isinstance(err.__cause__, MemoryError):
+            raise
+        raise MemoryError(
+            f"out of memory matching {height} x {width} images over "
+            f"{params.num_disparities} disparities with method {params.method!r}"
+        ) from err
     return result.filled() if params.fill else result
 
 
@@ -246,7 +255,7 @@ def _match_dc(left, right, params: MatchParams, clock=None) -> DisparityResult:
             float(params.feature_floor),
             bool(params.lr_check),
             float(params.uniqueness),
-            int(params.effective_edge_guard),
+            _edge_guard(params, left.shape[1]),
             int(SIGNAL_STEPS),
         )
         _band_kernels.match_band_rows(
@@ -287,10 +296,10 @@ def _match_dc(left, right, params: MatchParams, clock=None) -> DisparityResult:
         float(params.vs_max),
         params.vs_relative,
         float(params.feature_floor),
-        params.max_candidates,
+        min(params.max_candidates, left.shape[1]),  # a row has no more candidates (int64)
         params.lr_check,
         float(params.uniqueness),
-        params.effective_edge_guard,
+        _edge_guard(params, left.shape[1]),
         params.method == "dc-linear",
         SIGNAL_STEPS,
         nchunks,
@@ -306,6 +315,15 @@ def _match_dc(left, right, params: MatchParams, clock=None) -> DisparityResult:
     if params.method == "dc-linear":
         path_cost = np.full_like(path_cost, np.nan)
     return DisparityResult(disparity, flags, params, path_cost, features)
+
+
+def _edge_guard(params: MatchParams, width: int) -> int:
+    """``effective_edge_guard`` for the kernels, at most ``width`` (so that it fits int64).
+
+    The kernels clamp the guard columns to the row, so every guard from ``width - 1`` up
+    gives the same pairs.
+    """
+    return min(params.effective_edge_guard, width)
 
 
 #: Largest band cost array (bytes) that ``dc`` keeps (``match_band_rows`` mode 2: the

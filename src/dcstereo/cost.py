@@ -1,5 +1,7 @@
 """Window statistics of the matching signal used by the divide-and-conquer matcher."""
 
+import numbers
+
 import numpy as np
 
 
@@ -29,8 +31,24 @@ def window_variance(intensity: np.ndarray, window: int) -> np.ndarray:
     >>> float(window_variance(np.array([[0.0, 2.0, 0.0]]), 3)[0, 1])
     0.888...
     """
+    if isinstance(window, bool) or not isinstance(window, numbers.Integral):
+        raise TypeError(f"window must be an integer, got {window!r}")
+    if window < 1 or window % 2 == 0:
+        raise ValueError(f"window must be a positive odd integer, got {window}")
+    array = np.asarray(intensity)
+    if array.dtype == bool or not (
+        np.issubdtype(array.dtype, np.integer) or np.issubdtype(array.dtype, np.floating)
+    ):
+        raise TypeError(f"intensity must be an array of real numbers, got dtype {array.dtype}")
+    if array.ndim != 2 or array.size == 0:
+        raise ValueError(f"intensity must be a non-empty (H, W) array, got shape {array.shape}")
+    array = array.astype(np.float64, copy=False)
+    bad = np.count_nonzero(~np.isfinite(array))
+    if bad:  # one would spread through the cumulative sums to every pixel
+        raise ValueError(f"intensity has {bad} NaN or infinite value(s)")
+    window = int(window)
     radius = window // 2
-    padded = np.pad(np.asarray(intensity, dtype=np.float64), radius, mode="edge")
+    padded = np.pad(array, radius, mode="edge")
     mean = _box_mean(padded, window)
     mean_sq = _box_mean(padded * padded, window)
     return np.maximum(mean_sq - mean * mean, 0.0)

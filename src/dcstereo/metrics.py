@@ -23,6 +23,7 @@ D. Scharstein and R. Szeliski, "A taxonomy and evaluation of dense two-frame ste
 correspondence algorithms", IJCV 47(1/2/3):7-42, 2002 (the bad-pixel percentage).
 """
 
+import numbers
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -67,6 +68,8 @@ def _scored(estimate, truth, mask) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _check_threshold(threshold) -> float:
+    if isinstance(threshold, bool) or not isinstance(threshold, numbers.Real):
+        raise TypeError(f"threshold must be a number, got {threshold!r}")
     threshold = float(threshold)
     if not np.isfinite(threshold) or threshold < 0:
         raise ValueError(f"threshold must be a finite non-negative number, got {threshold}")
@@ -261,6 +264,12 @@ def evaluate(
     >>> round(scores["all"]["bad-0.5"], 2)
     66.67
     """
+    if not isinstance(masks, Mapping):
+        raise TypeError(
+            f"masks must be a mapping of names to boolean arrays, got {type(masks).__name__}"
+        )
+    if isinstance(thresholds, (str, bytes)) or not hasattr(thresholds, "__iter__"):
+        raise TypeError(f"thresholds must be a sequence of numbers, got {thresholds!r}")
     thresholds = [_check_threshold(t) for t in thresholds]
     scores = {}
     for name, mask in masks.items():

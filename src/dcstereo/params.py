@@ -1,7 +1,9 @@
 """Frozen, validated parameters of :func:`dcstereo.match`."""
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+
+import numpy as np
 
 #: Methods understood by :func:`dcstereo.match`, in the order the docs present them.
 METHODS = ("dc", "dc-linear", "dsi5", "dsi3", "dsi3-gcp", "redert", "block")
@@ -189,6 +191,14 @@ class MatchParams:
     gcp_variance_floor: float = DEFAULT_GCP_VARIANCE_FLOOR
 
     def __post_init__(self):
+        for field in fields(self):  # numpy scalars (np.int64(4), np.True_): the Python value
+            value = getattr(self, field.name)
+            if isinstance(value, np.generic):
+                object.__setattr__(self, field.name, value.item())
+        for name in ("fill", "vs_relative", "lr_check"):
+            value = getattr(self, name)
+            if not isinstance(value, bool):
+                raise TypeError(f"{name} must be True or False, got {value!r}")
         for name in ("max_disparity", "min_disparity", "window", "max_candidates"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int):
@@ -257,7 +267,7 @@ class MatchParams:
         values = self.orientations
         if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
             raise ValueError(f"orientations must be a sequence of slopes, got {values!r}")
-        values = tuple(values)
+        values = tuple(v.item() if isinstance(v, np.generic) else v for v in values)
         if not values:
             raise ValueError("orientations must hold at least one slope, got an empty sequence")
         for value in values:

@@ -168,6 +168,10 @@ def match_redert(
     >>> float(np.nanmedian(result.disparity))
     2.0
     """
+    if not isinstance(params, MatchParams):
+        raise TypeError(f"params must be a MatchParams, got {type(params).__name__}")
+    if params.cost != "sad":
+        raise ValueError(f"cost={params.cost!r} is not supported by redert (its window is sheared)")
     left, right = check_pair(left, right)
     params.check_image_size(*left.shape[:2])
     radius = params.window // 2

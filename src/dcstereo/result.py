@@ -97,7 +97,14 @@ def fill_occlusions(disparity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     was_filled : ndarray of bool, shape (H, W)
         The pixels that received a value.
     """
-    d = np.asarray(disparity, dtype=np.float32)
+    d = np.asarray(disparity)
+    if d.dtype == bool or not (
+        np.issubdtype(d.dtype, np.integer) or np.issubdtype(d.dtype, np.floating)
+    ):
+        raise TypeError(f"disparity must be an array of real numbers, got dtype {d.dtype}")
+    if d.ndim != 2:
+        raise ValueError(f"disparity must be a 2-D (H, W) array, got shape {d.shape}")
+    d = d.astype(np.float32, copy=False)
     height, width = d.shape
     valid = np.isfinite(d)
     cols = np.broadcast_to(np.arange(width), d.shape)

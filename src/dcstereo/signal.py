@@ -25,16 +25,22 @@ SIGNAL_STEPS = 16
 def check_image(image: np.ndarray, name: str) -> np.ndarray:
     """Validate one input image and return it as an array (no copy when possible).
 
+    Non-native byte orders (big-endian ``uint16`` from 16-bit PGM or PNG data) are
+    accepted and returned in the machine's order.
+
     Raises ``TypeError`` for unsupported dtypes and ``ValueError`` for wrong shapes,
     empty images, NaN pixels or float intensities outside ``[0, 1]``.
     """
-    array = np.asarray(image)
-    if array.dtype == bool or not (
-        array.dtype in (np.uint8, np.uint16) or np.issubdtype(array.dtype, np.floating)
-    ):
+    try:
+        array = np.asarray(image)
+    except ValueError as err:  # a ragged nested list
+        raise ValueError(f"{name} image is not a rectangular array: {err}") from None
+    dtype = array.dtype.newbyteorder("=")  # big-endian uint16 (16-bit PGM, PNG) is uint16
+    if not (dtype in (np.uint8, np.uint16) or np.issubdtype(dtype, np.floating)):
         raise TypeError(
             f"{name} image has dtype {array.dtype}; expected uint8, uint16 or float in [0, 1]"
         )
+    array = _native(array)
     if array.ndim == 3 and array.shape[2] in (1, 3, 4):
         if array.shape[2] == 1:
             array = array[:, :, 0]
@@ -45,7 +51,8 @@ def check_image(image: np.ndarray, name: str) -> np.ndarray:
     if array.shape[0] == 0 or array.shape[1] == 0:
         raise ValueError(f"{name} image is empty (shape {array.shape})")
     if np.issubdtype(array.dtype, np.floating):
-        bad = np.count_nonzero(~np.isfinite(array))
+        finite = np.isfinite(array)
+        bad = np.count_nonzero(~(finite.all(axis=2) if finite.ndim == 3 else finite))
         if bad:
             raise ValueError(f"{name} image has {bad} NaN or infinite pixel(s)")
         lo, hi = float(array.min()), float(array.max())
@@ -77,9 +84,14 @@ def check_pair(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndar
     return left, right
 
 
+def _native(array: np.ndarray) -> np.ndarray:
+    """Return ``array`` in the machine's byte order (a copy only when it is not)."""
+    return array if array.dtype.isnative else array.astype(array.dtype.newbyteorder("="))
+
+
 def intensity(image: np.ndarray) -> np.ndarray:
     """Return the float64 intensity (0..255 scale, luma for colour) of a checked image."""
-    array = np.asarray(image)
+    array = _native(np.asarray(image))
     if array.dtype == np.uint8:
         scaled = array.astype(np.float64)
     elif array.dtype == np.uint16:
@@ -104,7 +116,7 @@ def padded_signal(image: np.ndarray, radius: int) -> np.ndarray:
     The same values as ``np.pad(matching_signal(image), radius, mode="edge")``, computed in
     one compiled pass over the rows (in parallel) instead of several numpy passes.
     """
-    array = np.asarray(image)
+    array = _native(np.asarray(image))
     if array.dtype == np.uint8:
         mode = _signal_kernels.MODE_UINT8
     elif array.dtype == np.uint16:
@@ -113,8 +125,6 @@ def padded_signal(image: np.ndarray, radius: int) -> np.ndarray:
         mode = _signal_kernels.MODE_FLOAT
     if mode == _signal_kernels.MODE_FLOAT and array.dtype not in (np.float32, np.float64):
         array = array.astype(np.float64)  # float16, longdouble: as ``intensity`` takes them
-    elif not array.dtype.isnative:
-        array = array.astype(array.dtype.newbyteorder("="))
     if array.ndim == 2:
         array = array[:, :, np.newaxis]
     height, width = array.shape[:2]

@@ -64,10 +64,16 @@ def row_bands(height: int, tile_rows: int, window: int) -> list[Band]:
     >>> [(b.start, b.stop, b.read_start, b.read_stop) for b in row_bands(10, 4, 3)]
     [(0, 4, 0, 5), (4, 8, 3, 9), (8, 10, 7, 10)]
     """
-    if isinstance(tile_rows, bool) or not isinstance(tile_rows, int | np.integer):
-        raise TypeError(f"tile_rows must be an integer, got {tile_rows!r}")
+    for name, value in (("height", height), ("tile_rows", tile_rows), ("window", window)):
+        if isinstance(value, bool) or not isinstance(value, int | np.integer):
+            raise TypeError(f"{name} must be an integer, got {value!r}")
+    height, tile_rows, window = int(height), int(tile_rows), int(window)
+    if height < 0:
+        raise ValueError(f"height must be 0 or positive, got {height}")
     if tile_rows < 1:
         raise ValueError(f"tile_rows must be at least 1, got {tile_rows}")
+    if window < 1 or window % 2 == 0:
+        raise ValueError(f"window must be a positive odd integer, got {window}")
     radius = window // 2
     bands = []
     for start in range(0, height, tile_rows):
