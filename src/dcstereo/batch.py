@@ -15,10 +15,12 @@ Workers read the input images themselves (they must see the same paths: one mach
 a shared file system) and send the disparity back; only this process writes outputs.
 """
 
+import contextlib
 import csv
 import dataclasses
 import glob
 import json
+import numbers
 import os
 import time
 from collections.abc import Callable, Iterable, Sequence
@@ -34,6 +36,9 @@ PAIR_NAMES = (("left", "right"), ("im0", "im1"))
 FAILURES_FILE = "failures.csv"
 #: The file (in the output folder) recording the options the outputs were made with.
 OPTIONS_FILE = "batch.json"
+#: Longest pair name, in bytes of UTF-8: the temporary name of its output
+#: (``.<name>.tmpXXXXXXXX.pfm``) must fit the 255 bytes file systems allow a name.
+MAX_NAME_BYTES = 255 - len("..tmpXXXXXXXX.pfm")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -170,9 +175,10 @@ def _pairs_from_folder(folder: Path) -> list[Pair]:
 
 def _pairs_from_csv(path: Path) -> list[Pair]:
     try:
-        with open(path, newline="", encoding="utf-8") as f:
+        # utf-8-sig: a byte order mark (spreadsheets write one) is not part of the first cell
+        with open(path, newline="", encoding="utf-8-sig") as f:
             rows = [r for r in csv.reader(f) if r and any(cell.strip() for cell in r)]
-    except (OSError, UnicodeDecodeError) as exc:
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise ValueError(f"cannot read pairs '{path}': {exc}") from None
     if rows and [c.strip().lower() for c in rows[0][:2]] == ["left", "right"]:
         rows = rows[1:]
@@ -205,8 +211,17 @@ def _pairs_from_csv(path: Path) -> list[Pair]:
 def _check_names(pairs: Sequence[Pair], where: str) -> None:
     seen = set()
     for pair in pairs:
-        if not pair.name or pair.name in (".", "..") or any(c in pair.name for c in "/\\"):
-            raise ValueError(f"{where}: '{pair.name}' cannot be a file name")
+        if not isinstance(pair, Pair):
+            raise TypeError(f"{where}: pairs must be Pair objects, got {type(pair).__name__}")
+        if not isinstance(pair.name, str):
+            raise TypeError(f"{where}: a pair name must be a string, got {pair.name!r}")
+        if not pair.name or pair.name in (".", "..") or any(c in pair.name for c in "/\\\0"):
+            raise ValueError(f"{where}: {pair.name!r} cannot be a file name")
+        if len(pair.name.encode("utf-8", "surrogateescape")) > MAX_NAME_BYTES:
+            raise ValueError(
+                f"{where}: the pair name '{pair.name[:20]}...' is longer than "
+                f"{MAX_NAME_BYTES} bytes, too long for its output's file name"
+            )
         if pair.name in seen:
             raise ValueError(f"{where}: the pair name '{pair.name}' is used twice")
         seen.add(pair.name)
@@ -253,7 +268,8 @@ def run_batch(
         Dask only: times a task is run again when it raises unexpectedly (a lost
         worker is handled by the scheduler on top of this).
     threads : int, optional
-        numba threads per pair; default all cores here, 1 inside a Dask task.
+        numba threads per pair; default all cores here, 1 inside a Dask task. numba's
+        count is restored after each pair.
     on_outcome : callable, optional
         Called with each :class:`PairOutcome` as it is known (for progress bars).
     **options
@@ -268,14 +284,20 @@ def run_batch(
     Raises
     ------
     ValueError
-        For options :func:`dcstereo.match` refuses, an output folder that is a file or
-        cannot be created, or, when resuming, outputs made with other options or an
-        unreadable ``batch.json`` (before any pair runs; bad options leave no folder).
+        For options :func:`dcstereo.match` refuses, a ``threads`` or ``retries`` out of
+        range, pair names that repeat or cannot be file names, an output folder that is a
+        file or cannot be created, or, when resuming, outputs made with other options or
+        an unreadable ``batch.json`` (before any pair runs; bad options leave no folder).
+    TypeError
+        For pairs that are not :class:`Pair` objects, or options of the wrong type.
     """
     start = time.perf_counter()
     pairs = list(pairs)
     folder = Path(output_dir)
     _check_names(pairs, "batch")
+    check_threads(threads, client)
+    if isinstance(retries, bool) or not isinstance(retries, numbers.Integral) or retries < 0:
+        raise ValueError(f"retries must be an integer 0 or more, got {retries!r}")
     params = MatchParams(max_disparity=max_disparity, **options)  # refuse bad options now
     match_kwargs = {"max_disparity": max_disparity, **options}
     make_output_folder(folder)
@@ -321,18 +343,53 @@ def match_pair(pair: Pair, match_kwargs: dict, threads: int | None = None):
     range or window that does not fit) come back as a one-line message; anything else
     raises (and, on Dask, makes the task retry).
     """
-    if threads is not None:
+    if pair.left is None or pair.right is None:
+        return None, f"pair '{pair.name}' has no {'left' if pair.left is None else 'right'} image"
+    with numba_threads(threads):
+        start = time.perf_counter()
+        try:
+            left = io.read_image(pair.left)
+            right = io.read_image(pair.right)
+            result = match(left, right, **match_kwargs)
+        except (ValueError, TypeError) as exc:
+            return None, str(exc).strip().splitlines()[0] if str(exc).strip() else repr(exc)
+        return result.disparity, time.perf_counter() - start
+
+
+def check_threads(threads, client=None) -> None:
+    """Refuse a ``threads`` argument that is not None or a count numba can use.
+
+    Without a Dask ``client`` the count must also be at most numba's threads here (on a
+    cluster each worker has its own).
+    """
+    if threads is None:
+        return
+    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral):
+        raise TypeError(f"threads must be an integer, got {threads!r}")
+    if threads < 1:
+        raise ValueError(f"threads must be at least 1, got {threads}")
+    if client is None:
         import numba
 
-        numba.set_num_threads(threads)
-    start = time.perf_counter()
+        most = numba.config.NUMBA_NUM_THREADS
+        if threads > most:
+            raise ValueError(f"threads must be between 1 and {most}, got {threads}")
+
+
+@contextlib.contextmanager
+def numba_threads(threads: int | None):
+    """Set numba's thread count to ``threads`` for the body, then restore it (None: keep it)."""
+    if threads is None:
+        yield
+        return
+    import numba
+
+    previous = numba.get_num_threads()
+    numba.set_num_threads(int(threads))
     try:
-        left = io.read_image(pair.left)
-        right = io.read_image(pair.right)
-        result = match(left, right, **match_kwargs)
-    except (ValueError, TypeError) as exc:
-        return None, str(exc).strip().splitlines()[0] if str(exc).strip() else repr(exc)
-    return result.disparity, time.perf_counter() - start
+        yield
+    finally:
+        numba.set_num_threads(previous)
 
 
 def _finish(folder: Path, pair: Pair, answer) -> PairOutcome:

@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
+from PIL import Image, UnidentifiedImageError
 
 #: Environment variable that overrides :func:`default_data_dir`.
 DATA_ENV_VAR = "DCSTEREO_DATA"
@@ -168,24 +168,51 @@ def list_middlebury(root: str | os.PathLike | None = None) -> list[str]:
     return sorted(p.name for p in folder.iterdir() if (p / "left.png").is_file())
 
 
+def _open_image(path: Path) -> Image.Image:
+    """Open and decode an image; a damaged or unknown file is a one-line error naming it."""
+    try:
+        with Image.open(path) as image:
+            image.load()
+            return image.copy()
+    except UnidentifiedImageError:
+        raise ValueError(f"cannot read image {path}: not a recognised image format") from None
+    except Image.DecompressionBombError as exc:
+        raise ValueError(f"cannot read image {path}: {exc}") from None
+    except Exception as exc:
+        # Pillow's decoders raise OSError, SyntaxError, EOFError, ValueError, struct.error...
+        raise ValueError(
+            f"cannot read image {path}: truncated or corrupt image data ({exc})"
+        ) from None
+
+
 def _read_image(path: Path) -> np.ndarray:
     """Read an 8-bit image: gray stays (H, W), anything else becomes RGB (H, W, 3)."""
-    with Image.open(path) as image:
-        if image.mode not in ("L", "RGB"):
-            if image.mode not in ("P", "PA", "LA", "RGBA", "RGBX", "CMYK", "YCbCr"):
-                raise ValueError(f"{path} is not an 8-bit image (Pillow mode {image.mode!r})")
-            image = image.convert("RGB")
-        return np.asarray(image, dtype=np.uint8).copy()
+    image = _open_image(path)
+    if image.mode not in ("L", "RGB"):
+        if image.mode not in ("P", "PA", "LA", "RGBA", "RGBX", "CMYK", "YCbCr"):
+            raise ValueError(f"{path} is not an 8-bit image (Pillow mode {image.mode!r})")
+        image = image.convert("RGB")
+    return np.asarray(image, dtype=np.uint8).copy()
 
 
 def _read_gray(path: Path) -> np.ndarray:
     """Read an 8-bit single-channel image (palette images through their gray palette)."""
-    with Image.open(path) as image:
-        if image.mode == "P":
-            image = image.convert("L")
-        if image.mode != "L":
-            raise ValueError(f"{path} must be an 8-bit gray image, got Pillow mode {image.mode!r}")
-        return np.asarray(image, dtype=np.uint8).copy()
+    image = _open_image(path)
+    if image.mode == "P":
+        image = image.convert("L")
+    if image.mode != "L":
+        raise ValueError(f"{path} must be an 8-bit gray image, got Pillow mode {image.mode!r}")
+    return np.asarray(image, dtype=np.uint8).copy()
+
+
+def _integer(value) -> int:
+    """Return ``value`` as an int when it is a whole number (or its text); else ValueError."""
+    if isinstance(value, int):
+        return int(value)
+    number = float(value)  # TypeError or ValueError for anything else
+    if not number.is_integer():  # also NaN and infinities
+        raise ValueError(f"{value!r} is not a whole number")
+    return int(number)
 
 
 def _scene_folder(name_or_path, root) -> Path:
@@ -260,8 +287,8 @@ def load_middlebury(
     meta = _read_meta(folder / "meta.json")
     try:
         scale = float(meta["scale"])
-        ndisp = int(meta["ndisp"])
-    except (KeyError, TypeError, ValueError):
+        ndisp = _integer(meta["ndisp"])
+    except (KeyError, TypeError, ValueError, OverflowError):
         raise ValueError(
             f"{folder / 'meta.json'} must give a numeric 'scale' and an integer 'ndisp'"
         ) from None
@@ -496,6 +523,11 @@ def cross_check(left_truth: np.ndarray, right_truth: np.ndarray, tolerance: floa
     -------
     ndarray of bool, shape (H, W)
     """
+    if np.shape(left_truth) != np.shape(right_truth) or np.ndim(left_truth) != 2:
+        raise ValueError(
+            f"left_truth and right_truth must be 2-D maps of one shape, got "
+            f"{np.shape(left_truth)} and {np.shape(right_truth)}"
+        )
     height, width = left_truth.shape
     known = np.isfinite(left_truth)
     cols = np.arange(width)[None, :] - np.where(known, left_truth, 0.0)
@@ -522,6 +554,8 @@ def _load_2005(folder: Path, scale: float | None) -> StereoScene:
                 f"pixels high, not one of the Middlebury 2005/2006 sizes {sizes}; give the scale "
                 "(load_scene(..., scale=S); dcstereo eval --gt-scale S)"
             )
+    elif isinstance(scale, bool) or not isinstance(scale, int | float | np.number):
+        raise TypeError(f"scale must be a number, got {type(scale).__name__}")
     elif not (np.isfinite(scale) and scale > 0):
         raise ValueError(f"scale must be a positive number, got {scale}")
     arrays = {"view5.png": right, "disp1.png": gray}
@@ -566,8 +600,12 @@ def read_calib(path: str | os.PathLike) -> dict[str, str]:
     -------
     dict of str to str
     """
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise ValueError(f"cannot read {path}: it is not UTF-8 text") from None
     entries = {}
-    for line in Path(path).read_text(encoding="utf-8").splitlines():
+    for line in text.splitlines():
         key, sep, value = line.partition("=")
         if sep:
             entries[key.strip()] = value.strip()
@@ -584,7 +622,7 @@ def _load_2014(folder: Path) -> StereoScene:
         raise ValueError(f"2014 scene folder {folder} lacks disp0GT.pfm (or disp0.pfm)")
     calib = read_calib(folder / "calib.txt")
     try:
-        ndisp = int(float(calib["ndisp"]))
+        ndisp = _integer(calib["ndisp"])
     except (KeyError, ValueError):
         raise ValueError(f"{folder / 'calib.txt'} must give an integer ndisp") from None
     if ndisp < 1:
@@ -607,6 +645,8 @@ def _load_2014(folder: Path) -> StereoScene:
         meta["nonocc"] = "mask0nocc.png == 255"
     elif (folder / "disp1.pfm").is_file():
         right_truth = read_pfm(folder / "disp1.pfm")
+        if right_truth.ndim != 2:
+            raise ValueError(f"{folder / 'disp1.pfm'} must be a gray (Pf) PFM file")
         arrays["disp1.pfm"] = right_truth
         _check_same_size(folder, left, arrays)
         right_truth = np.where(np.isfinite(right_truth), right_truth, np.nan)

@@ -18,8 +18,17 @@ from .signal import check_image, check_pair, intensity
 #: Methods of :func:`compare_methods` and :func:`scanline` by default (the paper's Fig. 4).
 PAPER_METHODS = ("dsi3", "dsi5", "dc")
 
+#: Smallest and largest side, in pixels, of a :func:`scanline_figure` picture (smaller
+#: leaves no room for the axes; the picture is drawn in memory, 4 bytes a pixel).
+FIGURE_SIDES = (200, 10000)
+
 _CAPTION = 16  # pixels of the caption strip above each panel
 _GAP = 4  # white pixels between panels
+
+
+def _check_methods(methods) -> None:
+    if isinstance(methods, str):
+        raise TypeError(f"methods must be a sequence of method names, got the string {methods!r}")
 
 
 def _gray_rgb(image: np.ndarray) -> np.ndarray:
@@ -70,6 +79,7 @@ def compare_methods(
     """
     from .evaluation import run_method
 
+    _check_methods(methods)
     return {
         method: run_method(
             method,
@@ -122,11 +132,26 @@ def compare_figure(
     ndarray of uint8, shape (rows * (H + 16), (1 + len(results)) * (W + 4) - 4, 3)
     """
     from .metrics import bad_pixel_rate
+    from .result import DisparityResult
 
     left = check_image(left, "left")
     height, width = left.shape[:2]
     if not results:
         raise ValueError("no method to show")
+    for method, result in results.items():
+        if not isinstance(result, DisparityResult):
+            raise TypeError(
+                f"results[{method!r}] must be a DisparityResult, got {type(result).__name__}"
+            )
+        if result.disparity.shape != (height, width):
+            raise ValueError(
+                f"results[{method!r}] has shape {result.disparity.shape}, the left image "
+                f"{(height, width)}"
+            )
+    if isinstance(max_disparity, bool) or not isinstance(max_disparity, int | float | np.number):
+        raise TypeError(f"max_disparity must be a number, got {type(max_disparity).__name__}")
+    if not (np.isfinite(max_disparity) and max_disparity >= 0):
+        raise ValueError(f"max_disparity must be a finite number 0 or more, got {max_disparity}")
     if truth is not None and np.shape(truth) != (height, width):
         raise ValueError(
             f"the ground truth has shape {np.shape(truth)}, the images {(height, width)}"
@@ -191,24 +216,31 @@ def dsi_row(
     row : int
         The scanline, ``0 <= row < H``.
     max_disparity, min_disparity : int
-        Inclusive disparity range.
+        Inclusive disparity range; it must fit the image as for :func:`dcstereo.match`
+        (``-W < min_disparity <= max_disparity < W``).
     window : int
-        Odd window side.
+        Odd window side, at most the image's height and width.
 
     Returns
     -------
     ndarray of float64, shape (max_disparity - min_disparity + 1, W)
     """
+    from .params import MatchParams
+
     left, right = check_pair(left, right)
     height, width = left.shape[:2]
+    if isinstance(row, bool) or not isinstance(row, int | np.integer):
+        raise TypeError(f"row must be an integer, got {row!r}")
     if not 0 <= row < height:
         raise ValueError(f"row must be in 0..{height - 1}, got {row}")
-    if window < 1 or window % 2 == 0:
-        raise ValueError(f"window must be a positive odd integer, got {window}")
-    if max_disparity < min_disparity:
-        raise ValueError(
-            f"max_disparity ({max_disparity}) is smaller than min_disparity ({min_disparity})"
-        )
+    # the checks of dcstereo.match: integers, an odd window, a range that fits the width
+    params = MatchParams(max_disparity=max_disparity, min_disparity=min_disparity, window=window)
+    params.check_image_size(height, width)
+    max_disparity, min_disparity, window = (
+        params.max_disparity,
+        params.min_disparity,
+        params.window,
+    )
     radius = window // 2
     pad = ((radius, radius), (radius, radius))
     band = slice(row, row + window)  # rows row-r..row+r of the padded images
@@ -271,6 +303,7 @@ def scanline(
     """
     from .evaluation import run_method
 
+    _check_methods(methods)
     dsi = dsi_row(
         left,
         right,
@@ -328,7 +361,7 @@ def scanline_figure(data: dict, *, width: int = 1200, height: int = 800) -> np.n
     data : dict
         From :func:`scanline`.
     width, height : int
-        Size of the picture in pixels.
+        Size of the picture in pixels, each in :data:`FIGURE_SIDES` (200 to 10000).
 
     Returns
     -------
@@ -338,6 +371,12 @@ def scanline_figure(data: dict, *, width: int = 1200, height: int = 800) -> np.n
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
+    low, high = FIGURE_SIDES
+    for name, value in (("width", width), ("height", height)):
+        if isinstance(value, bool) or not isinstance(value, int | np.integer):
+            raise TypeError(f"{name} must be an integer, got {value!r}")
+        if not low <= value <= high:
+            raise ValueError(f"{name} must be {low} to {high} pixels, got {value}")
     dsi = data["dsi"]
     dmin, dmax = data["min_disparity"], data["max_disparity"]
     columns = dsi.shape[1]

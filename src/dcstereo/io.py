@@ -13,6 +13,7 @@ import os
 import re
 import secrets
 import struct
+import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -192,6 +193,8 @@ def _pfm_header(data: bytes, path: str | os.PathLike) -> tuple[int, int, int, fl
         raise ValueError(f"cannot read PFM file '{path}': header does not start with PF or Pf")
     magic, fields = header[1], header.group(2, 3, 4)
     try:
+        if not (fields[0].isdigit() and fields[1].isdigit()):  # int() also takes "+1", "1_0"
+            raise ValueError
         width, height, scale = int(fields[0]), int(fields[1]), float(fields[2])
     except ValueError:
         raise ValueError(
@@ -215,6 +218,8 @@ def is_complete(path: str | os.PathLike) -> bool:
     or unreadable file is not complete.
     """
     path = Path(path)
+    if not path.is_file():  # a FIFO or a device would block the read below
+        return False
     try:
         if path.suffix.lower() == ".pfm":
             with open(path, "rb") as f:
@@ -412,9 +417,20 @@ def write_features_csv(path: str | os.PathLike, features: np.ndarray) -> None:
         ``(row, x_left, x_right, SER, VS)`` as in :attr:`DisparityResult.features`;
         an infinite SER (a perfect match) is written as ``inf``.
     """
-    table = np.asarray(features, dtype=np.float64)
+    try:
+        table = np.asarray(features, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise TypeError("features must hold numbers") from None
     if table.ndim != 2 or table.shape[1] != 5:
         raise ValueError(f"features must have shape (M, 5), got {table.shape}")
+    pixels = table[:, :3]
+    bad = ~(np.isfinite(pixels) & (pixels == np.rint(pixels))).all(axis=1)
+    if bad.any():
+        index = int(np.argmax(bad))
+        raise ValueError(
+            f"feature {index}: row, x_left and x_right must be finite integers, got "
+            f"{', '.join(f'{v:g}' for v in pixels[index])}"
+        )
     lines = ["row,x_left,x_right,ser,vs"]
     for row, x_left, x_right, ser, vs in table:
         lines.append(f"{int(row)},{int(x_left)},{int(x_right)},{ser:.6g},{vs:.6g}")
@@ -426,7 +442,10 @@ def read_features_csv(path: str | os.PathLike) -> np.ndarray:
     """Read a file written by :func:`write_features_csv` back as an (M, 5) float64 array."""
     _check_readable(path, "features")
     try:
-        table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, dtype=np.float64)
+        with warnings.catch_warnings():
+            # a header alone is what write_features_csv writes for no features
+            warnings.filterwarnings("ignore", "loadtxt: input contained no data", UserWarning)
+            table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, dtype=np.float64)
     except ValueError as exc:
         raise ValueError(f"cannot read features '{path}': {exc}") from None
     if table.size == 0:

@@ -119,7 +119,8 @@ def match_opencv(
     max_disparity, min_disparity : int
         Inclusive search range in pixels. OpenCV searches ``numDisparities`` =
         ``max - min + 1`` rounded up to a multiple of 16; estimates beyond
-        ``max_disparity`` become NaN.
+        ``max_disparity`` become NaN. OpenCV needs ``min_disparity + numDisparities +
+        window // 2 < W`` (and ``min_disparity > -W``).
     method : {"sgbm", "bm"}
         ``cv2.StereoSGBM`` or ``cv2.StereoBM``.
     window : int
@@ -172,18 +173,38 @@ def match_opencv(
             f"max_disparity ({max_disparity}) must not be smaller than min_disparity "
             f"({min_disparity})"
         )
-    if isinstance(window, bool) or not isinstance(window, int) or window < 1 or window % 2 == 0:
+    if (
+        isinstance(window, bool)
+        or not isinstance(window, int | np.integer)
+        or window < 1
+        or window % 2 == 0
+    ):
         raise ValueError(f"window must be a positive odd integer, got {window!r}")
+    window = int(window)
     if method == "bm" and window < 5:
         raise ValueError(f"OpenCV's block matcher needs window >= 5, got {window}")
     if method == "sgbm" and mode not in _MODES:
         raise ValueError(f"mode must be one of {', '.join(_MODES)}, got {mode!r}")
     left, right = check_pair(left, right)
+    width = left.shape[1]
+    num = opencv_num_disparities(min_disparity, max_disparity)
+    # OpenCV's own bound (SGBM raises, BM answers garbage past it): the rounded-up range
+    # and half the window must leave a column of the image to match.
+    if min_disparity <= -width:
+        raise ValueError(
+            f"min_disparity={min_disparity} does not fit an image {width} pixels wide "
+            f"(it must be at least {-(width - 1)})"
+        )
+    if min_disparity + num + window // 2 >= width:
+        raise ValueError(
+            f"disparities {min_disparity}..{max_disparity} with window {window} do not fit "
+            f"OpenCV {method} on an image {width} pixels wide: it needs min_disparity + "
+            f"numDisparities ({num}, the range rounded up to 16) + window // 2 < {width}"
+        )
     cv2 = _import_cv2()
 
     gray_left = np.clip(np.rint(intensity(left)), 0, 255).astype(np.uint8)
     gray_right = np.clip(np.rint(intensity(right)), 0, 255).astype(np.uint8)
-    num = opencv_num_disparities(min_disparity, max_disparity)
     if method == "sgbm":
         p1 = 8 * window * window if p1 is None else int(p1)
         p2 = 32 * window * window if p2 is None else int(p2)

@@ -64,13 +64,14 @@ def synthetic_sequence(
     height, width : int
         Frame size in pixels (at least 4 x 16).
     background_disparity : (int, int)
-        Disparity of the background plane at the top and the bottom row.
+        Disparity of the background plane at the top and the bottom row (0 or more).
     foreground_disparity : int
-        Disparity of the moving object; must exceed the background's.
+        Disparity of the moving object; must exceed the background's and be less than
+        half the width.
     turn : float
-        Rotation of the object between frames, in radians.
+        Rotation of the object between frames, in radians (finite).
     seed : int
-        Seed of the textures; the same arguments give the same frames.
+        Seed of the textures (0 or more); the same arguments give the same frames.
 
     Returns
     -------
@@ -84,14 +85,34 @@ def synthetic_sequence(
     >>> int(np.nanmax(frames[0].disparity))
     14
     """
-    for name, value in (("n_frames", n_frames), ("height", height), ("width", width)):
+    if not (isinstance(background_disparity, tuple | list) and len(background_disparity) == 2):
+        raise TypeError(
+            f"background_disparity must be a pair of integers (top, bottom), got "
+            f"{background_disparity!r}"
+        )
+    top, bottom = background_disparity
+    for name, value in (
+        ("n_frames", n_frames),
+        ("height", height),
+        ("width", width),
+        ("background_disparity", top),
+        ("background_disparity", bottom),
+        ("foreground_disparity", foreground_disparity),
+        ("seed", seed),
+    ):
         if isinstance(value, bool) or not isinstance(value, int | np.integer):
             raise TypeError(f"{name} must be an integer, got {value!r}")
+    if isinstance(turn, bool) or not isinstance(turn, int | float | np.number):
+        raise TypeError(f"turn must be a number, got {turn!r}")
+    if not np.isfinite(turn):
+        raise ValueError(f"turn must be finite, got {turn}")
+    if seed < 0:
+        raise ValueError(f"seed must be 0 or more, got {seed}")
     if n_frames < 1:
         raise ValueError(f"n_frames must be at least 1, got {n_frames}")
     if height < 4 or width < 16:
         raise ValueError(f"frames must be at least 4 x 16 pixels, got {height} x {width}")
-    top, bottom = (int(d) for d in background_disparity)
+    top, bottom = int(top), int(bottom)
     if min(top, bottom) < 0 or foreground_disparity <= max(top, bottom):
         raise ValueError(
             "disparities must satisfy 0 <= background < foreground, got background "

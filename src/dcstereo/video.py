@@ -15,12 +15,15 @@ original frames.
 """
 
 import dataclasses
+import math
+import numbers
 import os
 import re
 import subprocess
 import tempfile
 import time
 from collections.abc import Callable, Iterator
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -30,7 +33,9 @@ from .api import match
 from .batch import (
     FailureRow,
     check_recorded_options,
+    check_threads,
     make_output_folder,
+    numba_threads,
     write_failures,
 )
 from .params import MatchParams
@@ -204,6 +209,11 @@ def _probe(path: Path) -> tuple[int, float, tuple[int, int]]:
     """Return ``(frame_count, fps, (width, height))`` of a video."""
     import imageio_ffmpeg
 
+    if not path.exists():
+        raise ValueError(f"cannot read video '{path}': no such file")
+    if path.is_dir():
+        raise ValueError(f"cannot read video '{path}': it is a folder")
+
     info = subprocess.run(
         [_ffmpeg(), "-hide_banner", "-nostdin", "-i", str(path)],
         capture_output=True,
@@ -258,59 +268,116 @@ def write_video(path: str | os.PathLike, frames, *, fps: float = 10.0, quality: 
     """Write uint8 frames (H, W) or (H, W, 3) as an H.264 video, atomically.
 
     Odd sizes are padded by one row or column (edge pixels): the encoder needs even
-    sizes.
+    sizes. The frames go to imageio-ffmpeg's ffmpeg (libx264, yuv420p); when ffmpeg
+    fails (a suffix it knows no container for, a frame too large for the codec...) its
+    reason is raised and nothing is written.
 
     Parameters
     ----------
     path : str or os.PathLike
         Output file; its suffix picks the container (``.mp4``, ``.mkv``, ``.avi``).
     frames : iterable of ndarray
-        Frames of one size.
+        Non-empty uint8 frames of one size.
     fps : float
-        Frame rate.
+        Frame rate, positive.
     quality : float
-        imageio-ffmpeg quality, 0 (worst) to 10 (best).
+        0 (worst) to 10 (best), as imageio-ffmpeg maps it to libx264's CRF
+        (``int((1 - quality / 10) * 51)``).
 
     Returns
     -------
     int
         Number of frames written.
-    """
-    import imageio_ffmpeg
 
-    count, writer, shape = 0, None, None
-    with io.atomic_write(path) as tmp:
+    Raises
+    ------
+    TypeError
+        For a frame that is not uint8, an ``fps`` or ``quality`` that is not a number.
+    ValueError
+        For no frames, frames of other shapes or sizes, an ``fps`` or ``quality`` out of
+        range, or when ffmpeg fails.
+    """
+    for name, value in (("fps", fps), ("quality", quality)):
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
+            raise TypeError(f"{name} must be a number, got {value!r}")
+    if not 0 < fps < math.inf:
+        raise ValueError(f"fps must be a positive finite number, got {fps}")
+    if not 0 <= quality <= 10:
+        raise ValueError(f"quality must be from 0 to 10, got {quality}")
+    rate = str(Fraction(float(fps)).limit_denominator())
+    crf = str(int((1 - quality / 10.0) * 51))  # imageio-ffmpeg's mapping
+    count, process, shape, pad = 0, None, None, None
+    with io.atomic_write(path) as tmp, tempfile.TemporaryFile() as log:
         try:
             for frame in frames:
-                frame = np.asarray(frame, dtype=np.uint8)
-                if frame.ndim == 2:
-                    frame = np.repeat(frame[:, :, None], 3, axis=2)
-                if shape is None:
+                frame = _video_frame(frame, count, path)
+                if process is None:
                     shape = frame.shape
                     pad = ((0, shape[0] % 2), (0, shape[1] % 2), (0, 0))
-                    height, width = shape[0] + pad[0][1], shape[1] + pad[1][1]
-                    writer = imageio_ffmpeg.write_frames(
-                        str(tmp),
-                        (width, height),
-                        fps=fps,
-                        quality=quality,
-                        macro_block_size=1,
-                        ffmpeg_log_level="error",
+                    size = f"{shape[1] + pad[1][1]}x{shape[0] + pad[0][1]}"
+                    command = [_ffmpeg(), "-y", "-f", "rawvideo", "-vcodec", "rawvideo"]
+                    command += ["-s", size, "-pix_fmt", "rgb24", "-r", rate, "-i", "-", "-an"]
+                    command += ["-vcodec", "libx264", "-pix_fmt", "yuv420p", "-crf", crf]
+                    command += ["-v", "error", str(tmp)]
+                    process = subprocess.Popen(
+                        command, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=log
                     )
-                    writer.send(None)
                 elif frame.shape != shape:
                     raise ValueError(
                         f"cannot write video '{path}': frame {count} has shape {frame.shape}, "
                         f"the first {shape}"
                     )
-                writer.send(np.ascontiguousarray(np.pad(frame, pad, mode="edge")))
+                try:
+                    process.stdin.write(np.ascontiguousarray(np.pad(frame, pad, mode="edge")))
+                except BrokenPipeError:
+                    break  # ffmpeg stopped: its reason is in the log
                 count += 1
-        finally:
-            if writer is not None:
-                writer.close()
-        if count == 0:
+        except BaseException:
+            if process is not None:
+                process.kill()
+                _finish_ffmpeg(process)
+            raise
+        if process is None:
             raise ValueError(f"cannot write video '{path}': no frames")
+        if _finish_ffmpeg(process) != 0:
+            raise ValueError(f"cannot write video '{path}': {_ffmpeg_reason(log)}")
     return count
+
+
+def _video_frame(frame, index: int, path) -> np.ndarray:
+    """Check one frame of :func:`write_video`; return it as (H, W, 3) uint8."""
+    frame = np.asarray(frame)
+    if frame.dtype != np.uint8:
+        raise TypeError(
+            f"cannot write video '{path}': frame {index} must be uint8, got dtype {frame.dtype}"
+        )
+    if frame.ndim == 2:
+        frame = np.repeat(frame[:, :, None], 3, axis=2)
+    elif not (frame.ndim == 3 and frame.shape[2] == 3):
+        raise ValueError(
+            f"cannot write video '{path}': frame {index} must have shape (H, W) or (H, W, 3), "
+            f"got {frame.shape}"
+        )
+    if frame.size == 0:
+        raise ValueError(f"cannot write video '{path}': frame {index} is empty ({frame.shape})")
+    return frame
+
+
+def _finish_ffmpeg(process: subprocess.Popen) -> int:
+    """Close ffmpeg's input, wait for it and return its exit status."""
+    try:
+        process.stdin.close()
+    except OSError:  # the pipe is broken: ffmpeg has already stopped
+        pass
+    return process.wait()
+
+
+def _ffmpeg_reason(log) -> str:
+    """Return the first line ffmpeg wrote to ``log``, without its ``[name @ 0x...]`` tags."""
+    log.seek(0)
+    text = log.read().decode(errors="replace")
+    lines = (re.sub(r"^(\[[^\]]*\]\s*)+", "", line).strip() for line in text.splitlines())
+    return next((line for line in lines if line), "ffmpeg failed")
 
 
 @dataclasses.dataclass
@@ -369,11 +436,13 @@ def match_sequence(
         (:func:`dcstereo.io.is_complete`; an incomplete one is redone and
         counted as done); False recomputes every frame.
     disparity_format : {"pfm", "png"}
-        PFM (float32, ``inf`` = no estimate) or 16-bit PNG (``d * 256``, 0 = none).
+        PFM (float32, ``inf`` = no estimate) or 16-bit PNG (``d * 256``, 0 = none; the
+        range must then lie in 0..255).
     preview_style : {"paper", "color"}
         See :func:`dcstereo.viz.preview`.
     threads : int, optional
-        numba threads per frame; default all cores here, 1 inside a Dask task.
+        numba threads per frame; default all cores here, 1 inside a Dask task. numba's
+        count is restored after each frame.
     on_frame : callable, optional
         Called as ``on_frame(name, status)`` (``"done"``, ``"skipped"``, ``"failed"``).
     **options
@@ -387,7 +456,8 @@ def match_sequence(
     ------
     ValueError
         For options :func:`dcstereo.match` refuses, an unknown format or preview style,
-        an output folder that is a file or cannot be created, or, when resuming,
+        a range the PNG format cannot store, a ``threads`` out of range, an output
+        folder that is a file or cannot be created, or, when resuming,
         outputs made with other options or an unreadable ``batch.json`` (before any
         frame runs; bad options leave no folder).
     """
@@ -395,10 +465,20 @@ def match_sequence(
 
     start = time.perf_counter()
     folder = Path(output_dir)
+    if not isinstance(sequence, StereoSequence):
+        raise TypeError(
+            f"sequence must be a StereoSequence (from open_sequence), got {type(sequence).__name__}"
+        )
     if disparity_format not in ("pfm", "png"):
         raise ValueError(f"disparity_format must be 'pfm' or 'png', got {disparity_format!r}")
     check_preview_style(preview_style, "preview_style")
+    check_threads(threads, client)
     params = MatchParams(max_disparity=max_disparity, **options)
+    if disparity_format == "png" and (params.min_disparity < 0 or params.max_disparity > 255):
+        raise ValueError(
+            f"disparity_format 'png' stores disparities 0 to 255 (16 bits at scale 256), not "
+            f"{params.min_disparity}..{params.max_disparity}; use 'pfm'"
+        )
     make_output_folder(folder)
     written = {"disparity_format": disparity_format, "preview_style": preview_style}
     check_recorded_options(
@@ -451,16 +531,13 @@ def match_sequence(
 
 def match_frame(left, right, match_kwargs: dict, threads: int | None = None):
     """Match one frame; return ``(disparity, occluded, seconds)`` or ``(None, None, reason)``."""
-    if threads is not None:
-        import numba
-
-        numba.set_num_threads(threads)
-    start = time.perf_counter()
-    try:
-        result = match(left, right, **match_kwargs)
-    except (ValueError, TypeError) as exc:
-        return None, None, str(exc).strip().splitlines()[0]
-    return result.disparity, result.occluded, time.perf_counter() - start
+    with numba_threads(threads):
+        start = time.perf_counter()
+        try:
+            result = match(left, right, **match_kwargs)
+        except (ValueError, TypeError) as exc:
+            return None, None, str(exc).strip().splitlines()[0]
+        return result.disparity, result.occluded, time.perf_counter() - start
 
 
 def _run_on_dask(client, frames, match_kwargs, threads, finish):

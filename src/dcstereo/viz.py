@@ -123,7 +123,13 @@ def colorize(
     if high == low:
         norm = np.full(values.shape, 0.5)
     else:
-        norm = np.clip((values - low) / (high - low), 0.0, 1.0)
+        # a value far outside the limits may overflow to +-inf: it is clipped all the same
+        with np.errstate(over="ignore"):
+            if np.isfinite(high - low):
+                norm = (values - low) / (high - low)
+            else:  # limits near the ends of float64: their difference overflows, halves do not
+                norm = (values / 2 - low / 2) / (high / 2 - low / 2)
+        norm = np.clip(norm, 0.0, 1.0)
     out[finite] = colormap(norm, bytes=True)[:, :3]
     return out
 
@@ -165,7 +171,8 @@ def error_map(
     if mask is not None:
         scored &= _check_mask(mask, d.shape, "mask")
     estimated = scored & np.isfinite(d)
-    error = np.abs(np.where(estimated, d, 0.0) - np.where(estimated, gt, 0.0))
+    with np.errstate(over="ignore"):  # an error past float64's range is inf: still bad
+        error = np.abs(np.where(estimated, d, 0.0) - np.where(estimated, gt, 0.0))
     out = np.empty(d.shape + (3,), dtype=np.uint8)
     out[...] = ERROR_UNSCORED
     out[scored & ~estimated] = ERROR_MISSING
@@ -211,20 +218,31 @@ def draw_points(
     color = _check_color(color, "color")
     if isinstance(radius, bool) or not isinstance(radius, int | np.integer) or radius < 0:
         raise ValueError(f"radius must be an integer 0 or more, got {radius!r}")
-    xs = np.asarray(xs, dtype=np.float64).reshape(-1)
-    ys = np.asarray(ys, dtype=np.float64).reshape(-1)
+    try:
+        xs = np.asarray(xs, dtype=np.float64).reshape(-1)
+        ys = np.asarray(ys, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise TypeError("xs and ys must hold numbers") from None
     if xs.shape != ys.shape:
         raise ValueError(f"xs and ys differ in length: {xs.size} vs {ys.size}")
     if not (np.isfinite(xs).all() and np.isfinite(ys).all()):
         raise ValueError("xs and ys must be finite")
-    offsets = np.arange(-radius, radius + 1)
-    # One (2r+1) x (2r+1) block of pixel coordinates per point.
-    cols = np.rint(xs).astype(np.int64)[:, None, None] + offsets[None, None, :]
-    rows = np.rint(ys).astype(np.int64)[:, None, None] + offsets[None, :, None]
-    cols, rows = (a.reshape(-1) for a in np.broadcast_arrays(cols, rows))
+    # Each square clipped to the image, in floats (a point may lie far outside, the radius
+    # may be huge), then painted through a 2-D difference array: memory O(H * W + M).
     height, width = out.shape[:2]
-    inside = (rows >= 0) & (rows < height) & (cols >= 0) & (cols < width)
-    out[rows[inside], cols[inside]] = color
+    reach = float(min(radius, 2**62))
+    cols, rows = np.rint(xs), np.rint(ys)
+    top, bottom = np.maximum(rows - reach, 0), np.minimum(rows + reach, height - 1)
+    first, last = np.maximum(cols - reach, 0), np.minimum(cols + reach, width - 1)
+    keep = (top <= bottom) & (first <= last)
+    top, bottom, first, last = (a[keep].astype(np.int64) for a in (top, bottom, first, last))
+    marks = np.zeros((height + 1, width + 1), dtype=np.int64)
+    np.add.at(marks, (top, first), 1)
+    np.add.at(marks, (top, last + 1), -1)
+    np.add.at(marks, (bottom + 1, first), -1)
+    np.add.at(marks, (bottom + 1, last + 1), 1)
+    painted = marks.cumsum(axis=0).cumsum(axis=1)[:height, :width] > 0
+    out[painted] = color
     return out
 
 
