@@ -151,7 +151,7 @@ def test_damaged_scene_image_names_the_file(tmp_path, file, damage, reason):
     folder = _v2_scene(tmp_path / "scene")
     path = folder / file
     path.write_bytes(damage(path))
-    with pytest.raises(ValueError, match=rf"cannot read image .*{file}: {reason}"):
+    with pytest.raises(ValueError, match=rf"cannot read image '.*{file}': {reason}"):
         datasets.load_scene(folder)
 
 

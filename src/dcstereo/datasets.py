@@ -41,7 +41,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from PIL import Image, UnidentifiedImageError
+
+from .io import open_image, read_pfm
 
 #: Environment variable that overrides :func:`default_data_dir`.
 DATA_ENV_VAR = "DCSTEREO_DATA"
@@ -168,26 +169,9 @@ def list_middlebury(root: str | os.PathLike | None = None) -> list[str]:
     return sorted(p.name for p in folder.iterdir() if (p / "left.png").is_file())
 
 
-def _open_image(path: Path) -> Image.Image:
-    """Open and decode an image; a damaged or unknown file is a one-line error naming it."""
-    try:
-        with Image.open(path) as image:
-            image.load()
-            return image.copy()
-    except UnidentifiedImageError:
-        raise ValueError(f"cannot read image {path}: not a recognised image format") from None
-    except Image.DecompressionBombError as exc:
-        raise ValueError(f"cannot read image {path}: {exc}") from None
-    except Exception as exc:
-        # Pillow's decoders raise OSError, SyntaxError, EOFError, ValueError, struct.error...
-        raise ValueError(
-            f"cannot read image {path}: truncated or corrupt image data ({exc})"
-        ) from None
-
-
 def _read_image(path: Path) -> np.ndarray:
     """Read an 8-bit image: gray stays (H, W), anything else becomes RGB (H, W, 3)."""
-    image = _open_image(path)
+    image = open_image(path)
     if image.mode not in ("L", "RGB"):
         if image.mode not in ("P", "PA", "LA", "RGBA", "RGBX", "CMYK", "YCbCr"):
             raise ValueError(f"{path} is not an 8-bit image (Pillow mode {image.mode!r})")
@@ -197,7 +181,7 @@ def _read_image(path: Path) -> np.ndarray:
 
 def _read_gray(path: Path) -> np.ndarray:
     """Read an 8-bit single-channel image (palette images through their gray palette)."""
-    image = _open_image(path)
+    image = open_image(path)
     if image.mode == "P":
         image = image.convert("L")
     if image.mode != "L":
@@ -613,7 +597,6 @@ def read_calib(path: str | os.PathLike) -> dict[str, str]:
 
 
 def _load_2014(folder: Path) -> StereoScene:
-    from .io import read_pfm
 
     truth_file = next(
         (name for name in ("disp0GT.pfm", "disp0.pfm") if (folder / name).is_file()), None

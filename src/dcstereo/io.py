@@ -114,24 +114,34 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     _check_readable(path, "image")
     if _is_pfm(path):
         return read_pfm(path)
+    image = open_image(path)
+    mode = image.mode
+    array = _mode_to_array(image)
+    if array is None:
+        raise ValueError(f"cannot read image '{path}': unsupported pixel mode '{mode}'")
+    return _normalise_dtype(array, path)
+
+
+def open_image(path: str | os.PathLike) -> Image.Image:
+    """Open and decode an image file with Pillow; return the decoded image.
+
+    A damaged or unknown file is a one-line ``ValueError`` naming the path (Pillow's
+    decoders raise ``OSError``, ``SyntaxError``, ``EOFError``, ``ValueError``,
+    ``struct.error``... on damaged files; none of them should reach the user as a
+    traceback).
+    """
     try:
-        with Image.open(path) as im:
-            mode = im.mode
-            im.load()
-            array = _mode_to_array(im)
+        with Image.open(path) as image:
+            image.load()
+            return image.copy()
     except UnidentifiedImageError:
         raise ValueError(f"cannot read image '{path}': not a recognised image format") from None
     except Image.DecompressionBombError as exc:
         raise ValueError(f"cannot read image '{path}': {exc}") from None
     except Exception as exc:
-        # Pillow's decoders raise OSError, SyntaxError, EOFError, ValueError, struct.error...
-        # on damaged files; none of them should reach the user as a traceback.
         raise ValueError(
             f"cannot read image '{path}': truncated or corrupt image data ({exc})"
         ) from None
-    if array is None:
-        raise ValueError(f"cannot read image '{path}': unsupported pixel mode '{mode}'")
-    return _normalise_dtype(array, path)
 
 
 def _check_readable(path: str | os.PathLike, what: str) -> None:
