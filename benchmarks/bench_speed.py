@@ -584,6 +584,23 @@ def write_atomic(path, text):
         tmp.write_text(text, encoding="utf-8")
 
 
+def output_error(path):
+    """Why ``write_atomic`` could not write ``path`` (it makes missing folders), or None.
+
+    Checked before measuring, so that a bad ``--json`` or ``--markdown`` fails at once
+    rather than after the whole run.
+    """
+    from dcstereo.io import check_writable
+
+    if path is None:
+        return None
+    try:
+        check_writable(path, make_folders=True)
+    except ValueError as err:
+        return str(err)
+    return None
+
+
 def markdown_report(payload):
     settings = payload["settings"]
     parts = [
@@ -787,11 +804,22 @@ def main(argv=None):
     except ImportError:
         cv2 = None
 
+    for path in (args.json, args.markdown):
+        if output_error(path):
+            return fail(output_error(path))
     methods = comma_list(args.methods)
-    known = set(dcstereo.METHODS) | set(OPENCV_METHODS)
+    known = list(dcstereo.METHODS) + list(OPENCV_METHODS)
     unknown = [m for m in methods if m not in known]
-    if unknown:
-        return fail(f"unknown method(s) {', '.join(unknown)}; choose from {', '.join(known)}")
+    if unknown or not methods:
+        named = f"unknown method(s) {', '.join(unknown)}" if unknown else "no method given"
+        return fail(f"--methods: {named}; choose from {', '.join(known)}")
+    if args.compile_methods is not None:
+        wrong = [m for m in comma_list(args.compile_methods) if m not in dcstereo.METHODS]
+        if wrong:
+            return fail(
+                f"--compile-methods: not dcstereo method(s) {', '.join(wrong)}; "
+                f"choose from {', '.join(dcstereo.METHODS)}"
+            )
     notes = []
     if cv2 is None and any(m in OPENCV_METHODS for m in methods):
         methods = [m for m in methods if m not in OPENCV_METHODS]
@@ -805,6 +833,8 @@ def main(argv=None):
         return fail("--rounds must be at least 1")
     if args.interleave < 0:
         return fail("--interleave must be 0 (off) or a number of rounds")
+    if not args.timeout > 0:
+        return fail(f"--timeout must be a positive number of seconds, got {args.timeout}")
     limit = numba.config.NUMBA_NUM_THREADS
     try:
         threads = [int(t) for t in comma_list(args.threads)] if args.threads else [1, limit]
@@ -953,12 +983,15 @@ def measure(args, cases, methods, threads, notes, workdir, cv2):
         "interleaved_speedup": speedups(interleaved, threads),
         "notes": notes,
     }
-    if args.json:
-        write_atomic(args.json, json.dumps(payload, indent=2) + "\n")
-        print(f"\nwrote {args.json}")
-    if args.markdown:
-        write_atomic(args.markdown, kept_notes(args.markdown, markdown_report(payload)))
-        print(f"wrote {args.markdown}")
+    try:
+        if args.json:
+            write_atomic(args.json, json.dumps(payload, indent=2) + "\n")
+            print(f"\nwrote {args.json}")
+        if args.markdown:
+            write_atomic(args.markdown, kept_notes(args.markdown, markdown_report(payload)))
+            print(f"wrote {args.markdown}")
+    except (OSError, ValueError) as err:
+        return fail(str(err))
     return 0
 
 

@@ -28,7 +28,16 @@ import time
 from pathlib import Path
 
 import numpy as np
-from bench_speed import fail, markdown_table, parse_size, synthetic_pair, text_table, write_atomic
+from bench_speed import (
+    comma_list,
+    fail,
+    markdown_table,
+    output_error,
+    parse_size,
+    synthetic_pair,
+    text_table,
+    write_atomic,
+)
 
 METHODS = ("dsi5", "dc")
 
@@ -106,7 +115,9 @@ def table_columns(names):
 def parse_args(argv):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenes", help="comma-separated Middlebury scenes (default: all)")
-    parser.add_argument("--methods", default=",".join(METHODS), help="dsi5, dc (both)")
+    parser.add_argument(
+        "--methods", default=",".join(METHODS), help="comma-separated: dsi5, dc (default: both)"
+    )
     parser.add_argument("--repeat", type=int, default=21, help="timed calls per scene (21)")
     parser.add_argument("--threads", type=int, default=1, help="numba threads (1)")
     parser.add_argument(
@@ -125,16 +136,19 @@ def main(argv=None):
 
     from dcstereo.datasets import list_middlebury, load_middlebury
 
-    methods = [m for m in args.methods.split(",") if m]
+    if output_error(args.markdown):
+        return fail(output_error(args.markdown))
+    methods = comma_list(args.methods)
     unknown = [m for m in methods if m not in METHODS]
-    if unknown:
-        return fail(f"unknown method(s) {', '.join(unknown)}; choose from dsi5, dc")
+    if unknown or not methods:
+        named = f"unknown method(s) {', '.join(unknown)}" if unknown else "no method given"
+        return fail(f"--methods: {named}; choose from dsi5, dc")
     if args.repeat < 1:
         return fail("--repeat must be at least 1")
     if not 1 <= args.threads <= numba.config.NUMBA_NUM_THREADS:
         return fail(f"--threads must lie between 1 and {numba.config.NUMBA_NUM_THREADS}")
     present = list_middlebury()
-    scenes = args.scenes.split(",") if args.scenes else present
+    scenes = comma_list(args.scenes) if args.scenes else present
     missing = [name for name in scenes if name not in present]
     if missing:
         return fail(f"Middlebury scene(s) not found: {', '.join(missing)}")
@@ -158,7 +172,10 @@ def main(argv=None):
     print(f"counter: {rate / 1e9:.3f} GHz; threads: {args.threads}; best of {args.repeat}; ms")
     print(text_table(lines, columns))
     if args.markdown:
-        write_atomic(args.markdown, markdown_table(lines, columns) + "\n")
+        try:
+            write_atomic(args.markdown, markdown_table(lines, columns) + "\n")
+        except (OSError, ValueError) as err:
+            return fail(str(err))
     return 0
 
 

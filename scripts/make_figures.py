@@ -10,6 +10,7 @@
 """
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -41,11 +42,21 @@ def strip(panels, gap=4):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("docs/img"))
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("docs/img"),
+        help="folder for the PNGs (default: %(default)s)",
+    )
     args = parser.parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
+    try:
+        args.out.mkdir(parents=True, exist_ok=True)
+        scene = load_middlebury("tsukuba")
+        moto = load_motorcycle()
+    except (ImportError, OSError, ValueError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
 
-    scene = load_middlebury("tsukuba")
     panels = [gray_rgb(scene.left)]
     for method in ("block", "dsi3", "dsi5", "dc"):
         result = dcstereo.match(
@@ -56,14 +67,14 @@ def main(argv=None):
         panels.append(viz.paper_display(result.disparity, result.occluded))
     io.write_rgb_png(args.out / "tsukuba_methods.png", strip(panels))
 
-    moto = load_motorcycle()
     result = dcstereo.match(moto.left, moto.right, max_disparity=64, method="dc")
     paper = viz.paper_display(result.disparity, result.occluded)
     marked = viz.draw_points(paper, result.features[:, 1], result.features[:, 0], radius=0)
     color = viz.colorize(result.filled().disparity)
     io.write_rgb_png(args.out / "motorcycle_dc.png", strip([gray_rgb(moto.left), marked, color]))
     print(f"wrote {args.out}/tsukuba_methods.png and {args.out}/motorcycle_dc.png")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -10,6 +10,7 @@ scene's disparity range, and tabulates the scores of the filled (dense) maps.
 import argparse
 import dataclasses
 import json
+import sys
 from pathlib import Path
 
 from dcstereo import io
@@ -65,8 +66,18 @@ def update_readme(path: Path, mean_table: str) -> None:
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=middlebury_dir())
-    parser.add_argument("--docs", type=Path, default=Path("docs"))
+    parser.add_argument(
+        "--data",
+        type=Path,
+        default=middlebury_dir(),
+        help="folder of the Middlebury scene folders (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--docs",
+        type=Path,
+        default=Path("docs"),
+        help="where RESULTS.md and img/ are written (default: %(default)s)",
+    )
     parser.add_argument(
         "--readme",
         type=Path,
@@ -75,9 +86,12 @@ def main(argv=None):
     )
     args = parser.parse_args(argv)
     images = args.docs / "img"
-    images.mkdir(parents=True, exist_ok=True)
-
-    scenes = [load_scene(args.data / name) for name in SCENES]
+    try:
+        scenes = [load_scene(args.data / name) for name in SCENES]
+        images.mkdir(parents=True, exist_ok=True)
+    except (OSError, ValueError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
     methods = available_methods()
 
     def progress(scene, method, seconds):
@@ -170,7 +184,8 @@ feature pairs dc accepted (yellow) and the two intensity profiles:
     update_readme(args.readme, table(means))
     print(table(means))
     print(f"wrote {args.docs / 'RESULTS.md'} and {images}/tsukuba_{{compare,scanline}}.png")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -10,13 +10,14 @@ Scores are bad-1.0 (%) of the *filled* maps in the ``nonocc``, ``all`` and ``dis
 warm-up call (compilation excluded).
 """
 
+import argparse
 import sys
 import time
 
 import numpy as np
 
 import dcstereo
-from dcstereo.datasets import list_middlebury, load_middlebury
+from dcstereo.datasets import list_middlebury, load_middlebury, middlebury_dir
 from dcstereo.metrics import bad_pixel_rate
 
 MASKS = ("nonocc", "all", "disc")
@@ -100,17 +101,34 @@ def sweep(scenes):
                 )
 
 
-def main(argv):
+def main(argv=None):
     """Run the mode named on the command line."""
-    scenes = [load_middlebury(name) for name in list_middlebury()]
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "mode",
+        nargs="?",
+        default="table",
+        choices=("table", "sweep"),
+        help="table: methods x costs x scenes (the README table); sweep: dsi3-gcp's "
+        "uniqueness x variance floor (default: table)",
+    )
+    args = parser.parse_args(argv)
+    names = list_middlebury()
+    if not names:
+        print(
+            f"error: no Middlebury scenes found at {middlebury_dir()}; set DCSTEREO_DATA",
+            file=sys.stderr,
+        )
+        return 2
+    scenes = [load_middlebury(name) for name in names]
     order = {"tsukuba": 0, "venus": 1, "teddy": 2, "cones": 3}
     scenes.sort(key=lambda s: order.get(s.name, 9))
-    mode = argv[1] if len(argv) > 1 else "table"
-    if mode == "sweep":
+    if args.mode == "sweep":
         sweep(scenes)
     else:
         table(scenes)
+    return 0
 
 
 if __name__ == "__main__":
-    main(sys.argv)
+    sys.exit(main())

@@ -20,7 +20,7 @@ import numba
 
 import dcstereo
 from dcstereo.datasets import list_middlebury, load_middlebury, middlebury_dir
-from dcstereo.io import atomic_write
+from dcstereo.io import atomic_write, check_writable
 from dcstereo.metrics import bad_pixel_rate
 
 DEFAULT_COSTS = (2.0, 5.0, 10.0, 15.0, 20.0, 30.0, 40.0, 60.0, 80.0)
@@ -46,6 +46,15 @@ def write_atomic(path: Path, text: str) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_write(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
+
+
+def output_error(path) -> str | None:
+    """Why ``write_atomic`` could not write ``path`` (it makes missing folders), or None."""
+    try:
+        check_writable(path, make_folders=True)
+    except ValueError as err:
+        return str(err)
+    return None
 
 
 def sweep(scenes, methods, costs, window):
@@ -147,6 +156,9 @@ def parse_args(argv):
 
 def main(argv=None) -> int:
     args = parse_args(argv)
+    if output_error(args.out):
+        print(f"error: {output_error(args.out)}", file=sys.stderr)
+        return 2
     names = args.scenes or list_middlebury()
     if not names:
         print(
@@ -174,14 +186,22 @@ def main(argv=None) -> int:
     header = machine_line(args.window)
     print(header, file=sys.stderr)
     start = time.perf_counter()
-    table = sweep(scenes, args.methods, args.costs, args.window)
+    try:
+        table = sweep(scenes, args.methods, args.costs, args.window)
+    except ValueError as err:  # a parameter dcstereo.match refuses (--window)
+        print(f"error: {err}", file=sys.stderr)
+        return 2
     elapsed = time.perf_counter() - start
     command = "python scripts/sweep_occlusion.py " + " ".join(argv or sys.argv[1:])
     text = markdown(
         table, [s.name for s in scenes], args.methods, args.costs, header, command.strip()
     )
     print(text)
-    write_atomic(args.out, text)
+    try:
+        write_atomic(args.out, text)
+    except (OSError, ValueError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
     print(f"wrote {args.out} ({elapsed:.1f} s of matching)", file=sys.stderr)
     return 0
 

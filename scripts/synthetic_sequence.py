@@ -10,6 +10,7 @@ bad-pixel rates of ``frameNNNNN.pfm`` against the truth (occluded pixels not sco
 """
 
 import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -22,8 +23,6 @@ from dcstereo.video import write_video
 
 def make(args):
     root = Path(args.folder)
-    for sub in ("left", "right", "truth"):
-        (root / sub).mkdir(parents=True, exist_ok=True)
     frames = synthetic_sequence(
         args.frames,
         height=args.height,
@@ -32,6 +31,8 @@ def make(args):
         foreground_disparity=args.width // 9,
         seed=args.seed,
     )
+    for sub in ("left", "right", "truth"):
+        (root / sub).mkdir(parents=True, exist_ok=True)
     for i, frame in enumerate(frames):
         io.write_rgb_png(root / "left" / f"{i:05d}.png", frame.left)
         io.write_rgb_png(root / "right" / f"{i:05d}.png", frame.right)
@@ -43,6 +44,8 @@ def make(args):
 
 def score(args):
     truths = sorted((Path(args.folder) / "truth").glob("*.pfm"))
+    if not truths:
+        raise ValueError(f"no truth frames (*.pfm) in '{Path(args.folder) / 'truth'}'")
     rows = []
     for i, path in enumerate(truths):
         truth = io.read_disparity(path)
@@ -58,23 +61,28 @@ def score(args):
     )
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(required=True)
-    p = sub.add_parser("make")
-    p.add_argument("folder")
-    p.add_argument("--frames", type=int, default=40)
-    p.add_argument("--height", type=int, default=240)
-    p.add_argument("--width", type=int, default=320)
-    p.add_argument("--seed", type=int, default=0)
+    p = sub.add_parser("make", help="write the sequence's frames, truth and sbs.mp4")
+    p.add_argument("folder", help="where to write left/, right/, truth/ and sbs.mp4")
+    p.add_argument("--frames", type=int, default=40, help="number of frames (default: 40)")
+    p.add_argument("--height", type=int, default=240, help="frame height (default: 240)")
+    p.add_argument("--width", type=int, default=320, help="frame width (default: 320)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default: 0)")
     p.set_defaults(func=make)
-    p = sub.add_parser("score")
-    p.add_argument("folder")
-    p.add_argument("results")
+    p = sub.add_parser("score", help="score frameNNNNN.pfm results against the truth")
+    p.add_argument("folder", help="the folder 'make' wrote")
+    p.add_argument("results", help="folder of frameNNNNN.pfm (dcstereo video's output)")
     p.set_defaults(func=score)
-    args = parser.parse_args()
-    args.func(args)
+    args = parser.parse_args(argv)
+    try:
+        args.func(args)
+    except (OSError, ValueError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from sweep_occlusion import machine_line, write_atomic
+from sweep_occlusion import machine_line, output_error, write_atomic
 
 import dcstereo
 from dcstereo import params as defaults
@@ -436,6 +436,12 @@ def main(argv=None) -> int:
     if (args.grid is None) == (args.out is None):
         print("error: give exactly one of --grid or --out", file=sys.stderr)
         return 2
+    if args.out is not None and output_error(args.out):
+        print(f"error: {output_error(args.out)}", file=sys.stderr)
+        return 2
+    if args.repeats < 1:
+        print(f"error: --repeats must be at least 1, got {args.repeats}", file=sys.stderr)
+        return 2
     found = list_middlebury()
     names = args.scenes or [n for n in SCENES if n in found]
     if not names:
@@ -459,7 +465,11 @@ def main(argv=None) -> int:
         return 0
     command = "python scripts/tune_dc.py " + " ".join(argv if argv is not None else sys.argv[1:])
     text, elapsed = sweep_document(scenes, args.repeats, command.strip())
-    write_atomic(args.out, text)
+    try:
+        write_atomic(args.out, text)
+    except (OSError, ValueError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
     print(f"wrote {args.out} ({elapsed:.1f} s)", file=sys.stderr)
     return 0
 

@@ -13,6 +13,7 @@ cost, the discount neither for border runs nor for long runs; see
 """
 
 import argparse
+import sys
 import time
 from pathlib import Path
 
@@ -93,10 +94,24 @@ def cell(row):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=middlebury_dir())
+    parser.add_argument(
+        "--data",
+        type=Path,
+        default=middlebury_dir(),
+        help="folder of the Middlebury scene folders (default: %(default)s)",
+    )
     parser.add_argument("--out", type=Path, default=None, help="markdown file to write")
     args = parser.parse_args(argv)
-    scenes = [load_scene(args.data / name) for name in SCENES]
+    if args.out is not None and (args.out.is_dir() or not args.out.parent.is_dir()):
+        print(
+            f"error: cannot write '{args.out}': not a file in an existing folder", file=sys.stderr
+        )
+        return 2
+    try:
+        scenes = [load_scene(args.data / name) for name in SCENES]
+    except (OSError, ValueError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
     small = scenes[0]
     for method, options in (("dsi3", {}), ("redert", dict(orientations=SIXTEENTH))):
         dcstereo.match(
@@ -124,9 +139,14 @@ def main(argv=None):
         f"{machine['numba']} with {machine['numba_threads']} threads.\n\n" + "\n".join(lines)
     )
     if args.out is not None:
-        with io.atomic_write(args.out) as tmp:
-            tmp.write_text(text + "\n", encoding="utf-8")
+        try:
+            with io.atomic_write(args.out) as tmp:
+                tmp.write_text(text + "\n", encoding="utf-8")
+        except (OSError, ValueError) as err:
+            print(f"error: {err}", file=sys.stderr)
+            return 2
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -285,3 +285,19 @@ def test_same_range_gives_every_method_opencvs_disparities(bench, tmp_path):
     (row,) = payload["results"]
     assert row["disparities"] == 16
     assert "every method searches OpenCV's" in out_md.read_text()
+
+
+def test_bad_outputs_and_options_fail_before_measuring(bench, tmp_path, capsys):
+    plain = tmp_path / "file"
+    plain.write_text("x")
+    base = ["--scenes", "none", "--large", "60x40x8", "--methods", "block", "--threads", "1"]
+    assert bench.main(base + ["--json", str(tmp_path)]) == 2
+    assert "is a directory" in capsys.readouterr().err
+    assert bench.main(base + ["--markdown", str(plain / "speed.md")]) == 2
+    assert "not a directory" in capsys.readouterr().err
+    assert bench.main(base + ["--timeout", "0"]) == 2
+    assert "--timeout" in capsys.readouterr().err
+    assert bench.main(["--methods", ",", "--skip-large"]) == 2
+    assert bench.main(base + ["--compile-methods", "nosuch"]) == 2
+    assert "--compile-methods" in capsys.readouterr().err
+    assert plain.read_text() == "x" and sorted(tmp_path.iterdir()) == [plain]

@@ -56,3 +56,14 @@ def test_bench_stages_prints_and_writes_the_table(tmp_path, capsys, monkeypatch,
     assert ("dsi5", "block match") not in rows  # a stage dsi5 does not run
     assert bench.main(["--methods", "dsi9"]) == 2
     assert bench.main(["--scenes", "nowhere"]) == 2
+
+
+def test_bench_stages_bad_output_fails_before_measuring(tmp_path, capsys, monkeypatch):
+    monkeypatch.syspath_prepend(str(SCRIPT.parent))
+    spec = importlib.util.spec_from_file_location("bench_stages", SCRIPT)
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    assert bench.main(["--synthetic", "200x40x12", "--markdown", str(tmp_path)]) == 2
+    assert "is a directory" in capsys.readouterr().err
+    assert bench.main(["--synthetic", "200x40x12", "--methods", ","]) == 2
+    assert "no method" in capsys.readouterr().err

@@ -476,3 +476,17 @@ def test_write_rgb_png_validates(tmp_path):
     with pytest.raises(ValueError, match="empty"):
         io.write_rgb_png(tmp_path / "i.png", np.zeros((0, 2), dtype=np.uint8))
     assert _listing(tmp_path) == []
+
+
+def test_check_writable_refuses_what_atomic_write_cannot_write(tmp_path):
+    a_file = tmp_path / "file.txt"
+    a_file.write_text("x")
+    with pytest.raises(ValueError, match="it is a directory"):
+        io.check_writable(tmp_path)
+    with pytest.raises(ValueError, match="directory '.*missing' does not exist"):
+        io.check_writable(tmp_path / "missing" / "out.md")
+    with pytest.raises(ValueError, match="file.txt' is not a directory"):
+        io.check_writable(a_file / "out.md", make_folders=True)
+    io.check_writable(tmp_path / "missing" / "deeper" / "out.md", make_folders=True)
+    io.check_writable(a_file)  # an existing file is replaced
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file.txt"]  # nothing made

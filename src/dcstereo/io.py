@@ -69,6 +69,28 @@ def atomic_write(path: str | os.PathLike) -> Iterator[Path]:
         raise ValueError(f"cannot write '{path}': {_reason(exc)}") from None
 
 
+def check_writable(path: str | os.PathLike, *, make_folders: bool = False) -> None:
+    """Fail at once when :func:`atomic_write` could not write ``path``.
+
+    For tools that run a long job before writing: a bad output path is then a one-line
+    ``ValueError`` before the work, not after it. With ``make_folders`` a missing folder
+    is fine when the nearest existing one above it is a folder the caller can write in.
+    """
+    target = Path(path)
+    if target.is_dir():
+        raise ValueError(f"cannot write '{path}': it is a directory")
+    folder = target.parent
+    if make_folders:
+        while not folder.exists() and folder != folder.parent:
+            folder = folder.parent
+    if not folder.is_dir():
+        if make_folders or folder.exists():
+            raise ValueError(f"cannot write '{path}': '{folder}' is not a directory")
+        raise ValueError(f"cannot write '{path}': directory '{folder}' does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ValueError(f"cannot write '{path}': permission denied in '{folder}'")
+
+
 def _create_temp(target: Path, shown: str | os.PathLike) -> Path:
     # O_EXCL so two writers never share a temp file; mode 0o666 lets the umask decide.
     for _ in range(100):
