@@ -219,3 +219,17 @@ def test_preview_unknown_style():
 def test_docstring_examples():
     failures, _ = doctest.testmod(viz, optionflags=doctest.NORMALIZE_WHITESPACE)
     assert failures == 0
+
+
+def test_colorize_names_the_limit_the_caller_gave():
+    d = np.array([[1.0, 5.0]], dtype=np.float32)
+    with pytest.raises(
+        ValueError, match=r"^vmin \(10\) must not be larger than the largest value \(5\)$"
+    ):
+        viz.colorize(d, vmin=10)
+    with pytest.raises(
+        ValueError, match=r"^the least value \(1\) must not be larger than vmax \(0\)$"
+    ):
+        viz.colorize(d, vmax=0)
+    with pytest.raises(ValueError, match=r"^vmin \(3\) must not be larger than vmax \(2\)$"):
+        viz.colorize(d, vmin=3, vmax=2)

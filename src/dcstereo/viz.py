@@ -118,7 +118,9 @@ def colorize(
     low = float(d[finite].min()) if vmin is None else _check_limit(vmin, "vmin")
     high = float(d[finite].max()) if vmax is None else _check_limit(vmax, "vmax")
     if low > high:
-        raise ValueError(f"vmin ({low:g}) must not be larger than vmax ({high:g})")
+        given_low = f"vmin ({low:g})" if vmin is not None else f"the least value ({low:g})"
+        given_high = f"vmax ({high:g})" if vmax is not None else f"the largest value ({high:g})"
+        raise ValueError(f"{given_low} must not be larger than {given_high}")
     values = d[finite]
     if high == low:
         norm = np.full(values.shape, 0.5)
