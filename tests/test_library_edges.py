@@ -325,6 +325,25 @@ def test_opencv_numpy_integer_window():
     assert result.params.window == 5 and type(result.params.window) is int
 
 
+@pytest.mark.parametrize(
+    ("kwargs", "error", "message"),
+    [
+        ({"p1": "x"}, TypeError, "p1 must be an integer, got 'x'"),
+        ({"p2": 1.5}, TypeError, "p2 must be an integer, got 1.5"),
+        ({"uniqueness_ratio": -1}, ValueError, "uniqueness_ratio must be at least 0"),
+        ({"speckle_window": True}, TypeError, "speckle_window must be an integer"),
+        ({"pre_filter_cap": 0}, ValueError, "pre_filter_cap must be at least 1"),
+        ({"pre_filter_cap": 64, "method": "bm"}, ValueError, "pre_filter_cap must be 1 to 63"),
+    ],
+)
+def test_opencv_options_are_named_when_wrong(kwargs, error, message):
+    from dcstereo.opencv import match_opencv
+
+    left, right = _pair(40, 80, 3)
+    with pytest.raises(error, match=message):
+        match_opencv(left, right, max_disparity=8, **kwargs)  # checked before cv2 is needed
+
+
 # --- batch ----------------------------------------------------------------------------
 
 

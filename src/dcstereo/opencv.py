@@ -168,6 +168,22 @@ def match_opencv(
     for name, value in (("max_disparity", max_disparity), ("min_disparity", min_disparity)):
         if isinstance(value, bool) or not isinstance(value, int | np.integer):
             raise TypeError(f"{name} must be an integer, got {value!r}")
+    # OpenCV's own integer options: checked here, so that a wrong one is named (int()'s
+    # message, or OpenCV's assertion, would not say which)
+    lowest = {"p1": 0, "p2": 0, "uniqueness_ratio": 0, "disp12_max_diff": None,
+              "speckle_window": 0, "speckle_range": 0, "pre_filter_cap": 1}  # fmt: skip
+    given = {"p1": p1, "p2": p2, "uniqueness_ratio": uniqueness_ratio,
+             "disp12_max_diff": disp12_max_diff, "speckle_window": speckle_window,
+             "speckle_range": speckle_range, "pre_filter_cap": pre_filter_cap}  # fmt: skip
+    for name, value in given.items():
+        if value is None:
+            continue
+        if isinstance(value, bool) or not isinstance(value, int | np.integer):
+            raise TypeError(f"{name} must be an integer, got {value!r}")
+        if lowest[name] is not None and value < lowest[name]:
+            raise ValueError(f"{name} must be at least {lowest[name]}, got {value}")
+    if pre_filter_cap is not None and pre_filter_cap > 63:
+        raise ValueError(f"pre_filter_cap must be 1 to 63 (OpenCV's bound), got {pre_filter_cap}")
     if max_disparity < min_disparity:
         raise ValueError(
             f"max_disparity ({max_disparity}) must not be smaller than min_disparity "
