@@ -173,3 +173,32 @@ def test_scanline_accepts_bt_method_names_like_compare(folder):
     assert result.exit_code == 0, result.output
     assert "row 3: dsi5+bt, dc," in result.output
     assert io.read_image(folder / "s.png").shape == (800, 1200, 3)
+
+
+def _scene_folder(folder):
+    """A v2 scene (24 x 64, truth 2 px at scale 4) in FOLDER/scene, from the folder's pair."""
+    scene = folder / "scene"
+    scene.mkdir()
+    for name in ("left.png", "right.png"):
+        (scene / name).write_bytes((folder / name).read_bytes())
+    Image.fromarray(np.full((24, 64), 8, np.uint8)).save(scene / "disp_gt.png")
+    for name in ("nonocc.png", "all.png", "disc.png"):
+        Image.fromarray(np.full((24, 64), 255, np.uint8)).save(scene / name)
+    (scene / "meta.json").write_text('{"scale": 4, "ndisp": 10}')
+    return scene
+
+
+@pytest.mark.parametrize("name", ["nonocc.png", "disp_gt.png"])
+def test_compare_output_over_a_file_of_the_gt_scene_folder_is_refused(folder, name):
+    scene = _scene_folder(folder)
+    before = snapshot(scene)
+    result = invoke(folder, "compare", *PAIR, "--gt", "scene", "-o", f"scene/{name}")
+    assert_one_line_error(result, 1, f"--output 'scene/{name}' is a file of the --gt scene folder")
+    assert snapshot(scene) == before
+
+
+def test_compare_output_under_a_new_name_in_the_gt_scene_folder_is_written(folder):
+    scene = _scene_folder(folder)
+    result = invoke(folder, "compare", *PAIR, "--gt", "scene", "-o", "scene/figure.png")
+    assert result.exit_code == 0, result.output
+    assert (scene / "figure.png").is_file()

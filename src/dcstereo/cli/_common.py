@@ -58,10 +58,12 @@ def check_distinct_paths(inputs, outputs):
     ----------
     inputs : dict of str to path or None
         What each input is (``"the left input"``) and its path; None entries are skipped.
+        An input that is a folder (a scene) makes each existing file under it an input.
     outputs : dict of str to path or None
         The option of each output (``"--preview"``) and its path; None entries are skipped.
     """
     read = {Path(path).resolve(): what for what, path in inputs.items() if path is not None}
+    folders = {path: what for path, what in read.items() if path.is_dir()}
     written = {}
     for option, path in outputs.items():
         if path is None:
@@ -69,6 +71,10 @@ def check_distinct_paths(inputs, outputs):
         resolved = Path(path).resolve()
         if resolved in read:
             raise CommandError(f"{option} '{path}' is {read[resolved]}")
+        # an input folder (a scene) is read whole: its existing files are inputs too
+        inside = [what for folder, what in folders.items() if folder in resolved.parents]
+        if inside and resolved.exists():
+            raise CommandError(f"{option} '{path}' is a file of {inside[0]}")
         if resolved in written:
             raise CommandError(f"{option} and {written[resolved]} are the same file '{path}'")
         written[resolved] = option

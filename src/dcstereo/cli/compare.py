@@ -61,7 +61,11 @@ def compare(
     io.check_png_suffix(output, "--output")
     check_output_paths(output)
     check_distinct_paths(
-        {"the left input": left, "the right input": right, "the --gt file": gt},
+        {
+            "the left input": left,
+            "the right input": right,
+            "the --gt scene folder" if gt and Path(gt).is_dir() else "the --gt file": gt,
+        },
         {"--output": output},
     )
     names = parse_methods(methods)
