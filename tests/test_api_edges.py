@@ -303,3 +303,19 @@ def test_match_redert_refuses_other_params():
         match_redert(left, right, {"max_disparity": 4})
     with pytest.raises(ValueError, match="cost='bt' is not supported by redert"):
         match_redert(left, right, MatchParams(max_disparity=4, cost="bt"))
+
+
+def test_masked_image_with_masked_pixels_is_refused_not_matched_under_its_mask():
+    rng = np.random.default_rng(5)
+    right = rng.integers(0, 256, (8, 20), dtype=np.uint8)
+    left = np.roll(right, 2, axis=1)
+    masked = np.ma.masked_array(left, mask=np.zeros(left.shape, bool))
+    plain = dcstereo.match(left, right, max_disparity=4, method="dsi3")
+    assert np.array_equal(  # nothing masked: the values are the image
+        dcstereo.match(masked, right, max_disparity=4, method="dsi3").disparity,
+        plain.disparity,
+        equal_nan=True,
+    )
+    masked[3, 4] = np.ma.masked
+    with pytest.raises(ValueError, match="^left image is a masked array with masked pixels"):
+        dcstereo.match(masked, right, max_disparity=4, method="dsi3")

@@ -31,6 +31,12 @@ def check_image(image: np.ndarray, name: str) -> np.ndarray:
     Raises ``TypeError`` for unsupported dtypes and ``ValueError`` for wrong shapes,
     empty images, NaN pixels or float intensities outside ``[0, 1]``.
     """
+    if isinstance(image, np.ma.MaskedArray) and np.ma.is_masked(image):
+        # np.asarray would match the values under the mask as if they were pixels
+        raise ValueError(
+            f"{name} image is a masked array with masked pixels; give it with them filled "
+            f"(image.filled(value))"
+        )
     try:
         array = np.asarray(image)
     except ValueError as err:  # a ragged nested list
