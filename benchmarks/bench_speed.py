@@ -805,8 +805,9 @@ def main(argv=None):
         cv2 = None
 
     for path in (args.json, args.markdown):
-        if output_error(path):
-            return fail(output_error(path))
+        error = output_error(path)
+        if error:
+            return fail(error)
     methods = comma_list(args.methods)
     known = list(dcstereo.METHODS) + list(OPENCV_METHODS)
     unknown = [m for m in methods if m not in known]

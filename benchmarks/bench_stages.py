@@ -136,8 +136,9 @@ def main(argv=None):
 
     from dcstereo.datasets import list_middlebury, load_middlebury
 
-    if output_error(args.markdown):
-        return fail(output_error(args.markdown))
+    error = output_error(args.markdown)
+    if error:
+        return fail(error)
     methods = comma_list(args.methods)
     unknown = [m for m in methods if m not in METHODS]
     if unknown or not methods:

@@ -156,8 +156,9 @@ def parse_args(argv):
 
 def main(argv=None) -> int:
     args = parse_args(argv)
-    if output_error(args.out):
-        print(f"error: {output_error(args.out)}", file=sys.stderr)
+    error = output_error(args.out)
+    if error:
+        print(f"error: {error}", file=sys.stderr)
         return 2
     names = args.scenes or list_middlebury()
     if not names:

@@ -436,8 +436,9 @@ def main(argv=None) -> int:
     if (args.grid is None) == (args.out is None):
         print("error: give exactly one of --grid or --out", file=sys.stderr)
         return 2
-    if args.out is not None and output_error(args.out):
-        print(f"error: {output_error(args.out)}", file=sys.stderr)
+    error = None if args.out is None else output_error(args.out)
+    if error:
+        print(f"error: {error}", file=sys.stderr)
         return 2
     if args.repeats < 1:
         print(f"error: --repeats must be at least 1, got {args.repeats}", file=sys.stderr)

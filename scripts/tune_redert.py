@@ -102,10 +102,11 @@ def main(argv=None):
     )
     parser.add_argument("--out", type=Path, default=None, help="markdown file to write")
     args = parser.parse_args(argv)
-    if args.out is not None and (args.out.is_dir() or not args.out.parent.is_dir()):
-        print(
-            f"error: cannot write '{args.out}': not a file in an existing folder", file=sys.stderr
-        )
+    try:
+        if args.out is not None:
+            io.check_writable(args.out)  # before the sweep, not after it
+    except ValueError as err:
+        print(f"error: {err}", file=sys.stderr)
         return 2
     try:
         scenes = [load_scene(args.data / name) for name in SCENES]

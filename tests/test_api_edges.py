@@ -5,7 +5,7 @@ import pytest
 
 import dcstereo
 import synthetic
-from dcstereo import METHODS, MatchParams, api, fill_occlusions, metrics
+from dcstereo import METHODS, MatchParams, _checks, api, fill_occlusions, metrics
 from dcstereo.cost import window_variance
 from dcstereo.redert import match_redert
 from dcstereo.signal import intensity, matching_signal, padded_signal
@@ -319,3 +319,25 @@ def test_masked_image_with_masked_pixels_is_refused_not_matched_under_its_mask()
     masked[3, 4] = np.ma.masked
     with pytest.raises(ValueError, match="^left image is a masked array with masked pixels"):
         dcstereo.match(masked, right, max_disparity=4, method="dsi3")
+
+
+@pytest.mark.parametrize(
+    ("value", "integer", "number"),
+    [
+        (3, True, True),
+        (np.int64(3), True, True),
+        (np.uint8(3), True, True),
+        (3.0, False, True),
+        (np.float32(0.5), False, True),
+        (True, False, False),
+        (np.True_, False, False),
+        ("3", False, False),
+        (None, False, False),
+        (1j, False, False),
+        (np.complex128(1), False, False),
+        (np.array(3), False, False),
+    ],
+)
+def test_one_meaning_of_integer_and_number(value, integer, number):
+    assert _checks.is_integer(value) is integer
+    assert _checks.is_number(value) is number

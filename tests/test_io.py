@@ -490,3 +490,17 @@ def test_check_writable_refuses_what_atomic_write_cannot_write(tmp_path):
     io.check_writable(tmp_path / "missing" / "deeper" / "out.md", make_folders=True)
     io.check_writable(a_file)  # an existing file is replaced
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file.txt"]  # nothing made
+
+
+def test_stale_temporaries_are_the_temporary_scheme_only(tmp_path):
+    target = tmp_path / "a[1]*.pfm"  # glob characters in the name are matched literally
+    leftover = tmp_path / ".a[1]*.tmp0123abcd.pfm"  # what a killed writer leaves
+    leftover.write_text("")
+    (tmp_path / ".a[1]*.tmp0123abcdx.pfm").write_text("")  # too long: not of the scheme
+    (tmp_path / ".a[1]*.tmpXX.pfm").write_text("")  # too short
+    (tmp_path / ".ab.tmp0123abcd.pfm").write_text("")  # another target's
+    with pytest.raises(RuntimeError), io.atomic_write(target) as tmp:
+        assert io.stale_temporaries(target) == sorted([leftover, tmp])  # its own, while open
+        raise RuntimeError
+    assert len(leftover.name) == len(target.name) + io.TEMPORARY_NAME_EXTRA
+    assert io.stale_temporaries(target) == [leftover]

@@ -18,15 +18,14 @@ a shared file system) and send the disparity back; only this process writes outp
 import contextlib
 import csv
 import dataclasses
-import glob
 import json
-import numbers
 import os
 import time
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
 from . import io
+from ._checks import is_integer
 from .api import match
 from .params import MatchParams
 
@@ -37,8 +36,9 @@ FAILURES_FILE = "failures.csv"
 #: The file (in the output folder) recording the options the outputs were made with.
 OPTIONS_FILE = "batch.json"
 #: Longest pair name, in bytes of UTF-8: the temporary name of its output
-#: (``.<name>.tmpXXXXXXXX.pfm``) must fit the 255 bytes file systems allow a name.
-MAX_NAME_BYTES = 255 - len("..tmpXXXXXXXX.pfm")
+#: (:data:`dcstereo.io.TEMPORARY_NAME_EXTRA` more than ``<name>.pfm``) must fit the 255
+#: bytes file systems allow a name.
+MAX_NAME_BYTES = 255 - io.TEMPORARY_NAME_EXTRA - len(".pfm")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -296,7 +296,7 @@ def run_batch(
     folder = Path(output_dir)
     _check_names(pairs, "batch")
     check_threads(threads, client)
-    if isinstance(retries, bool) or not isinstance(retries, numbers.Integral) or retries < 0:
+    if not is_integer(retries) or retries < 0:
         raise ValueError(f"retries must be an integer 0 or more, got {retries!r}")
     params = MatchParams(max_disparity=max_disparity, **options)  # refuse bad options now
     match_kwargs = {"max_disparity": max_disparity, **options}
@@ -364,7 +364,7 @@ def check_threads(threads, client=None) -> None:
     """
     if threads is None:
         return
-    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral):
+    if not is_integer(threads):
         raise TypeError(f"threads must be an integer, got {threads!r}")
     if threads < 1:
         raise ValueError(f"threads must be at least 1, got {threads}")
@@ -475,10 +475,8 @@ def check_recorded_options(
 
 def _remove_stale_temporaries(folder: Path, pair: Pair) -> None:
     """Remove what a killed run left half-written for this pair (never a real output)."""
-    final = output_path(folder, pair)
-    for tmp in folder.glob(f".{glob.escape(final.stem)}.tmp*{final.suffix}"):
-        if len(tmp.name) == len(final.name) + 13:  # "." + stem + ".tmp" + 8 hex + suffix
-            tmp.unlink(missing_ok=True)
+    for tmp in io.stale_temporaries(output_path(folder, pair)):
+        tmp.unlink(missing_ok=True)
 
 
 def write_failures(folder: Path, rows: list[FailureRow]) -> None:

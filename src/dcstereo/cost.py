@@ -1,8 +1,8 @@
 """Window statistics of the matching signal used by the divide-and-conquer matcher."""
 
-import numbers
-
 import numpy as np
+
+from ._checks import is_integer
 
 
 def window_variance(intensity: np.ndarray, window: int) -> np.ndarray:
@@ -31,7 +31,7 @@ def window_variance(intensity: np.ndarray, window: int) -> np.ndarray:
     >>> float(window_variance(np.array([[0.0, 2.0, 0.0]]), 3)[0, 1])
     0.888...
     """
-    if isinstance(window, bool) or not isinstance(window, numbers.Integral):
+    if not is_integer(window):
         raise TypeError(f"window must be an integer, got {window!r}")
     if window < 1 or window % 2 == 0:
         raise ValueError(f"window must be a positive odd integer, got {window}")

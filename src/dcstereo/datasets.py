@@ -42,6 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ._checks import is_number
 from .io import open_image, read_pfm
 
 #: Environment variable that overrides :func:`default_data_dir`.
@@ -538,7 +539,7 @@ def _load_2005(folder: Path, scale: float | None) -> StereoScene:
                 f"pixels high, not one of the Middlebury 2005/2006 sizes {sizes}; give the scale "
                 "(load_scene(..., scale=S); dcstereo eval --gt-scale S)"
             )
-    elif isinstance(scale, bool) or not isinstance(scale, int | float | np.number):
+    elif not is_number(scale):
         raise TypeError(f"scale must be a number, got {type(scale).__name__}")
     elif not (np.isfinite(scale) and scale > 0):
         raise ValueError(f"scale must be a positive number, got {scale}")
@@ -597,7 +598,6 @@ def read_calib(path: str | os.PathLike) -> dict[str, str]:
 
 
 def _load_2014(folder: Path) -> StereoScene:
-
     truth_file = next(
         (name for name in ("disp0GT.pfm", "disp0.pfm") if (folder / name).is_file()), None
     )

@@ -13,6 +13,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from . import viz
+from ._checks import is_integer, is_number
 from .signal import check_image, check_pair, intensity
 
 #: Methods of :func:`compare_methods` and :func:`scanline` by default (the paper's Fig. 4).
@@ -148,7 +149,7 @@ def compare_figure(
                 f"results[{method!r}] has shape {result.disparity.shape}, the left image "
                 f"{(height, width)}"
             )
-    if isinstance(max_disparity, bool) or not isinstance(max_disparity, int | float | np.number):
+    if not is_number(max_disparity):
         raise TypeError(f"max_disparity must be a number, got {type(max_disparity).__name__}")
     if not (np.isfinite(max_disparity) and max_disparity >= 0):
         raise ValueError(f"max_disparity must be a finite number 0 or more, got {max_disparity}")
@@ -229,7 +230,7 @@ def dsi_row(
 
     left, right = check_pair(left, right)
     height, width = left.shape[:2]
-    if isinstance(row, bool) or not isinstance(row, int | np.integer):
+    if not is_integer(row):
         raise TypeError(f"row must be an integer, got {row!r}")
     if not 0 <= row < height:
         raise ValueError(f"row must be in 0..{height - 1}, got {row}")
@@ -373,7 +374,7 @@ def scanline_figure(data: dict, *, width: int = 1200, height: int = 800) -> np.n
 
     low, high = FIGURE_SIDES
     for name, value in (("width", width), ("height", height)):
-        if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        if not is_integer(value):
             raise TypeError(f"{name} must be an integer, got {value!r}")
         if not low <= value <= high:
             raise ValueError(f"{name} must be {low} to {high} pixels, got {value}")

@@ -9,6 +9,7 @@ Disparity files follow two conventions:
 In memory a disparity map is float32 (H, W) with NaN where there is no estimate.
 """
 
+import glob
 import os
 import re
 import secrets
@@ -20,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 from PIL import Image, UnidentifiedImageError
+
+from ._checks import is_number
 
 _PNG16_MAX = 65535
 _PFM_HEADER = re.compile(rb"(P[Ff])\s+(\S+)\s+(\S+)\s+(\S+)(?:\r\n|\s)")
@@ -50,12 +53,8 @@ def atomic_write(path: str | os.PathLike) -> Iterator[Path]:
     >>> with atomic_write("out.png") as tmp:  # doctest: +SKIP
     ...     Image.fromarray(pixels).save(tmp)
     """
+    check_writable(path)
     target = Path(path)
-    directory = target.parent
-    if not directory.is_dir():
-        raise ValueError(f"cannot write '{path}': directory '{directory}' does not exist")
-    if target.is_dir():
-        raise ValueError(f"cannot write '{path}': it is a directory")
     tmp = _create_temp(target, path)
     try:
         yield tmp
@@ -91,10 +90,34 @@ def check_writable(path: str | os.PathLike, *, make_folders: bool = False) -> No
         raise ValueError(f"cannot write '{path}': permission denied in '{folder}'")
 
 
+#: How many characters longer than its target's name the name of an :func:`atomic_write`
+#: temporary file is: ``.<stem>.tmp<8 hex digits><suffix>`` beside ``<stem><suffix>``.
+TEMPORARY_NAME_EXTRA = len("..tmp") + 8
+
+
+def _temporary_name(target: Path, token: str) -> Path:
+    return target.with_name(f".{target.stem}.tmp{token}{target.suffix}")
+
+
+def stale_temporaries(path: str | os.PathLike) -> list[Path]:
+    """Return the temporary files of :func:`atomic_write` for ``path`` still there, sorted.
+
+    A writer killed before its rename leaves one behind; a later run may remove them.
+    Only names of exactly the temporary scheme are returned, never another output.
+    """
+    target = Path(path)
+    pattern = glob.escape(f".{target.stem}.tmp") + "*" + glob.escape(target.suffix)
+    return sorted(
+        tmp
+        for tmp in target.parent.glob(pattern)
+        if len(tmp.name) == len(target.name) + TEMPORARY_NAME_EXTRA
+    )
+
+
 def _create_temp(target: Path, shown: str | os.PathLike) -> Path:
     # O_EXCL so two writers never share a temp file; mode 0o666 lets the umask decide.
     for _ in range(100):
-        tmp = target.with_name(f".{target.stem}.tmp{secrets.token_hex(4)}{target.suffix}")
+        tmp = _temporary_name(target, secrets.token_hex(4))
         try:
             os.close(os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
         except FileExistsError:
@@ -574,7 +597,7 @@ def _check_disparity(disparity: np.ndarray) -> np.ndarray:
 
 
 def _check_scale(scale: float) -> float:
-    if isinstance(scale, bool) or not isinstance(scale, int | float | np.number):
+    if not is_number(scale):
         raise TypeError(f"scale must be a number, got {type(scale).__name__}")
     if not (np.isfinite(scale) and scale > 0):
         raise ValueError(f"scale must be a positive finite number, got {scale}")

@@ -23,10 +23,11 @@ D. Scharstein and R. Szeliski, "A taxonomy and evaluation of dense two-frame ste
 correspondence algorithms", IJCV 47(1/2/3):7-42, 2002 (the bad-pixel percentage).
 """
 
-import numbers
 from collections.abc import Mapping, Sequence
 
 import numpy as np
+
+from ._checks import is_number
 
 #: Thresholds of the bad-pixel rates reported by :func:`evaluate`, in pixels.
 DEFAULT_THRESHOLDS = (0.5, 1.0, 2.0, 4.0)
@@ -68,7 +69,7 @@ def _scored(estimate, truth, mask) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _check_threshold(threshold) -> float:
-    if isinstance(threshold, bool) or not isinstance(threshold, numbers.Real):
+    if not is_number(threshold):
         raise TypeError(f"threshold must be a number, got {threshold!r}")
     threshold = float(threshold)
     if not np.isfinite(threshold) or threshold < 0:

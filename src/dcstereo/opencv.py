@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._checks import is_integer
 from .result import FLAG_OCCLUDED, DisparityResult
 from .signal import check_pair, intensity
 
@@ -166,7 +167,7 @@ def match_opencv(
     if method not in ("sgbm", "bm"):
         raise ValueError(f"method must be 'sgbm' or 'bm', got {method!r}")
     for name, value in (("max_disparity", max_disparity), ("min_disparity", min_disparity)):
-        if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        if not is_integer(value):
             raise TypeError(f"{name} must be an integer, got {value!r}")
     # OpenCV's own integer options: checked here, so that a wrong one is named (int()'s
     # message, or OpenCV's assertion, would not say which)
@@ -178,7 +179,7 @@ def match_opencv(
     for name, value in given.items():
         if value is None:
             continue
-        if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        if not is_integer(value):
             raise TypeError(f"{name} must be an integer, got {value!r}")
         if lowest[name] is not None and value < lowest[name]:
             raise ValueError(f"{name} must be at least {lowest[name]}, got {value}")

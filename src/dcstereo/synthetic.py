@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._checks import is_integer, is_number
+
 
 @dataclass(frozen=True)
 class SyntheticFrame:
@@ -100,9 +102,9 @@ def synthetic_sequence(
         ("foreground_disparity", foreground_disparity),
         ("seed", seed),
     ):
-        if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        if not is_integer(value):
             raise TypeError(f"{name} must be an integer, got {value!r}")
-    if isinstance(turn, bool) or not isinstance(turn, int | float | np.number):
+    if not is_number(turn):
         raise TypeError(f"turn must be a number, got {turn!r}")
     if not np.isfinite(turn):
         raise ValueError(f"turn must be finite, got {turn}")

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._checks import is_integer
 from .api import match
 from .params import MatchParams
 from .result import DisparityResult
@@ -65,7 +66,7 @@ def row_bands(height: int, tile_rows: int, window: int) -> list[Band]:
     [(0, 4, 0, 5), (4, 8, 3, 9), (8, 10, 7, 10)]
     """
     for name, value in (("height", height), ("tile_rows", tile_rows), ("window", window)):
-        if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        if not is_integer(value):
             raise TypeError(f"{name} must be an integer, got {value!r}")
     height, tile_rows, window = int(height), int(tile_rows), int(window)
     if height < 0:

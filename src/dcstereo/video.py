@@ -16,7 +16,6 @@ original frames.
 
 import dataclasses
 import math
-import numbers
 import os
 import re
 import subprocess
@@ -29,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from . import io
+from ._checks import is_number
 from .api import match
 from .batch import (
     FailureRow,
@@ -298,7 +298,7 @@ def write_video(path: str | os.PathLike, frames, *, fps: float = 10.0, quality: 
         range, or when ffmpeg fails.
     """
     for name, value in (("fps", fps), ("quality", quality)):
-        if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        if not is_number(value):
             raise TypeError(f"{name} must be a number, got {value!r}")
     if not 0 < fps < math.inf:
         raise ValueError(f"fps must be a positive finite number, got {fps}")

@@ -2,6 +2,8 @@
 
 import numpy as np
 
+from ._checks import is_integer, is_number
+
 #: Brightest gray level of a valid pixel in :func:`paper_display`; occluded pixels get 255.
 PAPER_MAX_GRAY = 223
 #: Colours of :func:`error_map`.
@@ -218,7 +220,7 @@ def draw_points(
         raise ValueError(f"image_rgb must have shape (H, W, 3) or (H, W), got {image.shape}")
     out = image.copy()
     color = _check_color(color, "color")
-    if isinstance(radius, bool) or not isinstance(radius, int | np.integer) or radius < 0:
+    if not is_integer(radius) or radius < 0:
         raise ValueError(f"radius must be an integer 0 or more, got {radius!r}")
     try:
         xs = np.asarray(xs, dtype=np.float64).reshape(-1)
@@ -302,7 +304,7 @@ def _check_color(color: tuple[int, int, int], name: str) -> np.ndarray:
 
 
 def _check_limit(value: float, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float | np.number):
+    if not is_number(value):
         raise TypeError(f"{name} must be a number, got {type(value).__name__}")
     if not np.isfinite(value):
         raise ValueError(f"{name} must be finite, got {value}")

@@ -40,15 +40,14 @@ def one_line_errors(func):
 
 def check_output_paths(*paths):
     """Fail before any work when an output folder is missing or an output is a folder."""
+    from ..io import check_writable
+
     for path in paths:
-        if path is None:
-            continue
-        path = Path(path)
-        parent = path.parent if str(path.parent) else Path(".")
-        if not parent.is_dir():
-            raise CommandError(f"cannot write '{path}': directory '{parent}' does not exist")
-        if path.is_dir():
-            raise CommandError(f"cannot write '{path}': it is a directory")
+        if path is not None:
+            try:
+                check_writable(path)
+            except ValueError as exc:
+                raise CommandError(str(exc)) from None
 
 
 def check_distinct_paths(inputs, outputs):

@@ -58,13 +58,14 @@ def compare(
 
     if gt_scale is not None and gt is None:
         raise click.UsageError("--gt-scale needs --gt")
+    gt_is_scene = gt is not None and Path(gt).is_dir()
     io.check_png_suffix(output, "--output")
     check_output_paths(output)
     check_distinct_paths(
         {
             "the left input": left,
             "the right input": right,
-            "the --gt scene folder" if gt and Path(gt).is_dir() else "the --gt file": gt,
+            "the --gt scene folder" if gt_is_scene else "the --gt file": gt,
         },
         {"--output": output},
     )
@@ -74,7 +75,7 @@ def compare(
     right_image = io.read_image(right)
     truth = mask = None
     if gt is not None:
-        if Path(gt).is_dir():
+        if gt_is_scene:
             scene = load_scene(gt)
             truth, mask = scene.disparity, scene.masks["nonocc"]
         else:
