@@ -206,9 +206,20 @@ def test_demo_runs_on_the_motorcycle_pair(tmp_path):
     result = invoke("demo", "--output", out, "--method", "dsi5", "--threads", 1)
     assert result.exit_code == 0, result.output
     assert "Motorcycle" in result.output and "bad-1.0" in result.output
+    assert "depth of the dense map: median error" in result.output
     for name in ("disparity.pfm", "disparity.png", "occlusion.png", "preview.png"):
         assert (out / name).is_file()
-    assert io.read_disparity(out / "disparity.pfm").shape == (500, 741)
+    disparity = io.read_disparity(out / "disparity.pfm")
+    assert disparity.shape == (500, 741)
+    # depth and points of the written map, with the pair's calibration
+    from dcstereo.datasets import MOTORCYCLE_CALIBRATION
+    from dcstereo.geometry import depth
+
+    z = io.read_pfm(out / "depth.pfm")
+    expected = depth(disparity, MOTORCYCLE_CALIBRATION)
+    np.testing.assert_array_equal(np.isfinite(z), np.isfinite(expected))
+    assert (out / "cloud.ply").read_bytes().startswith(b"ply\nformat binary_little_endian")
+    assert f"element vertex {np.isfinite(z).sum()}\n".encode() in (out / "cloud.ply").read_bytes()
 
 
 def test_demo_bad_option_makes_no_folder(tmp_path):

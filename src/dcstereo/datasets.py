@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from ._checks import is_number
+from .geometry import Calibration, read_calib
 from .io import open_image, read_pfm
 
 #: Environment variable that overrides :func:`default_data_dir`.
@@ -77,6 +78,10 @@ class StereoScene:
         Smallest disparity to search.
     meta : dict
         Provenance and encoding details (the scene's ``meta.json`` for Middlebury).
+    calibration : Calibration or None
+        Focal length, baseline and principal point, for depth and point clouds
+        (:mod:`dcstereo.geometry`): the 2014 scenes' ``calib.txt`` and the Motorcycle pair;
+        None for the older scenes, which publish none.
     """
 
     name: str
@@ -87,6 +92,7 @@ class StereoScene:
     max_disparity: int
     min_disparity: int = 0
     meta: dict = field(default_factory=dict, repr=False)
+    calibration: Calibration | None = field(default=None, repr=False)
 
     def __post_init__(self):
         # a gray and a colour view may pair: every method reduces each to its own intensity
@@ -107,6 +113,11 @@ class StereoScene:
                     f"scene {self.name!r}: mask {key!r} must be a boolean array of shape "
                     f"{shape}, got {mask.dtype} {mask.shape}"
                 )
+        if self.calibration is not None and not isinstance(self.calibration, Calibration):
+            raise TypeError(
+                f"scene {self.name!r}: calibration must be a Calibration or None, got "
+                f"{type(self.calibration).__name__}"
+            )
         if self.min_disparity > self.max_disparity:
             raise ValueError(
                 f"scene {self.name!r}: min_disparity={self.min_disparity} is larger than "
@@ -308,6 +319,13 @@ def load_middlebury(
     )
 
 
+#: The calibration of scikit-image's Motorcycle pair, as its ``stereo_motorcycle``
+#: documents it for the images it ships (the 2014 calibration divided by 4).
+MOTORCYCLE_CALIBRATION = Calibration(
+    focal=994.978, baseline=193.001, cx=311.193, cy=254.877, doffs=31.086
+)
+
+
 def load_motorcycle() -> StereoScene:
     """Load the Middlebury 2014 motorcycle pair shipped with scikit-image.
 
@@ -320,7 +338,8 @@ def load_motorcycle() -> StereoScene:
         Images (500, 741, 3) uint8; disparity with the unknown (inf) pixels as NaN;
         ``masks["all"]`` and ``masks["nonocc"]`` are both the pixels with finite ground truth,
         because scikit-image ships no occlusion mask (so ``"nonocc"`` includes half-occluded
-        pixels here); ``max_disparity = 64`` (the ground truth spans about 7 to 60).
+        pixels here); ``max_disparity = 64`` (the ground truth spans about 7 to 60);
+        ``calibration`` :data:`MOTORCYCLE_CALIBRATION` (baseline in mm).
 
     Raises
     ------
@@ -352,6 +371,7 @@ def load_motorcycle() -> StereoScene:
         masks={"all": known, "nonocc": known.copy()},
         max_disparity=64,
         min_disparity=0,
+        calibration=MOTORCYCLE_CALIBRATION,
         meta={
             "name": "motorcycle",
             "source": "skimage.data.stereo_motorcycle (Middlebury 2014, Motorcycle, reduced)",
@@ -573,30 +593,6 @@ def _load_2005(folder: Path, scale: float | None) -> StereoScene:
     )
 
 
-def read_calib(path: str | os.PathLike) -> dict[str, str]:
-    """Read a Middlebury 2014 ``calib.txt`` (``key=value`` lines) into a dict of strings.
-
-    Parameters
-    ----------
-    path : path-like
-        The file.
-
-    Returns
-    -------
-    dict of str to str
-    """
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except UnicodeDecodeError:
-        raise ValueError(f"cannot read {path}: it is not UTF-8 text") from None
-    entries = {}
-    for line in text.splitlines():
-        key, sep, value = line.partition("=")
-        if sep:
-            entries[key.strip()] = value.strip()
-    return entries
-
-
 def _load_2014(folder: Path) -> StereoScene:
     truth_file = next(
         (name for name in ("disp0GT.pfm", "disp0.pfm") if (folder / name).is_file()), None
@@ -647,6 +643,7 @@ def _load_2014(folder: Path) -> StereoScene:
         masks={"nonocc": nonocc, "all": known},
         max_disparity=ndisp - 1,
         meta=meta,
+        calibration=Calibration.from_entries(calib, folder / "calib.txt"),
     )
 
 

@@ -456,9 +456,66 @@ def check_png_suffix(path: str | os.PathLike, what: str = "picture") -> None:
     The PNG writers write PNG under any name; a command checks its pictures' names with
     this before any work. ``what`` names the file in the message (a CLI option).
     """
-    suffix = Path(path).suffix.lower()
-    if suffix != ".png":
-        raise ValueError(f"cannot write {what} '{path}': unsupported suffix '{suffix}', use .png")
+    check_suffix(path, ".png", what)
+
+
+def check_suffix(path: str | os.PathLike, suffix: str, what: str) -> None:
+    """Raise ``ValueError`` unless ``path`` ends in ``suffix`` (any case).
+
+    ``what`` names the file in the message (a CLI option).
+    """
+    found = Path(path).suffix.lower()
+    if found != suffix:
+        raise ValueError(
+            f"cannot write {what} '{path}': unsupported suffix '{found}', use {suffix}"
+        )
+
+
+def write_ply(path: str | os.PathLike, points: np.ndarray, colors: np.ndarray | None = None):
+    """Write a point cloud as a binary little-endian PLY file, atomically.
+
+    The vertices have ``float x, y, z`` and, with ``colors``, ``uchar red, green, blue``:
+    the layout MeshLab, CloudCompare, Open3D and PCL read.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file (``.ply``).
+    points : ndarray, shape (N, 3)
+        Finite real coordinates, written as float32 (N may be 0).
+    colors : ndarray of uint8, shape (N, 3), optional
+        One RGB colour per point.
+    """
+    points = _as_real_array(points, "points")
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise ValueError(f"points must have shape (N, 3), got {points.shape}")
+    with np.errstate(over="ignore", invalid="ignore"):
+        values = points.astype("<f4")
+    if not np.isfinite(values).all():
+        raise ValueError("points must be finite (as float32) to be written to a PLY file")
+    fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
+    if colors is not None:
+        colors = np.asarray(colors)
+        if colors.dtype != np.uint8:
+            raise TypeError(f"colors must be uint8, got dtype {colors.dtype}")
+        if colors.shape != points.shape:
+            raise ValueError(f"colors must have shape {points.shape}, got {colors.shape}")
+        fields += [("red", "u1"), ("green", "u1"), ("blue", "u1")]
+    vertices = np.empty(len(values), dtype=fields)
+    for axis, name in enumerate("xyz"):
+        vertices[name] = values[:, axis]
+    if colors is not None:
+        for channel, name in enumerate(("red", "green", "blue")):
+            vertices[name] = colors[:, channel]
+    types = {"<f4": "float", "u1": "uchar"}
+    header = (
+        ["ply", "format binary_little_endian 1.0", "comment written by dcstereo"]
+        + [f"element vertex {len(vertices)}"]
+        + [f"property {types[kind]} {name}" for name, kind in fields]
+        + ["end_header"]
+    )
+    with atomic_write(path) as tmp:
+        tmp.write_bytes(("\n".join(header) + "\n").encode("ascii") + vertices.tobytes())
 
 
 def write_features_csv(path: str | os.PathLike, features: np.ndarray) -> None:

@@ -216,3 +216,92 @@ def matching_options(func):
     for option in reversed(options):
         collect = option(collect)
     return collect
+
+
+#: The calibration options that :func:`calibration_options` collects, and their flags.
+CALIBRATION_OPTIONS = {
+    "calib": "--calib",
+    "focal": "--focal",
+    "baseline": "--baseline",
+    "principal": "--principal",
+    "doffs": "--doffs",
+}
+
+
+def calibration_options(func):
+    """Add the pair's geometry, for depth and point clouds: ``--calib`` or ``--focal`` & co.
+
+    The command receives them as one dict, ``calibration``; :func:`calibration_of` turns
+    it into a :class:`dcstereo.geometry.Calibration`.
+    """
+
+    @functools.wraps(func)
+    def collect(*args, **kwargs):
+        kwargs["calibration"] = {name: kwargs.pop(name) for name in CALIBRATION_OPTIONS}
+        return func(*args, **kwargs)
+
+    options = [
+        click.option(
+            "--calib",
+            type=click.Path(dir_okay=False),
+            default=None,
+            help="Calibration file in Middlebury's calib.txt format (cam0=[f 0 cx; 0 f cy; "
+            "0 0 1], baseline=, doffs=).",
+        ),
+        click.option(
+            "--focal", type=float, default=None, help="Focal length in pixels (without --calib)."
+        ),
+        click.option(
+            "--baseline",
+            type=float,
+            default=None,
+            help="Baseline, in the unit the depth should have (without --calib).",
+        ),
+        click.option(
+            "--principal",
+            type=(float, float),
+            default=None,
+            metavar="CX CY",
+            help="Principal point in pixels (without --calib; default: the image centre).",
+        ),
+        click.option(
+            "--doffs",
+            type=float,
+            default=None,
+            help="Principal points' x offset, right minus left, in pixels (without --calib; "
+            "default 0).",
+        ),
+    ]
+    for option in reversed(options):
+        collect = option(collect)
+    return collect
+
+
+def calibration_of(options, shape, needed):
+    """Return the :class:`~dcstereo.geometry.Calibration` the options give, or None.
+
+    ``shape`` is the left image's (the default principal point is its centre); ``needed``
+    whether an output uses it (calibration options with no such output, or such an output
+    with no calibration, are errors).
+    """
+    from ..geometry import Calibration
+
+    given = [flag for name, flag in CALIBRATION_OPTIONS.items() if options[name] is not None]
+    if not needed:
+        if given:
+            raise CommandError(f"{given[0]} is used only with --depth-out or --ply")
+        return None
+    if options["calib"] is not None:
+        if len(given) > 1:
+            raise CommandError(f"--calib and {given[1]} cannot be used together")
+        return Calibration.from_middlebury(options["calib"])
+    for name in ("focal", "baseline"):
+        if options[name] is None:
+            raise CommandError(
+                f"--depth-out and --ply need a calibration: --calib FILE, or --focal and "
+                f"--baseline (missing {CALIBRATION_OPTIONS[name]})"
+            )
+    height, width = shape[:2]
+    cx, cy = options["principal"] or ((width - 1) / 2, (height - 1) / 2)
+    doffs = 0.0 if options["doffs"] is None else options["doffs"]
+    return Calibration(options["focal"], options["baseline"], cx, cy, doffs)

@@ -3,6 +3,7 @@
 import time
 
 import click
+import numpy as np
 
 from ._common import (
     matching_options,
@@ -35,12 +36,14 @@ def demo(output, max_disparity, match_options, threads):
     """Run dcstereo on scikit-image's Middlebury 2014 Motorcycle pair and score it.
 
     Writes disparity.pfm, disparity.png (16-bit), occlusion.png, preview.png (the
-    paper's display), preview_color.png and, for the dc methods, features.csv and
-    features.png (the pairs in red) into OUTPUT, and prints the bad-pixel rates against
-    the ground truth.
+    paper's display), preview_color.png, depth.pfm and cloud.ply (the coloured 3-D
+    points, with the calibration scikit-image gives for the pair) and, for the dc
+    methods, features.csv and features.png (the pairs in red) into OUTPUT, and prints the
+    bad-pixel rates and the depth error against the ground truth.
     """
     from .. import io, match
     from ..datasets import load_motorcycle
+    from ..geometry import depth, point_cloud
     from ..metrics import bad_pixel_rate, density
     from ..viz import draw_points, preview
 
@@ -73,6 +76,9 @@ def demo(output, max_disparity, match_options, threads):
         write(
             io.write_rgb_png, folder / "preview_color.png", preview(dense.disparity, style="color")
         )
+        write(io.write_pfm, folder / "depth.pfm", depth(final.disparity, scene.calibration))
+        cloud = point_cloud(final.disparity, scene.calibration, scene.left)
+        write(io.write_ply, folder / "cloud.ply", cloud.points, cloud.colors)
 
     height, width = scene.shape
     truth, known = scene.disparity, scene.masks["all"]
@@ -94,6 +100,16 @@ def demo(output, max_disparity, match_options, threads):
             f"  {name:31s} bad-1.0 {bad1:5.2f} %  bad-2.0 {bad2:5.2f} %"
             f"  density {density(d, truth, mask=known):5.1f} %"
         )
+    truth_depth = depth(truth, scene.calibration)
+    dense_depth = depth(dense.disparity, scene.calibration)
+    both = known & np.isfinite(truth_depth) & np.isfinite(dense_depth)
+    error = np.abs(dense_depth[both] - truth_depth[both])
+    relative = error / truth_depth[both]
+    click.echo(
+        f"  depth of the dense map: median error {np.median(error):.1f} mm "
+        f"({100 * np.median(relative):.2f} %), {100 * np.mean(relative <= 0.05):.1f} % of "
+        "pixels within 5 %"
+    )
     if result.features is not None:
         count = len(result.features)
         click.echo(f"  {count} reliable feature pairs ({count / height:.1f} per row)")

@@ -7,6 +7,8 @@ import click
 
 from ._common import (
     FEATURE_METHODS,
+    calibration_of,
+    calibration_options,
     check_distinct_paths,
     check_output_paths,
     disparity_range_options,
@@ -56,6 +58,22 @@ from ._common import (
     help="Mark the accepted feature pairs in red on the preview (dc methods; needs --preview).",
 )
 @click.option(
+    "--depth-out",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Write the depth map (PFM, float32, in the baseline's unit, inf = no estimate); "
+    "needs a calibration.",
+)
+@click.option(
+    "--ply",
+    "ply_out",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Write the 3-D points of the pixels with a depth, coloured by LEFT (binary "
+    "PLY, left camera frame: x right, y down, z forward); needs a calibration.",
+)
+@calibration_options
+@click.option(
     "--tile-rows",
     type=int,
     default=None,
@@ -77,6 +95,9 @@ def run(
     preview_style,
     features_out,
     draw_features,
+    depth_out,
+    ply_out,
+    calibration,
     tile_rows,
     quiet,
 ):
@@ -86,20 +107,23 @@ def run(
     MIN..MAX are searched, inclusive.
     """
     from .. import io, match
+    from ..geometry import depth, point_cloud
     from ..viz import draw_points
     from ..viz import preview as make_preview
 
     method = match_options["method"]
     if draw_features and preview is None:
         raise click.UsageError("--draw-features needs --preview")
-    check_output_paths(output, occlusion_out, preview, features_out)
+    check_output_paths(output, occlusion_out, preview, features_out, depth_out, ply_out)
     check_distinct_paths(
-        {"the left input": left, "the right input": right},
+        {"the left input": left, "the right input": right, "--calib": calibration["calib"]},
         {
             "--output": output,
             "--occlusion-out": occlusion_out,
             "--preview": preview,
             "--features-out": features_out,
+            "--depth-out": depth_out,
+            "--ply": ply_out,
         },
     )
     if (features_out is not None or draw_features) and method not in FEATURE_METHODS:
@@ -112,9 +136,14 @@ def run(
         io.check_png_suffix(occlusion_out, "--occlusion-out")
     if preview is not None:
         io.check_png_suffix(preview, "--preview")
+    if depth_out is not None:
+        io.check_suffix(depth_out, ".pfm", "--depth-out")
+    if ply_out is not None:
+        io.check_suffix(ply_out, ".ply", "--ply")
     set_threads(threads)
     left_image = io.read_image(left)
     right_image = io.read_image(right)
+    camera = calibration_of(calibration, left_image.shape, depth_out or ply_out)
     start = time.perf_counter()
     if tile_rows is not None:
         from ..tiling import match_tiled
@@ -146,6 +175,12 @@ def run(
             write(io.write_rgb_png, preview, picture)
         if features_out is not None:
             write(io.write_features_csv, features_out, result.features)
+        if depth_out is not None:
+            write(io.write_pfm, depth_out, depth(result.disparity, camera))
+        if ply_out is not None:
+            colors = left_image if left_image.dtype.kind == "u" else None
+            cloud = point_cloud(result.disparity, camera, colors)
+            write(io.write_ply, ply_out, cloud.points, cloud.colors)
     if not quiet:
         height, width = result.disparity.shape
         valid = 100.0 * result.valid.mean()
