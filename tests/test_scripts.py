@@ -108,3 +108,21 @@ def test_make_figures_out_that_is_a_file_fails_cleanly(tmp_path, monkeypatch, ca
     plain.write_text("x")
     assert script.main(["--out", str(plain)]) == 2
     assert capsys.readouterr().err.startswith("error: ")
+
+
+def test_make_figures_render_paints_the_nearest_point(monkeypatch):
+    import numpy as np
+
+    script = load("make_figures", monkeypatch)
+    # three points straight ahead at 1000, 2000 and 3000: their median is the middle one,
+    # which the unturned camera sees at the picture's centre, behind the nearer one
+    points = np.array([[0.0, 0.0, 1000.0], [0.0, 0.0, 2000.0], [0.0, 0.0, 3000.0]])
+    colors = np.array([[255, 0, 0], [0, 255, 0], [0, 0, 255]], np.uint8)
+    picture = script.render(points, colors, (5, 7), 0, 100.0)
+    assert picture.shape == (5, 7, 3) and picture.dtype == np.uint8
+    np.testing.assert_array_equal(picture[2:4, 3:5].reshape(-1, 3), [[255, 0, 0]] * 4)
+    assert (picture[:2] == 255).all() and (picture[:, :3] == 255).all()
+    # turned by 90 degrees about the middle point, the others lie left and right of it
+    turned = script.render(points, colors, (5, 7), 90, 1.0)
+    painted = {tuple(c) for c in turned.reshape(-1, 3)} - {(255, 255, 255)}
+    assert painted == {(255, 0, 0), (0, 255, 0), (0, 0, 255)}
