@@ -1,7 +1,10 @@
-"""Shared fixtures: where the Middlebury development data lives."""
+"""Shared fixtures: where the Middlebury development data lives, a small pair on disk."""
 
+import numpy as np
 import pytest
+from PIL import Image
 
+import synthetic
 from dcstereo.datasets import list_middlebury, middlebury_dir
 
 
@@ -12,3 +15,17 @@ def middlebury_root():
     if not list_middlebury():
         pytest.skip(f"Middlebury dev data not found at {folder}; set DCSTEREO_DATA")
     return folder
+
+
+@pytest.fixture
+def pair(tmp_path):
+    """``left.png`` and ``right.png`` of a textured object before a background, and the truth.
+
+    24 x 64, disparities 2 (background) and 8 (object); ``(folder, truth)``. Modules with
+    a ``pair`` of their own use theirs.
+    """
+    rng = np.random.default_rng(101)
+    left, right, truth = synthetic.object_pair(rng, 24, 64, 2, 8, (24, 44))
+    Image.fromarray(left).save(tmp_path / "left.png")
+    Image.fromarray(right).save(tmp_path / "right.png")
+    return tmp_path, truth

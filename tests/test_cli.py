@@ -5,18 +5,8 @@ import pytest
 from click.testing import CliRunner
 from PIL import Image
 
-import synthetic
 from dcstereo import io
 from dcstereo.cli import main
-
-
-@pytest.fixture
-def pair(tmp_path):
-    rng = np.random.default_rng(101)
-    left, right, truth = synthetic.object_pair(rng, 24, 64, 2, 8, (24, 44))
-    Image.fromarray(left).save(tmp_path / "left.png")
-    Image.fromarray(right).save(tmp_path / "right.png")
-    return tmp_path, truth
 
 
 def invoke(*args):

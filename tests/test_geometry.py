@@ -2,13 +2,10 @@
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
-from PIL import Image
 
-import synthetic
 from dcstereo import datasets, io, match
-from dcstereo.cli import main
 from dcstereo.geometry import Calibration, depth, point_cloud, read_calib
+from test_cli import invoke
 
 #: Middlebury 2014 Motorcycle's calib.txt, as published.
 MOTORCYCLE_CALIB = """cam0=[3979.911 0 1244.772; 0 3979.911 1019.507; 0 0 1]
@@ -304,21 +301,9 @@ def test_motorcycle_calibration_is_scikit_images():
 # --------------------------------------------------------------------------- CLI
 
 
-def invoke(*args):
-    return CliRunner().invoke(main, [str(a) for a in args], catch_exceptions=False)
-
-
-@pytest.fixture
-def pair(tmp_path):
-    rng = np.random.default_rng(101)
-    left, right, _ = synthetic.object_pair(rng, 24, 64, 2, 8, (24, 44))
-    Image.fromarray(left).save(tmp_path / "left.png")
-    Image.fromarray(right).save(tmp_path / "right.png")
-    return tmp_path, left, right
-
-
 def test_run_writes_depth_and_cloud(pair):
-    folder, left, right = pair
+    folder, _ = pair
+    left, right = io.read_image(folder / "left.png"), io.read_image(folder / "right.png")
     expected = match(left, right, max_disparity=10).disparity
     c = Calibration(focal=300, baseline=80, cx=31.5, cy=11.5)  # the image centre
     result = invoke(
@@ -378,7 +363,7 @@ def test_run_writes_depth_and_cloud(pair):
     ],
 )  # fmt: skip
 def test_run_calibration_errors_are_one_line_and_write_nothing(pair, monkeypatch, args, message):
-    folder, _, _ = pair
+    folder, _ = pair
     (folder / "calib.txt").write_text("cam0=[300 0 31.5; 0 300 11.5; 0 0 1]\nbaseline=80\n")
     before = sorted(folder.iterdir())
     monkeypatch.chdir(folder)

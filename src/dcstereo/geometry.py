@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._checks import is_number
+from ._checks import disparity_array, is_number
 
 
 @dataclass(frozen=True)
@@ -212,15 +212,6 @@ def _check_calibration(calibration) -> None:
         )
 
 
-def _check_disparity(disparity) -> np.ndarray:
-    d = np.asarray(disparity)
-    if d.dtype.kind not in "iuf":
-        raise TypeError(f"disparity must hold real numbers, got dtype {d.dtype}")
-    if d.ndim != 2:
-        raise ValueError(f"disparity must be 2-D (H, W), got shape {d.shape}")
-    return d.astype(np.float64)
-
-
 def depth(disparity, calibration: Calibration) -> np.ndarray:
     """Depth of every left pixel: ``baseline * focal / (d + doffs)``.
 
@@ -248,7 +239,7 @@ def depth(disparity, calibration: Calibration) -> np.ndarray:
 def _depth64(disparity, calibration: Calibration) -> np.ndarray:
     """:func:`depth` in float64, NaN where there is none."""
     _check_calibration(calibration)
-    d = _check_disparity(disparity) + calibration.doffs
+    d = disparity_array(disparity) + calibration.doffs
     z = np.full(d.shape, np.nan)
     with np.errstate(over="ignore"):
         numerator = calibration.baseline * calibration.focal

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from ._checks import is_integer, is_number
+from ._checks import disparity_array, is_integer, is_number
 
 #: Brightest gray level of a valid pixel in :func:`paper_display`; occluded pixels get 255.
 PAPER_MAX_GRAY = 223
@@ -53,7 +53,7 @@ def paper_display(disparity: np.ndarray, occluded: np.ndarray | None = None) -> 
     >>> paper_display(np.array([[0.0, 0.5, 2.0, np.nan]]))
     array([[  0, 112, 223, 255]], dtype=uint8)
     """
-    d = _check_disparity(disparity)
+    d = disparity_array(disparity)
     hidden = ~np.isfinite(d)
     if occluded is not None:
         hidden |= _check_mask(occluded, d.shape, "occluded")
@@ -106,7 +106,7 @@ def colorize(
     """
     import matplotlib  # lazy: matplotlib is slow to import and needed only here
 
-    d = _check_disparity(disparity)
+    d = disparity_array(disparity)
     color = _check_color(invalid, "invalid")
     try:
         colormap = matplotlib.colormaps[cmap]
@@ -164,8 +164,8 @@ def error_map(
     -------
     ndarray of uint8, shape (H, W, 3)
     """
-    d = _check_disparity(disparity)
-    gt = _check_disparity(truth, "truth")
+    d = disparity_array(disparity)
+    gt = disparity_array(truth, "truth")
     if gt.shape != d.shape:
         raise ValueError(f"truth has shape {gt.shape} but disparity has shape {d.shape}")
     threshold = _check_limit(threshold, "threshold")
@@ -272,19 +272,10 @@ def preview(
     check_preview_style(style)
     if style == "paper":
         return paper_display(disparity, occluded)
-    d = _check_disparity(disparity)
+    d = disparity_array(disparity)
     if occluded is not None:
         d = np.where(_check_mask(occluded, d.shape, "occluded"), np.nan, d)
     return colorize(d)
-
-
-def _check_disparity(disparity: np.ndarray, name: str = "disparity") -> np.ndarray:
-    d = np.asarray(disparity)
-    if d.dtype.kind not in "iuf":
-        raise TypeError(f"{name} must hold real numbers, got dtype {d.dtype}")
-    if d.ndim != 2:
-        raise ValueError(f"{name} must be 2-D (H, W), got shape {d.shape}")
-    return d.astype(np.float64)
 
 
 def _check_mask(mask: np.ndarray, shape: tuple[int, ...], name: str) -> np.ndarray:
