@@ -328,6 +328,7 @@ def test_run_writes_depth_and_cloud(pair):
     )  # fmt: skip
     assert result.exit_code == 0, result.output
     assert (folder / "c2.ply").read_bytes() == (folder / "c.ply").read_bytes()
+    assert result.output.splitlines()[1] == f"{len(cloud)} points -> {folder / 'c2.ply'}"
     # --principal and --doffs
     result = invoke(
         "run", folder / "left.png", folder / "right.png", "-o", folder / "d3.pfm",

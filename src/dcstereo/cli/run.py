@@ -188,3 +188,5 @@ def run(
             f"{method}: {width}x{height}, disparities {min_disparity}..{max_disparity}, "
             f"{seconds * 1000:.0f} ms, {valid:.1f} % with an estimate -> {output}"
         )
+        if ply_out is not None:
+            click.echo(f"{len(cloud)} points -> {ply_out}")
