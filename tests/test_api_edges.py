@@ -341,3 +341,40 @@ def test_masked_image_with_masked_pixels_is_refused_not_matched_under_its_mask()
 def test_one_meaning_of_integer_and_number(value, integer, number):
     assert _checks.is_integer(value) is integer
     assert _checks.is_number(value) is number
+
+
+def _result_parts():
+    d = np.array([[0.0, np.nan, 1.5, 1.0]], np.float32)
+    flags = np.array([[0, dcstereo.FLAG_OCCLUDED, 0, 0]], np.uint8)
+    return dict(disparity=d, flags=flags, params=MatchParams(max_disparity=4),
+                path_cost=np.zeros(1), features=np.zeros((0, 5)))  # fmt: skip
+
+
+def test_a_disparity_result_built_by_hand_works_like_a_matched_one():
+    result = dcstereo.DisparityResult(**_result_parts())
+    np.testing.assert_array_equal(result.filled().disparity, [[0.0, 0.0, 1.5, 1.0]])
+    np.testing.assert_array_equal(result.pairs(), [[0, 0, 0], [0, 3, 2]])
+    assert result.method == "dc" and result.occluded.tolist() == [[False, True, False, False]]
+
+
+@pytest.mark.parametrize(
+    "name, value, message",
+    [
+        ("disparity", np.zeros((1, 4)), r"disparity must be a float32 \(H, W\) array, got "
+         r"float64 array of shape \(1, 4\)"),
+        ("disparity", np.zeros(3, np.float32), "got float32 array of shape"),
+        ("disparity", [[1.0, 2.0, 3.0]], "got list"),
+        ("flags", np.zeros((1, 4), np.int64), r"flags must be a uint8 array of shape \(1, 4\)"),
+        ("flags", np.zeros((4, 1), np.uint8), r"got uint8 array of shape \(4, 1\)"),
+        ("path_cost", np.zeros(2), r"path_cost must be a float array of shape \(1,\)"),
+        ("path_cost", np.zeros(1, int), "got int64 array"),
+        ("features", np.zeros((2, 4)), r"features must be None or a float \(M, 5\) array"),
+        ("features", "none", "got str"),
+        ("params", {"method": "dc"}, r"params must be the run's parameters \(MatchParams\), "
+         "got dict"),
+    ],
+)  # fmt: skip
+def test_a_disparity_result_of_the_wrong_parts_is_refused(name, value, message):
+    parts = _result_parts() | {name: value}
+    with pytest.raises(TypeError, match=message):
+        dcstereo.DisparityResult(**parts)

@@ -45,6 +45,29 @@ class DisparityResult:
     path_cost: np.ndarray
     features: np.ndarray | None = None
 
+    def __post_init__(self):
+        # the matchers build these right; a result built by hand gets one clear error here
+        # instead of a confusing one in fill, pairs, the writers or the previews
+        d = self.disparity
+        if not isinstance(d, np.ndarray) or d.dtype != np.float32 or d.ndim != 2:
+            raise TypeError(f"disparity must be a float32 (H, W) array, got {_describe(d)}")
+        f = self.flags
+        if not isinstance(f, np.ndarray) or f.dtype != np.uint8 or f.shape != d.shape:
+            raise TypeError(f"flags must be a uint8 array of shape {d.shape}, got {_describe(f)}")
+        c = self.path_cost
+        if not isinstance(c, np.ndarray) or c.dtype.kind != "f" or c.shape != d.shape[:1]:
+            raise TypeError(
+                f"path_cost must be a float array of shape {d.shape[:1]}, got {_describe(c)}"
+            )
+        m = self.features
+        if m is not None and (
+            not isinstance(m, np.ndarray) or m.dtype.kind != "f" or m.ndim != 2 or m.shape[1] != 5
+        ):
+            raise TypeError(f"features must be None or a float (M, 5) array, got {_describe(m)}")
+        if not hasattr(self.params, "method"):
+            kind = type(self.params).__name__
+            raise TypeError(f"params must be the run's parameters (MatchParams), got {kind}")
+
     @property
     def method(self) -> str:
         """Name of the method that produced this result."""
@@ -76,6 +99,13 @@ class DisparityResult:
         disparity, was_filled = fill_occlusions(self.disparity)
         flags = self.flags | np.where(was_filled, FLAG_FILLED, 0).astype(np.uint8)
         return replace(self, disparity=disparity, flags=flags)
+
+
+def _describe(value) -> str:
+    """``float64 array of shape (2, 3)``, or the type of anything that is not an array."""
+    if isinstance(value, np.ndarray):
+        return f"{value.dtype} array of shape {value.shape}"
+    return type(value).__name__
 
 
 def fill_occlusions(disparity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
