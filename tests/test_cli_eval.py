@@ -109,6 +109,29 @@ def test_bench_errors(tmp_path):
     assert result.exit_code == 1 and "unknown method 'magic'" in result.output
 
 
+def test_bench_gt_scale_reaches_the_2005_scenes_only(tmp_path):
+    from test_datasets import write_2005_scene
+
+    write_v2_scene(tmp_path / "data" / "a", seed=5)
+    write_2005_scene(tmp_path / "data" / "s05", height=20)  # grays 6 and 12: 2 and 4 at scale 3
+    result = invoke("bench", tmp_path / "data", "--methods", "block", "--quiet")
+    assert result.exit_code == 1 and "bench --gt-scale S" in result.output
+    assert "a:" not in result.output  # the v2 scene loads without a scale
+    rows = {}
+    for scale in (3, 1.5):
+        out = tmp_path / f"bench{scale}.json"
+        result = invoke(
+            "bench", tmp_path / "data", "--methods", "block", "--gt-scale", scale, "--json",
+            out, "--quiet",
+        )  # fmt: skip
+        assert result.exit_code == 0, result.output
+        rows[scale] = {r["scene"]: r for r in json.loads(out.read_text())["rows"]}
+    assert rows[3]["s05"]["max_disparity"] == 4 and rows[1.5]["s05"]["max_disparity"] == 8
+    assert rows[3]["a"]["max_disparity"] == rows[1.5]["a"]["max_disparity"]
+    result = invoke("bench", tmp_path / "data", "--methods", "block", "--gt-scale", 0)
+    assert result.exit_code == 1 and "scale must be a positive number, got 0" in result.output
+
+
 @pytest.fixture
 def pair(tmp_path):
     truth = write_v2_scene(tmp_path / "toy")

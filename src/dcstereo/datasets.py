@@ -557,7 +557,7 @@ def _load_2005(folder: Path, scale: float | None) -> StereoScene:
             raise ValueError(
                 f"cannot infer the disparity scale of {folder}: its images are {height} "
                 f"pixels high, not one of the Middlebury 2005/2006 sizes {sizes}; give the scale "
-                "(load_scene(..., scale=S); dcstereo eval --gt-scale S)"
+                "(load_scene(..., scale=S); dcstereo eval or bench --gt-scale S)"
             )
     elif not is_number(scale):
         raise TypeError(f"scale must be a number, got {type(scale).__name__}")

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .datasets import StereoScene, find_scenes, load_scene
+from .datasets import StereoScene, find_scenes, load_scene, scene_layout
 from .metrics import DEFAULT_THRESHOLDS, evaluate
 from .opencv import OPENCV_METHODS
 from .params import METHODS
@@ -242,6 +242,7 @@ def bench(
     thresholds: Sequence[float] = DEFAULT_THRESHOLDS,
     progress=None,
     keep_results: bool = False,
+    truth_scale: float | None = None,
 ) -> list[dict]:
     """Run every method on every scene and score it, sparse and dense.
 
@@ -259,6 +260,10 @@ def bench(
         Called with ``(scene_name, method, seconds)`` after each run.
     keep_results : bool
         Keep the :class:`DisparityResult` of each run under ``"result"``.
+    truth_scale : float, optional
+        The ground truth's stored gray value per pixel of disparity for the 2005/2006
+        scene folders (those of no standard size need it); the other layouts' files give
+        their own, and scenes passed as :class:`StereoScene` are already loaded.
 
     Returns
     -------
@@ -271,7 +276,7 @@ def bench(
     warmed: set = set()
     rows = []
     for item in scenes:
-        scene = item if isinstance(item, StereoScene) else load_scene(item)
+        scene = item if isinstance(item, StereoScene) else _load(item, truth_scale)
         for method in methods:
             _warm_up(method, scene, options, warmed)
             start = time.perf_counter()
@@ -301,6 +306,12 @@ def bench(
     return rows
 
 
+def _load(folder, truth_scale: float | None) -> StereoScene:
+    """:func:`load_scene`, with ``truth_scale`` for a 2005/2006 folder only."""
+    is_2005 = scene_layout(folder) == "2005/2006"
+    return load_scene(folder, scale=truth_scale if is_2005 else None)
+
+
 def bench_folder(data_dir: str | os.PathLike, methods: Sequence[str], **kwargs) -> list[dict]:
     """:func:`bench` over every scene folder under ``data_dir`` (:func:`find_scenes`).
 
@@ -320,7 +331,7 @@ def bench_folder(data_dir: str | os.PathLike, methods: Sequence[str], **kwargs) 
     problems = []
     for folder in folders:
         try:
-            load_scene(folder)
+            _load(folder, kwargs.get("truth_scale"))
         except (ValueError, OSError) as err:
             text = str(err).strip()
             problems.append(text.splitlines()[0] if text else f"{folder}: {type(err).__name__}")

@@ -22,10 +22,18 @@ from ._common import check_output_paths, one_line_errors, set_threads
     default=None,
     help="Also write every score (sparse and dense, all masks) to this JSON file.",
 )
+@click.option(
+    "--gt-scale",
+    type=float,
+    default=None,
+    help="Stored gray value per pixel of disparity of the ground truth of the 2005/2006 "
+    "scenes, for those whose size is not a standard one (default: 1, 2 or 3 from the image "
+    "height; the other layouts give their own).",
+)
 @click.option("--threads", type=int, default=None, help="Number of threads (default: all).")
 @click.option("--quiet", "-q", is_flag=True, help="Print only the table.")
 @one_line_errors
-def bench(data_dir, methods, window, json_out, threads, quiet):
+def bench(data_dir, methods, window, json_out, gt_scale, threads, quiet):
     """Run METHODS on every scene folder under DATA_DIR and print a table.
 
     Scene folders of any layout are found at any depth (v2, 2005/2006, 2014); all are
@@ -52,7 +60,9 @@ def bench(data_dir, methods, window, json_out, threads, quiet):
         if not quiet:
             click.echo(f"{scene:>14s} {method:<12s} {1000 * seconds:8.0f} ms", err=True)
 
-    rows = bench_folder(data_dir, names, options={"window": window}, progress=progress)
+    rows = bench_folder(
+        data_dir, names, options={"window": window}, progress=progress, truth_scale=gt_scale
+    )
     click.echo(render(bench_table(rows, title=f"bench {data_dir}")), nl=False)
     if json_out is not None:
         payload = {"machine": machine_description(), "window": window, "rows": json_rows(rows)}
