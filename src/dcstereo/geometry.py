@@ -308,10 +308,20 @@ def point_cloud(
             raise ValueError(f"max_depth must be a positive number, got {max_depth!r}")
         keep &= z <= max_depth
     colors = None if image is None else _colors(image, z.shape)[keep]
-    rows, cols = np.nonzero(keep)
+    # written into the outputs with one float64 scratch column: on a 6-megapixel map the
+    # peak is 288 MB (576 MB with a new column per step), 186 MB of it the result
     zk = z[keep]
-    x = (cols - calibration.cx) * zk / calibration.focal
-    y = (rows - calibration.cy) * zk / calibration.fy
-    points = np.stack([x, y, zk], axis=1).astype(np.float32).reshape(-1, 3)
-    pixels = np.stack([rows, cols], axis=1).astype(np.int64).reshape(-1, 2)
+    del z
+    pixels = np.argwhere(keep).astype(np.int64, copy=False).reshape(-1, 2)
+    points = np.empty((len(zk), 3), dtype=np.float32)
+    scratch = np.empty(len(zk))
+    for axis, centre, focal in (
+        (1, calibration.cx, calibration.focal),
+        (0, calibration.cy, calibration.fy),
+    ):
+        np.subtract(pixels[:, axis], centre, out=scratch)
+        scratch *= zk
+        scratch /= focal
+        points[:, 1 - axis] = scratch
+    points[:, 2] = zk
     return PointCloud(points=points, colors=colors, pixels=pixels)
