@@ -64,11 +64,12 @@ def render(points, colors, shape, yaw_degrees, focal):
     v = np.rint(focal * seen[:, 1] / seen[:, 2] + (height - 1) / 2).astype(np.int64)
     picture = np.full((height, width, 3), 255, dtype=np.uint8)
     order = np.argsort(-seen[:, 2], kind="stable")  # far first: the near ones paint last
+    u, v, colors = u[order], v[order], colors[order]
     for du in (0, 1):
         for dv in (0, 1):
-            x, y = u[order] + du, v[order] + dv
+            x, y = u + du, v + dv
             inside = (0 <= x) & (x < width) & (0 <= y) & (y < height)
-            picture[y[inside], x[inside]] = colors[order][inside]
+            picture[y[inside], x[inside]] = colors[inside]
     return picture
 
 

@@ -164,12 +164,6 @@ def matching_options(func):
     ``match_options`` (keyword arguments of ``match``), and ``threads`` on its own; a new
     matching option is added here once, for every command.
     """
-
-    @functools.wraps(func)
-    def collect(*args, **kwargs):
-        kwargs["match_options"] = {name: kwargs.pop(name) for name in MATCH_OPTIONS}
-        return func(*args, **kwargs)
-
     options = [
         click.option(
             "--method",
@@ -213,6 +207,21 @@ def matching_options(func):
             help="Number of threads (default: all cores).",
         ),
     ]
+    return _option_group(func, "match_options", MATCH_OPTIONS, options)
+
+
+def _option_group(func, key, names, options):
+    """Add ``options`` to the command ``func``, which gets those in ``names`` as one dict.
+
+    The dict is the keyword argument ``key``; options not in ``names`` reach ``func`` on
+    their own. ``options`` are listed as ``--help`` shows them.
+    """
+
+    @functools.wraps(func)
+    def collect(*args, **kwargs):
+        kwargs[key] = {name: kwargs.pop(name) for name in names}
+        return func(*args, **kwargs)
+
     for option in reversed(options):
         collect = option(collect)
     return collect
@@ -234,12 +243,6 @@ def calibration_options(func):
     The command receives them as one dict, ``calibration``; :func:`calibration_of` turns
     it into a :class:`dcstereo.geometry.Calibration`.
     """
-
-    @functools.wraps(func)
-    def collect(*args, **kwargs):
-        kwargs["calibration"] = {name: kwargs.pop(name) for name in CALIBRATION_OPTIONS}
-        return func(*args, **kwargs)
-
     options = [
         click.option(
             "--calib",
@@ -272,9 +275,7 @@ def calibration_options(func):
             "default 0).",
         ),
     ]
-    for option in reversed(options):
-        collect = option(collect)
-    return collect
+    return _option_group(func, "calibration", CALIBRATION_OPTIONS, options)
 
 
 def calibration_of(options, shape, needed):
