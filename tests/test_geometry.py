@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from PIL import Image
 
 from dcstereo import datasets, io, match
 from dcstereo.geometry import Calibration, depth, point_cloud, read_calib
@@ -342,6 +343,39 @@ def test_run_writes_depth_and_cloud(pair):
     np.testing.assert_array_equal(z3[np.isfinite(z3)], shifted[np.isfinite(shifted)])
 
 
+def test_run_writes_depth_png(pair):
+    folder, _ = pair
+    left, right = io.read_image(folder / "left.png"), io.read_image(folder / "right.png")
+    expected = match(left, right, max_disparity=10).disparity
+    z = depth(expected, Calibration(focal=300, baseline=80, cx=31.5, cy=11.5)).astype(float)
+    result = invoke(
+        "run", folder / "left.png", folder / "right.png", "-o", folder / "d.pfm",
+        "--max-disparity", 10, "--depth-out", folder / "z.png", "--focal", 300,
+        "--baseline", 80,
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert len(result.output.splitlines()) == 1  # every depth fits: nothing left out
+    stored = np.asarray(Image.open(folder / "z.png"))
+    assert stored.dtype == np.uint16 and np.isfinite(z).any()
+    np.testing.assert_array_equal(stored, np.where(np.isfinite(z), np.rint(z), 0))
+    # at 10 per unit the far pixels (d < 24000 * 10 / 65535.5) no longer fit: left out, said
+    result = invoke(
+        "run", folder / "left.png", folder / "right.png", "-o", folder / "d.pfm",
+        "--max-disparity", 10, "--depth-out", folder / "z10.png", "--depth-scale", 10,
+        "--focal", 300, "--baseline", 80,
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    far = np.isfinite(z) & (np.rint(z * 10) > 65535)
+    assert far.any() and (np.isfinite(z) & ~far).any()
+    assert result.output.splitlines()[1] == (
+        f"{far.sum()} pixels too far for 16 bits left out of {folder / 'z10.png'}"
+    )
+    back = io.read_depth(folder / "z10.png", scale=10)
+    kept = np.isfinite(z) & ~far
+    np.testing.assert_array_equal(np.isfinite(back), kept)
+    np.testing.assert_allclose(back[kept], z[kept], atol=0.05 + 1e-6)
+
+
 @pytest.mark.parametrize(
     "args, message",
     [
@@ -356,8 +390,15 @@ def test_run_writes_depth_and_cloud(pair):
         (["--ply", "c.ply", "--focal", -3, "--baseline", 1], "focal must be positive, got -3"),
         (["--ply", "c.pcd", "--focal", 9, "--baseline", 1],
          "cannot write --ply 'c.pcd': unsupported suffix '.pcd', use .ply"),
-        (["--depth-out", "z.png", "--focal", 9, "--baseline", 1],
-         "unsupported suffix '.png', use .pfm"),
+        (["--depth-out", "z.tif", "--focal", 9, "--baseline", 1],
+         "cannot write --depth-out 'z.tif': unsupported suffix '.tif', use one of .pfm, .png"),
+        (["--depth-out", "z.pfm", "--depth-scale", 10, "--focal", 9, "--baseline", 1],
+         "--depth-scale is used only with a .png --depth-out"),
+        (["--depth-scale", 10], "--depth-scale is used only with a .png --depth-out"),
+        (["--depth-out", "z.png", "--depth-scale", 0, "--focal", 9, "--baseline", 1],
+         "--depth-scale must be a positive number, got 0"),
+        (["--depth-out", "z.png", "--depth-scale", "nan", "--focal", 9, "--baseline", 1],
+         "--depth-scale must be a positive number, got nan"),
         (["--ply", "calib.txt", "--calib", "calib.txt"], "--ply 'calib.txt' is --calib"),
         (["--ply", "c.ply", "--depth-out", "c.ply", "--focal", 9, "--baseline", 1],
          "--ply and --depth-out are the same file"),

@@ -252,6 +252,67 @@ def test_write_disparity_missing_directory(tmp_path):
         io.write_disparity(tmp_path / "no" / "d.png", np.ones((2, 2)))
 
 
+# --- depth maps ---------------------------------------------------------------------
+
+
+def test_depth_png16_by_hand(tmp_path):
+    z = np.array([[1234.4, np.nan, 0.2], [65535.4, 65535.6, np.inf]])
+    assert io.write_depth_png16(tmp_path / "z.png", z) == 1  # 65535.6 rounds past 16 bits
+    stored = np.asarray(Image.open(tmp_path / "z.png"))
+    assert stored.dtype == np.uint16
+    # rounded; none -> 0; a depth rounding to 0 kept as 1; too far -> 0
+    np.testing.assert_array_equal(stored, [[1234, 0, 1], [65535, 0, 0]])
+    back = io.read_depth(tmp_path / "z.png")
+    np.testing.assert_array_equal(back, np.array([[1234, np.nan, 1], [65535, np.nan, np.nan]]))
+
+
+def test_depth_png16_scale_round_trip(tmp_path):
+    # TUM RGB-D: 5000 per metre; depths in metres to 0.2 mm
+    z = np.array([[0.5, 1.2346], [12.0, 13.2]])
+    assert io.write_depth_png16(tmp_path / "z.png", z, scale=5000) == 1  # 66000 > 65535
+    back = io.read_depth(tmp_path / "z.png", scale=5000)
+    np.testing.assert_allclose(back[:, :1].ravel(), [0.5, 12.0], atol=1e-6)
+    assert back[0, 1] == pytest.approx(6173 / 5000) and np.isnan(back[1, 1])
+
+
+def test_depth_png16_refuses_and_writes_nothing(tmp_path):
+    with pytest.raises(ValueError, match="smallest depth -1 is negative"):
+        io.write_depth_png16(tmp_path / "z.png", np.array([[-1.0, 2.0]]))
+    with pytest.raises(ValueError, match="depth must be 2-D"):
+        io.write_depth_png16(tmp_path / "z.png", np.ones(3))
+    with pytest.raises(ValueError, match="scale must be a positive finite number"):
+        io.write_depth_png16(tmp_path / "z.png", np.ones((2, 2)), scale=0)
+    with pytest.raises(TypeError, match="depth must hold real numbers"):
+        io.write_depth_png16(tmp_path / "z.png", np.ones((2, 2), complex))
+    assert _listing(tmp_path) == []
+
+
+def test_write_depth_dispatch(tmp_path):
+    z = np.array([[1500.25, np.nan], [2.0, 7.75]], dtype=np.float32)
+    assert io.write_depth(tmp_path / "z.pfm", z) == 0
+    assert io.write_depth(tmp_path / "z.PNG", z) == 0
+    assert io.write_depth(tmp_path / "z4.png", z, scale=4) == 0
+    np.testing.assert_array_equal(io.read_depth(tmp_path / "z.pfm"), z)
+    np.testing.assert_array_equal(io.read_depth(tmp_path / "z.PNG"), np.rint(z))
+    np.testing.assert_array_equal(io.read_depth(tmp_path / "z4.png", scale=4), z)
+    with pytest.raises(ValueError, match=r"cannot write depth '.*z\.tif': unsupported suffix "
+                       r"'\.tif', use one of \.pfm, \.png"):  # fmt: skip
+        io.write_depth(tmp_path / "z.tif", z)
+    with pytest.raises(TypeError, match="a scale for a .png file only"):
+        io.write_depth(tmp_path / "y.pfm", z, scale=1000)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["z.PNG", "z.pfm", "z4.png"]
+
+
+def test_check_suffix_one_or_several(tmp_path):
+    io.check_suffix("a.PLY", ".ply", "--ply")
+    io.check_suffix("a.png", (".pfm", ".png"), "--depth-out")
+    with pytest.raises(ValueError, match=r"cannot write --ply 'a.txt': unsupported suffix "
+                       r"'\.txt', use \.ply$"):  # fmt: skip
+        io.check_suffix("a.txt", ".ply", "--ply")
+    with pytest.raises(ValueError, match=r"use one of \.pfm, \.png$"):
+        io.check_suffix("a", (".pfm", ".png"), "--depth-out")
+
+
 # --- read_disparity from 8-bit images -----------------------------------------------
 
 

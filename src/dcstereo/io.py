@@ -7,6 +7,11 @@ Disparity files follow two conventions:
   there is no estimate.
 
 In memory a disparity map is float32 (H, W) with NaN where there is no estimate.
+
+Depth maps (:mod:`dcstereo.geometry`) are written the same two ways: PFM (float32, in the
+baseline's unit, ``+inf`` where there is no depth) or 16-bit PNG (``round(z * scale)``,
+``scale=1`` by default: millimetres for a baseline in millimetres, the RGB-D convention;
+``0`` where there is no depth).
 """
 
 import glob
@@ -371,27 +376,53 @@ def read_disparity(path: str | os.PathLike, *, scale: float | None = None) -> np
     ndarray of float32, shape (H, W)
         Disparity in pixels, NaN where there is no estimate.
     """
+    return _read_map(path, scale, "disparity")
+
+
+def read_depth(path: str | os.PathLike, *, scale: float = 1.0) -> np.ndarray:
+    """Read a depth map written by :func:`write_depth` (PFM, or 16-bit PNG).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        PFM file (depth, ``inf`` = none) or 16-bit gray PNG (``value / scale``, ``0`` =
+        none).
+    scale : float
+        Stored value per unit of depth for a PNG (1: the PNG holds the depth in the
+        baseline's unit, millimetres for Middlebury; TUM RGB-D uses 5000 per metre).
+        A PFM's values are divided by it too.
+
+    Returns
+    -------
+    ndarray of float32, shape (H, W)
+        Depth, NaN where there is none.
+    """
+    return _read_map(path, _check_scale(scale), "depth")
+
+
+def _read_map(path, scale: float | None, what: str) -> np.ndarray:
+    """Read a one-channel map: PFM (``inf`` = none) or integer image (``0`` = none)."""
     if scale is not None:
         scale = _check_scale(scale)
     stored = read_image(path)
     if stored.ndim != 2:
         raise ValueError(
-            f"cannot read disparity '{path}': it is a colour image, a disparity map must "
+            f"cannot read {what} '{path}': it is a colour image, a {what} map must "
             "have a single channel"
         )
     if stored.dtype == np.float32:
-        disparity = np.where(np.isfinite(stored), stored, np.float32(np.nan))
-        return (disparity / np.float32(scale or 1.0)).astype(np.float32)
+        values = np.where(np.isfinite(stored), stored, np.float32(np.nan))
+        return (values / np.float32(scale or 1.0)).astype(np.float32)
     if stored.dtype == np.uint8 and scale is None:
         raise ValueError(
-            f"cannot read disparity '{path}': an 8-bit disparity image needs a scale "
-            "(stored value per pixel of disparity: scale=, or dcstereo eval --scale)"
+            f"cannot read {what} '{path}': an 8-bit {what} image needs a scale "
+            f"(stored value per pixel of {what}: scale=, or dcstereo eval --scale)"
         )
     if scale is None:
         scale = 256.0
-    disparity = stored.astype(np.float32) / np.float32(scale)
-    disparity[stored == 0] = np.nan
-    return disparity
+    values = stored.astype(np.float32) / np.float32(scale)
+    values[stored == 0] = np.nan
+    return values
 
 
 def write_disparity_png16(
@@ -440,14 +471,87 @@ def write_disparity_png16(
         Image.fromarray(stored).save(tmp, format="PNG")
 
 
+def write_depth_png16(path: str | os.PathLike, depth: np.ndarray, *, scale: float = 1.0) -> int:
+    """Write a depth map as a 16-bit PNG, the RGB-D convention, atomically.
+
+    The stored value is ``round(depth * scale)``; ``0`` means "no depth" and is written
+    for every non-finite pixel. With the default scale 1 the PNG holds the depth in the
+    baseline's unit: millimetres for a baseline in millimetres (Middlebury, depth
+    cameras, Open3D's default ``depth_scale`` of 1000 per metre); TUM RGB-D stores 5000
+    per metre. A depth that would round to 0 is stored as ``1``. A depth beyond the
+    16 bits (``65535 / scale``: 65.5 m at 1 per millimetre) cannot be stored: it is
+    written as ``0``, "no depth", and counted in the return value.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file (usually ``.png``).
+    depth : ndarray, shape (H, W)
+        Depth, ``>= 0``, NaN where there is none (:func:`dcstereo.geometry.depth`).
+    scale : float
+        Stored value per unit of depth.
+
+    Returns
+    -------
+    int
+        The pixels with a depth too far for 16 bits, written as "no depth".
+
+    Raises
+    ------
+    ValueError
+        If a depth is negative; nothing is written.
+    """
+    scale = _check_scale(scale)
+    z = _as_real_array(depth, "depth")
+    if z.ndim != 2:
+        raise ValueError(f"depth must be 2-D (H, W), got shape {z.shape}")
+    _check_not_empty(z, "depth")
+    z = z.astype(np.float64)
+    finite = np.isfinite(z)
+    if finite.any() and z[finite].min() < 0:
+        raise ValueError(
+            f"cannot write '{path}': smallest depth {z[finite].min():g} is negative and a "
+            "16-bit PNG stores 0 or more"
+        )
+    stored = np.rint(np.where(finite, z, 0.0) * scale)
+    far = finite & (stored > _PNG16_MAX)
+    stored = np.where(finite & ~far, np.maximum(stored, 1), 0).astype(np.uint16)
+    with atomic_write(path) as tmp:
+        Image.fromarray(stored).save(tmp, format="PNG")
+    return int(far.sum())
+
+
+def write_depth(path: str | os.PathLike, depth: np.ndarray, *, scale: float | None = None) -> int:
+    """Write a depth map in the format given by the file suffix, atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        ``.pfm`` (:func:`write_pfm`: float32 depth, ``inf`` = none) or ``.png``
+        (:func:`write_depth_png16`: 16-bit, ``round(depth * scale)``, ``0`` = none).
+    depth : ndarray, shape (H, W)
+        Depth, NaN where there is none.
+    scale : float, optional
+        For ``.png`` only: stored value per unit of depth (default 1).
+
+    Returns
+    -------
+    int
+        Pixels with a depth the file could not hold, written as "no depth" (a PNG's
+        beyond ``65535 / scale``; always 0 for PFM).
+    """
+    check_suffix(path, _DISPARITY_SUFFIXES, "depth")
+    if Path(path).suffix.lower() == ".png":
+        return write_depth_png16(path, depth, scale=1.0 if scale is None else scale)
+    if scale is not None:
+        raise TypeError("write_depth takes a scale for a .png file only, not for .pfm")
+    write_pfm(path, depth)
+    return 0
+
+
 def check_disparity_suffix(path: str | os.PathLike) -> None:
     """Raise ``ValueError`` unless ``path`` has a suffix :func:`write_disparity` knows."""
-    suffix = Path(path).suffix.lower()
-    if suffix not in _DISPARITY_SUFFIXES:
-        raise ValueError(
-            f"cannot write disparity '{path}': unsupported suffix '{suffix}', use one of "
-            f"{', '.join(_DISPARITY_SUFFIXES)}"
-        )
+    check_suffix(path, _DISPARITY_SUFFIXES, "disparity")
 
 
 def check_png_suffix(path: str | os.PathLike, what: str = "picture") -> None:
@@ -459,16 +563,16 @@ def check_png_suffix(path: str | os.PathLike, what: str = "picture") -> None:
     check_suffix(path, ".png", what)
 
 
-def check_suffix(path: str | os.PathLike, suffix: str, what: str) -> None:
-    """Raise ``ValueError`` unless ``path`` ends in ``suffix`` (any case).
+def check_suffix(path: str | os.PathLike, suffix: str | tuple[str, ...], what: str) -> None:
+    """Raise ``ValueError`` unless ``path`` ends in ``suffix`` (any case), or one of them.
 
     ``what`` names the file in the message (a CLI option).
     """
+    allowed = (suffix,) if isinstance(suffix, str) else suffix
     found = Path(path).suffix.lower()
-    if found != suffix:
-        raise ValueError(
-            f"cannot write {what} '{path}': unsupported suffix '{found}', use {suffix}"
-        )
+    if found not in allowed:
+        use = allowed[0] if len(allowed) == 1 else "one of " + ", ".join(allowed)
+        raise ValueError(f"cannot write {what} '{path}': unsupported suffix '{found}', use {use}")
 
 
 def write_ply(path: str | os.PathLike, points: np.ndarray, colors: np.ndarray | None = None):

@@ -85,9 +85,10 @@ def staged_outputs():
 
     Yields ``write(writer, path, *args, **kwargs)``, which calls ``writer(temporary,
     *args, **kwargs)`` with a hidden temporary file next to ``path`` (see
-    :func:`dcstereo.io.atomic_write`). When the block ends without an error, every
-    temporary file is renamed onto its path; on any error all of them are removed, so a
-    failed command leaves no partial set of outputs and pre-existing files untouched.
+    :func:`dcstereo.io.atomic_write`) and returns what the writer returns. When the block
+    ends without an error, every temporary file is renamed onto its path; on any error all
+    of them are removed, so a failed command leaves no partial set of outputs and
+    pre-existing files untouched.
     """
     from .. import io
 
@@ -96,7 +97,7 @@ def staged_outputs():
         def write(writer, path, *args, **kwargs):
             temporary = stack.enter_context(io.atomic_write(path))
             try:
-                writer(temporary, *args, **kwargs)
+                return writer(temporary, *args, **kwargs)
             except (ValueError, TypeError, OSError) as exc:
                 # the writer's message names the temporary file; the user knows the output
                 raise ValueError(str(exc).replace(str(temporary), str(path))) from None

@@ -1,6 +1,7 @@
 """``dcstereo run``: match one rectified pair and write the disparity and its companions."""
 
 import functools
+import math
 import time
 
 import click
@@ -61,8 +62,15 @@ from ._common import (
     "--depth-out",
     type=click.Path(dir_okay=False),
     default=None,
-    help="Write the depth map (PFM, float32, in the baseline's unit, inf = no estimate); "
-    "needs a calibration.",
+    help="Write the depth map: .pfm (float32, in the baseline's unit, inf = no depth) or "
+    ".png (16-bit, depth * --depth-scale, 0 = no depth); needs a calibration.",
+)
+@click.option(
+    "--depth-scale",
+    type=float,
+    default=None,
+    help="Stored value per unit of depth in a .png --depth-out (default 1: millimetres "
+    "for a baseline in mm; 1000 for a baseline in metres).",
 )
 @click.option(
     "--ply",
@@ -96,6 +104,7 @@ def run(
     features_out,
     draw_features,
     depth_out,
+    depth_scale,
     ply_out,
     calibration,
     tile_rows,
@@ -137,7 +146,12 @@ def run(
     if preview is not None:
         io.check_png_suffix(preview, "--preview")
     if depth_out is not None:
-        io.check_suffix(depth_out, ".pfm", "--depth-out")
+        io.check_suffix(depth_out, (".pfm", ".png"), "--depth-out")
+    if depth_scale is not None:
+        if depth_out is None or not depth_out.lower().endswith(".png"):
+            raise ValueError("--depth-scale is used only with a .png --depth-out")
+        if not (depth_scale > 0 and math.isfinite(depth_scale)):
+            raise ValueError(f"--depth-scale must be a positive number, got {depth_scale:g}")
     if ply_out is not None:
         io.check_suffix(ply_out, ".ply", "--ply")
     set_threads(threads)
@@ -176,7 +190,8 @@ def run(
         if features_out is not None:
             write(io.write_features_csv, features_out, result.features)
         if depth_out is not None:
-            write(io.write_pfm, depth_out, depth(result.disparity, camera))
+            too_far = write(io.write_depth, depth_out, depth(result.disparity, camera),
+                            scale=depth_scale)  # fmt: skip
         if ply_out is not None:
             colors = left_image if left_image.dtype.kind == "u" else None
             cloud = point_cloud(result.disparity, camera, colors)
@@ -188,5 +203,7 @@ def run(
             f"{method}: {width}x{height}, disparities {min_disparity}..{max_disparity}, "
             f"{seconds * 1000:.0f} ms, {valid:.1f} % with an estimate -> {output}"
         )
+        if depth_out is not None and too_far:
+            click.echo(f"{too_far} pixels too far for 16 bits left out of {depth_out}")
         if ply_out is not None:
             click.echo(f"{len(cloud)} points -> {ply_out}")
