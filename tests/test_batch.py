@@ -15,12 +15,14 @@ from dcstereo import io, match
 from dcstereo.batch import (
     FAILURES_FILE,
     Pair,
+    depth_path,
     find_pairs,
     output_path,
     read_failures,
     run_batch,
 )
 from dcstereo.cli import main
+from dcstereo.geometry import Calibration, depth
 from dcstereo.synthetic import synthetic_sequence
 
 distributed = pytest.importorskip("distributed")
@@ -390,3 +392,135 @@ def test_cli_refused_resume_prints_one_line_and_no_bar(pairs_dir, tmp_path):
         f"Error: '{tmp_path / 'o'}' holds outputs made with other options: max_disparity 8 "
         "(now 9); use --no-resume (resume=False) to recompute, or another folder"
     ]
+
+
+# --------------------------------------------------------------------------- depth
+
+CALIB_A = "cam0=[300 0 23.5; 0 300 15.5; 0 0 1]\nbaseline=80\n"
+CALIB_B = "cam0=[500 0 20; 0 500 16; 0 0 1]\nbaseline=120\ndoffs=2\n"
+
+
+@pytest.fixture
+def calib_pairs(tmp_path):
+    """Three Middlebury-style pair folders: two with their own calib.txt, one without."""
+    root = write_pairs(tmp_path / "pairs", synthetic_sequence(3, height=32, width=48, seed=5),
+                       middlebury=True)  # fmt: skip
+    (root / "pair00" / "calib.txt").write_text(CALIB_A)
+    (root / "pair01" / "calib.txt").write_text(CALIB_B)
+    return root
+
+
+def expected_depth(pair: Pair, calibration: Calibration, **kwargs) -> np.ndarray:
+    result = match(io.read_image(pair.left), io.read_image(pair.right), **kwargs)
+    # what the PFM holds: float32, inf where there is no depth
+    return np.nan_to_num(depth(result.disparity, calibration), nan=np.inf)
+
+
+def test_batch_depth_from_each_pair_folders_calib(calib_pairs, tmp_path):
+    pairs = find_pairs(calib_pairs)
+    assert [p.calib for p in pairs] == [
+        calib_pairs / "pair00" / "calib.txt", calib_pairs / "pair01" / "calib.txt", None
+    ]  # fmt: skip
+    out = tmp_path / "out"
+    report = run_batch(pairs, out, max_disparity=8, depth=True)
+    assert report.done == ["pair00", "pair01"]
+    (failed,) = report.failed
+    assert failed.pair.name == "pair02" and failed.message == (
+        "pair 'pair02' has no calib.txt for its depth (give one calibration for all pairs: "
+        "calibration=, or batch --calib)"
+    )
+    for pair, baseline in zip(pairs[:2], (80, 120), strict=True):
+        calib = Calibration.from_middlebury(pair.calib)
+        assert calib.baseline == baseline  # each pair's own file
+        z = io.read_pfm(depth_path(out, pair))
+        np.testing.assert_array_equal(z, expected_depth(pair, calib, max_disparity=8))
+        assert np.isfinite(z).mean() > 0.5
+    assert not depth_path(out, pairs[2]).exists() and not output_path(out, pairs[2]).exists()
+    # resume: complete only when both files are; a missing depth map redoes its pair
+    depth_path(out, pairs[0]).unlink()
+    again = run_batch(pairs, out, max_disparity=8, depth=True)
+    assert again.done == ["pair00"] and again.skipped == ["pair01"]
+    assert depth_path(out, pairs[0]).is_file()
+    # a calib.txt that cannot be read fails its pair only, before matching
+    (calib_pairs / "pair01" / "calib.txt").write_text("baseline=80\n")
+    bad = run_batch(pairs, tmp_path / "bad", max_disparity=8, depth=True)
+    assert bad.done == ["pair00"]
+    assert [o.pair.name for o in bad.failed] == ["pair01", "pair02"]
+    assert "cam0" in bad.failed[0].message
+    assert not output_path(tmp_path / "bad", pairs[1]).exists()
+
+
+def test_batch_depth_with_one_calibration_for_all(calib_pairs, tmp_path):
+    pairs = find_pairs(calib_pairs)
+    calib = Calibration(focal=400, baseline=50, cx=20, cy=12)
+    out = tmp_path / "out"
+    report = run_batch(pairs, out, max_disparity=8, depth=True, calibration=calib)
+    assert report.ok and report.done == ["pair00", "pair01", "pair02"]
+    for pair in pairs:  # the pair folders' own calib.txt are not used
+        np.testing.assert_array_equal(
+            io.read_pfm(depth_path(out, pair)), expected_depth(pair, calib, max_disparity=8)
+        )
+    # the calibration is one of the recorded options: resuming with another is refused
+    with pytest.raises(ValueError, match="holds outputs made with other options: depth"):
+        run_batch(pairs, out, max_disparity=8, depth=True)
+    # and resuming without depth over them is too (they were made with it)
+    with pytest.raises(ValueError, match="other options: depth"):
+        run_batch(pairs, out, max_disparity=8)
+
+
+def test_batch_depth_on_dask_equals_serial(calib_pairs, tmp_path, dask_client):
+    pairs = find_pairs(calib_pairs)
+    serial = run_batch(pairs, tmp_path / "serial", max_disparity=8, depth=True)
+    parallel = run_batch(pairs, tmp_path / "dask", max_disparity=8, depth=True,
+                         client=dask_client)  # fmt: skip
+    assert serial.done == parallel.done == ["pair00", "pair01"]
+    for pair in pairs[:2]:
+        for where in (output_path, depth_path):
+            a, b = where(tmp_path / "serial", pair), where(tmp_path / "dask", pair)
+            assert a.read_bytes() == b.read_bytes()
+
+
+@pytest.mark.parametrize(
+    "options, error, message",
+    [
+        ({"calibration": Calibration(1, 1, 0, 0)}, ValueError,
+         "calibration is used only with depth=True"),
+        ({"depth": True, "calibration": {"focal": 1}}, TypeError,
+         "calibration must be a Calibration or None, got dict"),
+        ({"depth": "yes"}, TypeError, "depth must be a bool, got 'yes'"),
+    ],
+)  # fmt: skip
+def test_batch_depth_options_are_checked_first(calib_pairs, tmp_path, options, error, message):
+    with pytest.raises(error, match=message):
+        run_batch(find_pairs(calib_pairs), tmp_path / "out", max_disparity=8, **options)
+    assert not (tmp_path / "out").exists()
+
+
+def test_cli_batch_depth(calib_pairs, tmp_path):
+    out = tmp_path / "out"
+    (tmp_path / "all.txt").write_text(CALIB_B)
+    args = ["batch", str(calib_pairs), "-o", str(out), "--max-disparity", "8", "-q"]
+    result = CliRunner().invoke(main, [*args, "--depth", "--calib", str(tmp_path / "all.txt")])
+    assert result.exit_code == 0, result.output
+    calib = Calibration.from_middlebury(tmp_path / "all.txt")
+    for pair in find_pairs(calib_pairs):
+        np.testing.assert_array_equal(
+            io.read_pfm(out / "depth" / f"{pair.name}.pfm"),
+            expected_depth(pair, calib, max_disparity=8),
+        )
+    # each pair folder's own: pair02 has none and fails, the others are written
+    result = CliRunner().invoke(main, [*args[:3], str(tmp_path / "own"), *args[4:], "--depth"])
+    assert result.exit_code == 1
+    assert "failed: pair02: pair 'pair02' has no calib.txt for its depth" in result.output
+    assert sorted(p.name for p in (tmp_path / "own" / "depth").iterdir()) == [
+        "pair00.pfm", "pair01.pfm"
+    ]  # fmt: skip
+    # --calib without --depth, and a calib file that cannot be read: one line, no folder
+    for extra, message in (
+        (["--calib", str(tmp_path / "all.txt")], "--calib is used only with --depth"),
+        (["--depth", "--calib", str(tmp_path / "none.txt")], "none.txt: file does not exist"),
+    ):
+        result = CliRunner().invoke(main, [*args[:3], str(tmp_path / "x"), *args[4:], *extra])
+        lines = result.output.strip().splitlines()
+        assert result.exit_code == 1 and len(lines) == 1 and message in lines[0], lines
+        assert not (tmp_path / "x").exists()

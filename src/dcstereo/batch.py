@@ -6,6 +6,9 @@
   are skipped, the rest, a file damaged after it was written included, are redone.
 * A pair that fails (unreadable image, sizes that differ, a bad range for its size) is
   recorded with its reason, the others go on, and ``failures.csv`` lists them.
+* With ``depth=True`` each pair's depth map is written too, ``depth/<name>.pfm``, from
+  one calibration for all pairs or from the ``calib.txt`` in each pair folder (the
+  Middlebury 2014 layout); a pair is complete when both of its files are.
 * On Dask there is one task per pair; a task lost with its worker is run again
   elsewhere (``retries``), and numba uses one thread inside each task so the worker's
   cores are not oversubscribed. The library never starts a cluster: pass a
@@ -24,9 +27,10 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
-from . import io
+from . import geometry, io
 from ._checks import is_integer
 from .api import match
+from .geometry import Calibration
 from .params import MatchParams
 
 #: Image names a pair folder may use, in the order they are tried.
@@ -35,6 +39,10 @@ PAIR_NAMES = (("left", "right"), ("im0", "im1"))
 FAILURES_FILE = "failures.csv"
 #: The file (in the output folder) recording the options the outputs were made with.
 OPTIONS_FILE = "batch.json"
+#: The folder (in the output folder) of the depth maps, ``<name>.pfm`` each.
+DEPTH_FOLDER = "depth"
+#: A pair folder's calibration file (Middlebury 2014's name and format).
+CALIB_NAME = "calib.txt"
 #: Longest pair name, in bytes of UTF-8: the temporary name of its output
 #: (:data:`dcstereo.io.TEMPORARY_NAME_EXTRA` more than ``<name>.pfm``) must fit the 255
 #: bytes file systems allow a name.
@@ -54,12 +62,15 @@ class Pair:
         with ``problem`` as its reason).
     problem : str or None
         Why the pair cannot be run, found while listing it.
+    calib : Path or None
+        The pair's calibration file (``calib.txt`` in its folder), for ``depth=True``.
     """
 
     name: str
     left: Path | None
     right: Path | None
     problem: str | None = None
+    calib: Path | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -124,7 +135,8 @@ def find_pairs(source: str | os.PathLike) -> list[Pair]:
         defaults to the left image's stem, or ``<folder>-<stem>`` when stems repeat, or
         the folder's name when the stem is ``left`` or ``im0``), or
         a folder holding one folder per pair, named after the pair, with ``left.*`` and
-        ``right.*`` or Middlebury's ``im0.*`` and ``im1.*``.
+        ``right.*`` or Middlebury's ``im0.*`` and ``im1.*`` (and, if there is one, its
+        ``calib.txt``: the pair's :attr:`Pair.calib`).
 
     Returns
     -------
@@ -167,7 +179,8 @@ def _pairs_from_folder(folder: Path) -> list[Pair]:
         if found is None and problem is None:
             problem = f"folder '{sub}' holds neither left.*/right.* nor im0.*/im1.*"
         left, right = found if found else (None, None)
-        pairs.append(Pair(sub.name, left, right, problem))
+        calib = sub / CALIB_NAME
+        pairs.append(Pair(sub.name, left, right, problem, calib if calib.is_file() else None))
     if not pairs:
         raise ValueError(f"folder '{folder}' holds no pair folders")
     return pairs
@@ -232,6 +245,11 @@ def output_path(output_dir: str | os.PathLike, pair: Pair) -> Path:
     return Path(output_dir) / f"{pair.name}.pfm"
 
 
+def depth_path(output_dir: str | os.PathLike, pair: Pair) -> Path:
+    """Return where :func:`run_batch` writes the depth of ``pair`` (``depth/<name>.pfm``)."""
+    return Path(output_dir) / DEPTH_FOLDER / f"{pair.name}.pfm"
+
+
 def run_batch(
     pairs: Iterable[Pair],
     output_dir: str | os.PathLike,
@@ -242,6 +260,8 @@ def run_batch(
     retries: int = 2,
     threads: int | None = None,
     on_outcome: Callable[[PairOutcome], None] | None = None,
+    depth: bool = False,
+    calibration: Calibration | None = None,
     **options,
 ) -> BatchReport:
     """Match every pair and write ``<name>.pfm`` into ``output_dir``, atomically.
@@ -272,6 +292,14 @@ def run_batch(
         count is restored after each pair.
     on_outcome : callable, optional
         Called with each :class:`PairOutcome` as it is known (for progress bars).
+    depth : bool
+        Also write each pair's depth map (:func:`dcstereo.geometry.depth`, PFM, in the
+        baseline's unit, ``inf`` = none) to ``depth/<name>.pfm``. A pair is then complete
+        (skipped on resume) only when both files are, and a pair without a calibration
+        fails, reported with the others.
+    calibration : Calibration, optional
+        With ``depth``: the geometry of every pair. None: each pair's own ``calib.txt``
+        (:attr:`Pair.calib`, read by :meth:`Calibration.from_middlebury`).
     **options
         The other options of :func:`dcstereo.match` (``min_disparity``, ``method``,
         ``window``...).
@@ -300,8 +328,23 @@ def run_batch(
         raise ValueError(f"retries must be an integer 0 or more, got {retries!r}")
     params = MatchParams(max_disparity=max_disparity, **options)  # refuse bad options now
     match_kwargs = {"max_disparity": max_disparity, **options}
+    recorded = dataclasses.asdict(params)
+    if calibration is not None and not isinstance(calibration, Calibration):
+        raise TypeError(
+            f"calibration must be a Calibration or None, got {type(calibration).__name__}"
+        )
+    if not isinstance(depth, bool):
+        raise TypeError(f"depth must be a bool, got {depth!r}")
+    if calibration is not None and not depth:
+        raise ValueError("calibration is used only with depth=True")
+    if depth:  # recorded only when on: an older batch.json (no depth) still resumes
+        recorded["depth"] = (
+            f"each pair's {CALIB_NAME}" if calibration is None else dataclasses.asdict(calibration)
+        )
     make_output_folder(folder)
-    check_recorded_options(folder, dataclasses.asdict(params), resume)
+    check_recorded_options(folder, recorded, resume)
+    if depth:
+        make_output_folder(folder / DEPTH_FOLDER)
     report = BatchReport()
     by_name: dict[str, PairOutcome] = {}
 
@@ -311,19 +354,29 @@ def run_batch(
             on_outcome(outcome)
 
     todo = []
+    cameras = {}
     for pair in pairs:
-        _remove_stale_temporaries(folder, pair)
-        if pair.problem is not None:
-            record(PairOutcome(pair, "failed", pair.problem))
-        elif resume and io.is_complete(output_path(folder, pair)):
+        outputs = _outputs(folder, pair, depth)
+        for path in outputs:
+            _remove_stale_temporaries(path)
+        problem = pair.problem
+        if problem is None and depth:
+            cameras[pair.name], problem = _camera(pair, calibration)
+        if problem is not None:
+            record(PairOutcome(pair, "failed", problem))
+        elif resume and all(io.is_complete(path) for path in outputs):
             record(PairOutcome(pair, "skipped"))
         else:
             todo.append(pair)
+
+    def finish(pair, answer):
+        record(_finish(folder, pair, answer, cameras.get(pair.name)))
+
     if client is None:
         for pair in todo:
-            record(_finish(folder, pair, match_pair(pair, match_kwargs, threads)))
+            finish(pair, match_pair(pair, match_kwargs, threads))
     else:
-        _run_on_dask(client, folder, todo, match_kwargs, retries, threads, record)
+        _run_on_dask(client, todo, match_kwargs, retries, threads, finish)
     report.outcomes = [by_name[p.name] for p in pairs]
     write_failures(
         folder,
@@ -392,15 +445,37 @@ def numba_threads(threads: int | None):
         numba.set_num_threads(previous)
 
 
-def _finish(folder: Path, pair: Pair, answer) -> PairOutcome:
+def _outputs(folder: Path, pair: Pair, depth: bool) -> list[Path]:
+    """Return the files :func:`run_batch` writes for ``pair``."""
+    return [output_path(folder, pair)] + ([depth_path(folder, pair)] if depth else [])
+
+
+def _camera(pair: Pair, calibration: Calibration | None):
+    """Return ``(Calibration, None)`` for ``pair``'s depth, or ``(None, reason)``."""
+    if calibration is not None:
+        return calibration, None
+    if pair.calib is None:
+        return None, (
+            f"pair '{pair.name}' has no {CALIB_NAME} for its depth (give one calibration "
+            "for all pairs: calibration=, or batch --calib)"
+        )
+    try:
+        return Calibration.from_middlebury(pair.calib), None
+    except (ValueError, TypeError) as exc:
+        return None, str(exc).strip().splitlines()[0]
+
+
+def _finish(folder: Path, pair: Pair, answer, camera: Calibration | None) -> PairOutcome:
     disparity, detail = answer
     if disparity is None:
         return PairOutcome(pair, "failed", detail)
+    if camera is not None:  # the depth first: the disparity file says the pair is done
+        io.write_pfm(depth_path(folder, pair), geometry.depth(disparity, camera))
     io.write_disparity(output_path(folder, pair), disparity)
     return PairOutcome(pair, "done", seconds=detail)
 
 
-def _run_on_dask(client, folder, pairs, match_kwargs, retries, threads, record):
+def _run_on_dask(client, pairs, match_kwargs, retries, threads, finish):
     from distributed import as_completed
 
     futures = {}
@@ -420,7 +495,7 @@ def _run_on_dask(client, folder, pairs, match_kwargs, retries, threads, record):
             answer = future.result()
         except Exception as exc:  # the task failed for good (KilledWorker, ...)
             answer = (None, f"task failed on the cluster: {type(exc).__name__}: {exc}")
-        record(_finish(folder, pair, answer))
+        finish(pair, answer)
         future.release()
 
 
@@ -473,9 +548,9 @@ def check_recorded_options(
         tmp.write_text(json.dumps(current, sort_keys=True, indent=1) + "\n", encoding="utf-8")
 
 
-def _remove_stale_temporaries(folder: Path, pair: Pair) -> None:
-    """Remove what a killed run left half-written for this pair (never a real output)."""
-    for tmp in io.stale_temporaries(output_path(folder, pair)):
+def _remove_stale_temporaries(path: Path) -> None:
+    """Remove what a killed run left half-written of ``path`` (never a real output)."""
+    for tmp in io.stale_temporaries(path):
         tmp.unlink(missing_ok=True)
 
 

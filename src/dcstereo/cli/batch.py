@@ -151,6 +151,18 @@ def advancer(bar, description: str, total: int):
     show_default=True,
     help="Dask: times a task that failed unexpectedly is run again.",
 )
+@click.option(
+    "--depth",
+    is_flag=True,
+    help="Also write each pair's depth map, OUTPUT/depth/<name>.pfm (float32, in the "
+    "baseline's unit, inf = none), from --calib or from the calib.txt in each pair folder.",
+)
+@click.option(
+    "--calib",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="With --depth: one calibration for every pair (Middlebury's calib.txt format).",
+)
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar; print only failures.")
 @one_line_errors
 def batch(
@@ -163,19 +175,25 @@ def batch(
     scheduler,
     resume,
     retries,
+    depth,
+    calib,
     quiet,
 ):
     """Match every pair of SOURCE and write OUTPUT/<name>.pfm for each.
 
     SOURCE is a CSV file of left,right[,name] rows (paths relative to the CSV), or a
     folder with one folder per pair holding left.* and right.* (or Middlebury's im0.*
-    and im1.*). A pair that fails is reported (and listed in OUTPUT/failures.csv) while
-    the others go on; the exit code is 1 when any pair failed.
+    and im1.*, and calib.txt for --depth). A pair that fails is reported (and listed in
+    OUTPUT/failures.csv) while the others go on; the exit code is 1 when any pair failed.
     """
     from ..batch import FAILURES_FILE, find_pairs, run_batch
+    from ..geometry import Calibration
     from ..params import MatchParams
 
     folder = output_folder(output)
+    if calib is not None and not depth:
+        raise CommandError("--calib is used only with --depth")
+    calibration = None if calib is None else Calibration.from_middlebury(calib)
     pairs = find_pairs(source)
     # Refuse bad options before a cluster starts; run_batch makes the folder once valid.
     MatchParams(max_disparity=max_disparity, min_disparity=min_disparity, **match_options)
@@ -190,6 +208,8 @@ def batch(
             retries=retries,
             threads=threads if scheduler is not None else None,
             on_outcome=advancer(bar, "batch", len(pairs)),
+            depth=depth,
+            calibration=calibration,
             min_disparity=min_disparity,
             **match_options,
         )
