@@ -10,8 +10,15 @@ from click.testing import CliRunner
 from dcstereo import io, match
 from dcstereo.batch import read_failures
 from dcstereo.cli import main
+from dcstereo.geometry import Calibration, depth
 from dcstereo.synthetic import synthetic_sequence
-from dcstereo.video import match_sequence, open_sequence, read_video, write_video
+from dcstereo.video import (
+    depth_output_path,
+    match_sequence,
+    open_sequence,
+    read_video,
+    write_video,
+)
 
 MAX_DISPARITY = 16
 N_FRAMES = 5
@@ -258,3 +265,46 @@ def test_preview_video_may_go_into_the_output_folder_it_creates(sources, tmp_pat
     assert len(list(read_video(movie))) == N_FRAMES
     result = run_video(sources / "sbs.mp4", "-o", out, "--preview-video", out / "x" / "p.mp4")
     assert result.exit_code == 1 and "does not exist" in result.output
+
+
+# --------------------------------------------------------------------------- depth
+
+RIG = "cam0=[200 0 47.5; 0 200 31.5; 0 0 1]\nbaseline=60\ndoffs=1\n"
+
+
+def test_cli_video_depth_per_frame(sources, frames, tmp_path):
+    (tmp_path / "calib.txt").write_text(RIG)
+    calib = Calibration.from_middlebury(tmp_path / "calib.txt")
+    out = tmp_path / "out"
+    result = run_video(sources / "left", sources / "right", "-o", out, "--calib",
+                       tmp_path / "calib.txt")  # fmt: skip
+    assert result.exit_code == 0, result.output
+    for i, frame in enumerate(frames):
+        z = io.read_pfm(depth_output_path(out, i))
+        assert z.shape == frame.left.shape[:2] and np.isfinite(z).mean() > 0.5
+        np.testing.assert_array_equal(z, np.nan_to_num(depth(reference(frame), calib), nan=np.inf))
+    assert json.loads((out / "batch.json").read_text())["depth"]["baseline"] == 60
+    # a frame is complete only with its depth map; resuming without the calibration,
+    # or with another, is refused
+    depth_output_path(out, 3).unlink()
+    again = run_video(sources / "left", sources / "right", "-o", out, "--calib",
+                      tmp_path / "calib.txt")  # fmt: skip
+    assert again.exit_code == 0 and depth_output_path(out, 3).is_file()
+    report = match_sequence(open_sequence(sources / "left", sources / "right"), out,
+                            max_disparity=MAX_DISPARITY, calibration=calib)  # fmt: skip
+    assert report.done == [] and len(report.skipped) == N_FRAMES
+    for other in (None, Calibration(200, 61, 47.5, 31.5, doffs=1)):
+        with pytest.raises(ValueError, match="made with other options: depth"):
+            match_sequence(open_sequence(sources / "left", sources / "right"), out,
+                           max_disparity=MAX_DISPARITY, calibration=other)  # fmt: skip
+
+
+def test_video_depth_errors(sources, tmp_path):
+    with pytest.raises(TypeError, match="calibration must be a Calibration or None, got tuple"):
+        match_sequence(open_sequence(sources / "left", sources / "right"), tmp_path / "o",
+                       max_disparity=MAX_DISPARITY, calibration=(200, 60))  # fmt: skip
+    result = run_video(sources / "left", sources / "right", "-o", tmp_path / "o", "--calib",
+                       tmp_path / "missing.txt")  # fmt: skip
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == 1 and len(lines) == 1 and "missing.txt" in lines[0], lines
+    assert not (tmp_path / "o").exists()

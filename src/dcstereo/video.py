@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import io
+from . import geometry, io
 from ._checks import is_number
 from .api import match
 from .batch import (
@@ -401,6 +401,11 @@ def output_paths(output_dir: str | os.PathLike, index: int, fmt: str = "pfm"):
     return stem.with_name(f"{stem.name}.{fmt}"), stem.with_name(f"{stem.name}-preview.png")
 
 
+def depth_output_path(output_dir: str | os.PathLike, index: int) -> Path:
+    """Return the depth map's path of frame ``index`` (``frameNNNNN-depth.pfm``)."""
+    return Path(output_dir) / f"{frame_name(index)}-depth.pfm"
+
+
 def match_sequence(
     sequence: StereoSequence,
     output_dir: str | os.PathLike,
@@ -412,6 +417,7 @@ def match_sequence(
     preview_style: str = "paper",
     threads: int | None = None,
     on_frame: Callable[[str, str], None] | None = None,
+    calibration: geometry.Calibration | None = None,
     **options,
 ) -> SequenceReport:
     """Match every frame of a sequence; write its disparity and preview atomically.
@@ -445,6 +451,11 @@ def match_sequence(
         count is restored after each frame.
     on_frame : callable, optional
         Called as ``on_frame(name, status)`` (``"done"``, ``"skipped"``, ``"failed"``).
+    calibration : Calibration, optional
+        The rig's geometry: also write each frame's depth map
+        (:func:`dcstereo.geometry.depth`) as ``frameNNNNN-depth.pfm`` (float32, in the
+        baseline's unit, ``inf`` = none). A frame is then complete only when its three
+        files are; ``batch.json`` records the calibration.
     **options
         The other options of :func:`dcstereo.match`.
 
@@ -472,6 +483,10 @@ def match_sequence(
     if disparity_format not in ("pfm", "png"):
         raise ValueError(f"disparity_format must be 'pfm' or 'png', got {disparity_format!r}")
     check_preview_style(preview_style, "preview_style")
+    if calibration is not None and not isinstance(calibration, geometry.Calibration):
+        raise TypeError(
+            f"calibration must be a Calibration or None, got {type(calibration).__name__}"
+        )
     check_threads(threads, client)
     params = MatchParams(max_disparity=max_disparity, **options)
     if disparity_format == "png" and (params.min_disparity < 0 or params.max_disparity > 255):
@@ -481,6 +496,8 @@ def match_sequence(
         )
     make_output_folder(folder)
     written = {"disparity_format": disparity_format, "preview_style": preview_style}
+    if calibration is not None:  # recorded only when given: older folders still resume
+        written["depth"] = dataclasses.asdict(calibration)
     check_recorded_options(
         folder, {**dataclasses.asdict(params), **written}, resume, assumed=WRITE_OPTIONS
     )
@@ -498,6 +515,9 @@ def match_sequence(
             note(frame.name, "failed")
             return
         disparity_path, preview_path = output_paths(folder, frame.index, disparity_format)
+        if calibration is not None:
+            z = geometry.depth(disparity, calibration)
+            io.write_pfm(depth_output_path(folder, frame.index), z)
         io.write_disparity(disparity_path, disparity)
         io.write_rgb_png(preview_path, preview(disparity, occluded, style=preview_style))
         report.done.append(frame.name)
@@ -505,9 +525,10 @@ def match_sequence(
 
     def pending():
         for frame in sequence.frames():
-            if resume and all(
-                io.is_complete(p) for p in output_paths(folder, frame.index, disparity_format)
-            ):
+            outputs = list(output_paths(folder, frame.index, disparity_format))
+            if calibration is not None:
+                outputs.append(depth_output_path(folder, frame.index))
+            if resume and all(io.is_complete(p) for p in outputs):
                 report.skipped.append(frame.name)
                 note(frame.name, "skipped")
                 continue

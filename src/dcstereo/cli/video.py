@@ -49,6 +49,13 @@ from .batch import advancer, dask_client, progress_bar, scheduler_option
     default=None,
     help="Frame rate of the preview video (default: the input video's, or 10).",
 )
+@click.option(
+    "--calib",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="The rig's calibration (Middlebury's calib.txt format): also write each frame's "
+    "depth map, frameNNNNN-depth.pfm (float32, in the baseline's unit, inf = none).",
+)
 @scheduler_option
 @click.option(
     "--resume/--no-resume",
@@ -70,6 +77,7 @@ def video(
     preview_style,
     preview_video,
     fps,
+    calib,
     scheduler,
     resume,
     quiet,
@@ -82,6 +90,7 @@ def video(
     code is 1 when any frame failed.
     """
     from ..batch import FAILURES_FILE
+    from ..geometry import Calibration
     from ..params import MatchParams
     from ..video import match_sequence, open_sequence, output_paths, write_video
 
@@ -97,6 +106,7 @@ def video(
             )
     if fps is not None and not fps > 0:
         raise CommandError(f"--fps must be positive, got {fps}")
+    calibration = None if calib is None else Calibration.from_middlebury(calib)
     sequence = open_sequence(left, right)
     # Refuse bad options before a cluster starts; match_sequence makes the folder once valid.
     MatchParams(max_disparity=max_disparity, min_disparity=min_disparity, **match_options)
@@ -112,6 +122,7 @@ def video(
             preview_style=preview_style,
             threads=threads if scheduler is not None else None,
             on_frame=advancer(bar, "video", len(sequence)),
+            calibration=calibration,
             min_disparity=min_disparity,
             **match_options,
         )
