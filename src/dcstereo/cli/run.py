@@ -82,6 +82,13 @@ from ._common import (
 )
 @calibration_options
 @click.option(
+    "--subpixel",
+    type=click.Choice(["equiangular", "parabola"]),
+    default=None,
+    help="Refine each integer disparity to a fraction of a pixel by a fit through the "
+    "window costs at d - 1, d, d + 1 (dcstereo.subpixel; default: off).",
+)
+@click.option(
     "--tile-rows",
     type=int,
     default=None,
@@ -107,6 +114,7 @@ def run(
     depth_scale,
     ply_out,
     calibration,
+    subpixel,
     tile_rows,
     quiet,
 ):
@@ -170,6 +178,10 @@ def run(
         min_disparity=min_disparity,
         **match_options,
     )
+    if subpixel is not None:
+        from ..subpixel import refine_subpixel
+
+        result = refine_subpixel(result, left_image, right_image, fit=subpixel)
     seconds = time.perf_counter() - start
 
     with staged_outputs() as write:

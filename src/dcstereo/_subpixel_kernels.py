@@ -1,0 +1,68 @@
+"""Compiled kernel of ``subpixel.py``: three window costs and a fit at every pixel."""
+
+import numba as nb
+import numpy as np
+
+#: ``fit`` of ``refine_rows``.
+FIT_EQUIANGULAR = 0
+FIT_PARABOLA = 1
+
+
+@nb.njit(cache=True, inline="always")
+def _window_sad(left_p, right_p, y, x, d, radius, width):
+    """Eq. 4 at ``(y, x)`` and integer disparity ``d`` on the padded signals.
+
+    As ``_kernels.row_costs``: rows edge-replicated (the padding), the columns whose left
+    or right pixel leaves its image skipped and the sum rescaled to the full window; inf
+    when no column is left.
+    """
+    total = 0
+    used = 0
+    for s in range(-radius, radius + 1):
+        xl = x + s
+        xr = x - d + s
+        if xl < 0 or xl >= width or xr < 0 or xr >= width:
+            continue
+        used += 1
+        for t in range(2 * radius + 1):
+            total += abs(left_p[y + t, xl + radius] - right_p[y + t, xr + radius])
+    win = 2 * radius + 1
+    if used == 0:
+        return np.inf
+    if used == win:
+        return float(total)
+    return total * win / used
+
+
+@nb.njit(cache=True, parallel=True)
+def refine_rows(left_p, right_p, disparity, wanted, dmin, dmax, radius, fit, out):
+    """Write into ``out`` each wanted pixel's disparity moved by its fitted offset.
+
+    ``out`` starts as a copy of ``disparity``. A wanted pixel has an integer disparity
+    ``d`` with ``dmin < d < dmax``; with ``c0, c1, c2`` its costs at ``d - 1, d, d + 1``
+    and ``c1`` the least of them (the path does not always take a cost's minimum), the
+    offset is ``(c0 - c2) / (2 max(c0 - c1, c2 - c1))`` (``FIT_EQUIANGULAR``: two lines of
+    opposite slopes through the three points, the fit suited to absolute differences) or
+    ``(c0 - c2) / (2 (c0 - 2 c1 + c2))`` (``FIT_PARABOLA``), both within ``[-0.5, 0.5]``;
+    a flat or non-minimal triple keeps ``d``. Returns nothing; rows run in parallel.
+    """
+    height, width = disparity.shape
+    for y in nb.prange(height):
+        for x in range(width):
+            if not wanted[y, x]:
+                continue
+            d = int(disparity[y, x])
+            if d - 1 < dmin or d + 1 > dmax:
+                continue
+            c0 = _window_sad(left_p, right_p, y, x, d - 1, radius, width)
+            c1 = _window_sad(left_p, right_p, y, x, d, radius, width)
+            c2 = _window_sad(left_p, right_p, y, x, d + 1, radius, width)
+            if not (c1 <= c0 and c1 <= c2) or c2 == np.inf or c0 == np.inf:
+                continue
+            if fit == FIT_EQUIANGULAR:
+                slope = max(c0 - c1, c2 - c1)
+            else:
+                slope = c0 - 2.0 * c1 + c2
+            if slope <= 0.0:
+                continue
+            out[y, x] = np.float32(d + (c0 - c2) / (2.0 * slope))
