@@ -40,8 +40,9 @@ def versions(scene):
     return out
 
 
-def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def middlebury_scenes(argv, description):
+    """Parse ``--data`` and load the four scenes; None (the error printed) when they fail."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument(
         "--data",
         type=Path,
@@ -50,9 +51,15 @@ def main(argv=None):
     )
     args = parser.parse_args(argv)
     try:
-        scenes = [load_scene(args.data / name) for name in SCENES]
+        return [load_scene(args.data / name) for name in SCENES]
     except (OSError, ValueError) as err:
         print(f"error: {err}", file=sys.stderr)
+        return None
+
+
+def main(argv=None):
+    scenes = middlebury_scenes(argv, __doc__.splitlines()[0])
+    if scenes is None:
         return 2
     print("| scene | map | bad-0.5 nonocc | bad-1.0 nonocc | MAE nonocc (px) | refine (ms) |")
     print("| --- | --- | ---: | ---: | ---: | ---: |")

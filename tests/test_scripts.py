@@ -85,7 +85,9 @@ def test_sweep_occlusion_bad_window_fails_cleanly(tmp_path, monkeypatch, capsys,
     assert not out.exists()
 
 
-@pytest.mark.parametrize("name", ["tune_redert", "make_results", "measure_subpixel"])
+@pytest.mark.parametrize(
+    "name", ["tune_redert", "make_results", "measure_subpixel", "measure_confidence"]
+)
 def test_missing_data_fails_cleanly(name, tmp_path, monkeypatch, capsys):
     script = load(name, monkeypatch)
     argv = ["--data", str(tmp_path / "none")]

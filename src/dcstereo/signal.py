@@ -70,8 +70,13 @@ def check_image(image: np.ndarray, name: str) -> np.ndarray:
     return array
 
 
-def check_pair(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def check_pair(
+    left: np.ndarray, right: np.ndarray, matched: tuple[int, int] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Validate a stereo pair: each image as :func:`check_image`, both of the same H x W.
+
+    ``matched``: the ``(H, W)`` of a disparity map the pair is said to have given (for
+    the functions that take a result and its pair); the images must have that size.
 
     The two may differ in channel layout (gray, RGB, RGBA) and dtype: every method turns
     each image into its own intensity (:func:`intensity`, :func:`padded_signal`) before
@@ -87,6 +92,11 @@ def check_pair(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndar
     right = check_image(right, "right")
     if left.shape[:2] != right.shape[:2]:
         raise ValueError(f"left and right images differ in shape: {left.shape} vs {right.shape}")
+    if matched is not None and left.shape[:2] != tuple(matched):
+        raise ValueError(
+            f"the pair's images are {left.shape[1]}x{left.shape[0]}, the result's map "
+            f"{matched[1]}x{matched[0]}: not the pair matched"
+        )
     return left, right
 
 

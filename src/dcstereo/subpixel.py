@@ -49,12 +49,7 @@ def refine_subpixel(
         raise TypeError(f"result must be a DisparityResult, got {type(result).__name__}")
     if fit not in FITS:
         raise ValueError(f"fit must be one of {', '.join(FITS)}, got {fit!r}")
-    left, right = check_pair(left, right)
-    if left.shape[:2] != result.disparity.shape:
-        raise ValueError(
-            f"the pair's images are {left.shape[1]}x{left.shape[0]}, the result's map "
-            f"{result.disparity.shape[1]}x{result.disparity.shape[0]}: not the pair matched"
-        )
+    left, right = check_pair(left, right, result.disparity.shape)
     params = result.params
     radius = params.window // 2
     d = result.disparity

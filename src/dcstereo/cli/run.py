@@ -82,6 +82,13 @@ from ._common import (
 )
 @calibration_options
 @click.option(
+    "--confidence-out",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Write each pixel's confidence (PFM, float32 in -1..1: the margin of its "
+    "disparity's cost over the best rival two or more pixels away; inf = none).",
+)
+@click.option(
     "--subpixel",
     type=click.Choice(["equiangular", "parabola"]),
     default=None,
@@ -114,6 +121,7 @@ def run(
     depth_scale,
     ply_out,
     calibration,
+    confidence_out,
     subpixel,
     tile_rows,
     quiet,
@@ -131,7 +139,9 @@ def run(
     method = match_options["method"]
     if draw_features and preview is None:
         raise click.UsageError("--draw-features needs --preview")
-    check_output_paths(output, occlusion_out, preview, features_out, depth_out, ply_out)
+    check_output_paths(
+        output, occlusion_out, preview, features_out, depth_out, ply_out, confidence_out
+    )
     check_distinct_paths(
         {"the left input": left, "the right input": right, "--calib": calibration["calib"]},
         {
@@ -141,6 +151,7 @@ def run(
             "--features-out": features_out,
             "--depth-out": depth_out,
             "--ply": ply_out,
+            "--confidence-out": confidence_out,
         },
     )
     if (features_out is not None or draw_features) and method not in FEATURE_METHODS:
@@ -162,6 +173,8 @@ def run(
             raise ValueError(f"--depth-scale must be a positive number, got {depth_scale:g}")
     if ply_out is not None:
         io.check_suffix(ply_out, ".ply", "--ply")
+    if confidence_out is not None:
+        io.check_suffix(confidence_out, ".pfm", "--confidence-out")
     set_threads(threads)
     left_image = io.read_image(left)
     right_image = io.read_image(right)
@@ -204,6 +217,10 @@ def run(
         if depth_out is not None:
             too_far = write(io.write_depth, depth_out, depth(result.disparity, camera),
                             scale=depth_scale)  # fmt: skip
+        if confidence_out is not None:
+            from ..confidence import confidence
+
+            write(io.write_pfm, confidence_out, confidence(result, left_image, right_image))
         if ply_out is not None:
             colors = left_image if left_image.dtype.kind == "u" else None
             cloud = point_cloud(result.disparity, camera, colors)
