@@ -524,3 +524,30 @@ def test_cli_batch_depth(calib_pairs, tmp_path):
         lines = result.output.strip().splitlines()
         assert result.exit_code == 1 and len(lines) == 1 and message in lines[0], lines
         assert not (tmp_path / "x").exists()
+
+
+def test_subpixel_is_a_recorded_option_that_older_folders_lack(pairs_dir, tmp_path):
+    import json
+
+    pairs = find_pairs(pairs_dir)[:2]
+    out = tmp_path / "out"
+    run_batch(pairs, out, max_disparity=MAX_DISPARITY)
+    recorded = json.loads((out / "batch.json").read_text())
+    assert recorded["subpixel"] is None
+    # a batch.json written before the option existed resumes as made without it
+    del recorded["subpixel"]
+    (out / "batch.json").write_text(json.dumps(recorded))
+    assert run_batch(pairs, out, max_disparity=MAX_DISPARITY).skipped == [p.name for p in pairs]
+    with pytest.raises(ValueError, match=r"other options: subpixel None \(now equiangular\)"):
+        run_batch(pairs, out, max_disparity=MAX_DISPARITY, subpixel="equiangular")
+    # from the command line, the refined maps
+    fine = tmp_path / "fine"
+    args = ["batch", str(pairs_dir), "-o", str(fine), "--max-disparity", str(MAX_DISPARITY)]
+    result = CliRunner().invoke(main, [*args, "--subpixel", "parabola", "-q"])
+    assert result.exit_code == 0, result.output
+    for pair in pairs:
+        expected = match(io.read_image(pair.left), io.read_image(pair.right),
+                         max_disparity=MAX_DISPARITY, subpixel="parabola")  # fmt: skip
+        np.testing.assert_array_equal(
+            io.read_pfm(output_path(fine, pair)), np.nan_to_num(expected.disparity, nan=np.inf)
+        )

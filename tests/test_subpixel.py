@@ -140,3 +140,19 @@ def test_run_subpixel(pair):
     result = invoke("run", folder / "left.png", folder / "right.png", "-o", folder / "x.pfm",
                     "--max-disparity", 10, "--subpixel", "cubic")  # fmt: skip
     assert result.exit_code == 2 and "cubic" in result.output
+
+
+@pytest.mark.parametrize("fit", ["equiangular", "parabola"])
+def test_match_refines_before_filling(pair, fit):
+    folder, _ = pair
+    left, right = io.read_image(folder / "left.png"), io.read_image(folder / "right.png")
+    plain = match(left, right, max_disparity=10)
+    refined = refine_subpixel(plain, left, right, fit=fit)
+    inside = match(left, right, max_disparity=10, subpixel=fit)
+    np.testing.assert_array_equal(inside.disparity, refined.disparity)
+    assert inside.params.subpixel == fit and plain.params.subpixel is None
+    filled = match(left, right, max_disparity=10, subpixel=fit, fill=True)
+    np.testing.assert_array_equal(filled.disparity, refined.filled().disparity)
+    np.testing.assert_array_equal(filled.flags, refined.filled().flags)
+    with pytest.raises(ValueError, match="subpixel must be None or one of equiangular, parabola"):
+        match(left, right, max_disparity=10, subpixel="linear")

@@ -131,3 +131,13 @@ def test_cli_run_tile_rows_writes_the_untiled_disparity(tmp_path):
     bad = runner.invoke(main, ["run", *paths, "-o", str(tmp_path / "c.pfm"), "--tile-rows", "0"])
     assert bad.exit_code != 0
     assert "tile_rows" in bad.output or "tile-rows" in bad.output
+
+
+@pytest.mark.parametrize("fill", [False, True])
+def test_subpixel_is_tiled_too(fill):
+    left, right = _pair(5, 33, 48)
+    kwargs = {"max_disparity": 12, "subpixel": "equiangular", "fill": fill}
+    whole = match(left, right, **kwargs)
+    assert (whole.disparity % 1 != 0).sum() > 50  # the refinement ran
+    tiled = match_tiled(left, right, tile_rows=5, **kwargs)
+    assert_same_result(tiled, whole)

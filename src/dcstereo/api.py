@@ -10,6 +10,7 @@ from .params import MatchParams
 from .redert import match_redert as _match_redert
 from .result import FLAG_FEATURE, DisparityResult
 from .signal import SIGNAL_STEPS, check_pair, padded_signal
+from .subpixel import refine_subpixel
 
 
 def match(
@@ -51,7 +52,8 @@ def match(
     **options
         ``window`` (odd, default 5), ``occlusion_cost`` (per pixel, gray levels of mean
         absolute difference, default 10), ``fill`` (default False), ``cost``
-        (``"sad"`` or ``"bt"``, Birchfield-Tomasi). See
+        (``"sad"`` or ``"bt"``, Birchfield-Tomasi), ``subpixel`` (None, ``"equiangular"``
+        or ``"parabola"``, see :mod:`dcstereo.subpixel`). See
         :class:`~dcstereo.params.MatchParams`.
 
     Returns
@@ -83,6 +85,8 @@ def match(
             f"out of memory matching {height} x {width} images over "
             f"{params.num_disparities} disparities with method {params.method!r}"
         ) from err
+    if params.subpixel is not None:
+        result = refine_subpixel(result, left, right, fit=params.subpixel)
     return result.filled() if params.fill else result
 
 

@@ -43,6 +43,8 @@ OPTIONS_FILE = "batch.json"
 DEPTH_FOLDER = "depth"
 #: A pair folder's calibration file (Middlebury 2014's name and format).
 CALIB_NAME = "calib.txt"
+#: What outputs were made with when their ``batch.json`` predates an option.
+ASSUMED_OPTIONS = {"subpixel": None}
 #: Longest pair name, in bytes of UTF-8: the temporary name of its output
 #: (:data:`dcstereo.io.TEMPORARY_NAME_EXTRA` more than ``<name>.pfm``) must fit the 255
 #: bytes file systems allow a name.
@@ -342,7 +344,7 @@ def run_batch(
             f"each pair's {CALIB_NAME}" if calibration is None else dataclasses.asdict(calibration)
         )
     make_output_folder(folder)
-    check_recorded_options(folder, recorded, resume)
+    check_recorded_options(folder, recorded, resume, assumed=ASSUMED_OPTIONS)
     if depth:
         make_output_folder(folder / DEPTH_FOLDER)
     report = BatchReport()

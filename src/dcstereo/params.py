@@ -36,6 +36,9 @@ MAX_WINDOW = 725
 #: sampling-insensitive dissimilarity summed over the same window.
 COSTS = ("sad", "bt")
 
+#: ``subpixel``: the fits of :func:`dcstereo.subpixel.refine_subpixel`.
+SUBPIXEL_FITS = ("equiangular", "parabola")
+
 #: ``redert``: the surface orientations (disparity slopes, px/px) of the DP states.
 DEFAULT_ORIENTATIONS = (-0.5, -0.25, -0.125, 0.0, 0.125, 0.25, 0.5)
 #: ``redert``: cost of a change of orientation between neighbouring matched pixels, in
@@ -142,6 +145,11 @@ class MatchParams:
         ``window // 2`` from the image edges in both views, and the points kept on a row
         are the longest subset strictly increasing in both ``x_left`` and ``x_right``
         (the ordering constraint). The three-step DP is forced through them.
+    subpixel : str or None
+        None (default): whole-pixel disparities (and the e steps' half pixels).
+        ``"equiangular"`` or ``"parabola"``: refined to a fraction of a pixel by
+        :func:`dcstereo.subpixel.refine_subpixel` before ``fill``, so the filled pixels
+        take their neighbours' refined values.
     orientations : tuple of float
         ``redert`` only: the surface orientations of the DP states, as disparity slopes
         (pixels of disparity per pixel), each one of ``0, +-1/16, +-1/8, +-1/4, +-1/2,
@@ -189,6 +197,7 @@ class MatchParams:
     cost: str = "sad"
     gcp_uniqueness: float = DEFAULT_GCP_UNIQUENESS
     gcp_variance_floor: float = DEFAULT_GCP_VARIANCE_FLOOR
+    subpixel: str | None = None
 
     def __post_init__(self):
         for field in fields(self):  # numpy scalars (np.int64(4), np.True_): the Python value
@@ -227,6 +236,10 @@ class MatchParams:
             raise ValueError(f"occlusion_cost must be positive, got {cost}")
         if self.cost not in COSTS:
             raise ValueError(f"unknown cost {self.cost!r}; choose one of {', '.join(COSTS)}")
+        if self.subpixel is not None and self.subpixel not in SUBPIXEL_FITS:
+            raise ValueError(
+                f"subpixel must be None or one of {', '.join(SUBPIXEL_FITS)}, got {self.subpixel!r}"
+            )
         if self.cost == "bt" and self.method == "redert":
             raise ValueError("cost='bt' is not supported by redert (its window is sheared)")
         for name in (

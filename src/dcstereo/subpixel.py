@@ -14,16 +14,16 @@ The cost is eq. 4's windowed SAD of the matching signal with the run's window, w
 the run's ``cost``. Pixels keep their value where there is nothing to fit: no estimate,
 filled, a half-pixel value, ``d`` at an end of the searched range, or a ``d`` whose cost
 is not the least of the three (the DP's smoothness chose it over its neighbours).
+
+``dcstereo.match(..., subpixel="equiangular")`` runs it inside the match, before ``fill``.
 """
 
 import numpy as np
 
 from . import _subpixel_kernels
+from .params import SUBPIXEL_FITS as FITS
 from .result import FLAG_FILLED, DisparityResult
 from .signal import check_pair, padded_signal
-
-#: The fits :func:`refine_subpixel` offers.
-FITS = ("equiangular", "parabola")
 
 
 def refine_subpixel(

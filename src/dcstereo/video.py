@@ -31,6 +31,7 @@ from . import geometry, io
 from ._checks import is_number
 from .api import match
 from .batch import (
+    ASSUMED_OPTIONS,
     FailureRow,
     check_recorded_options,
     check_threads,
@@ -499,7 +500,10 @@ def match_sequence(
     if calibration is not None:  # recorded only when given: older folders still resume
         written["depth"] = dataclasses.asdict(calibration)
     check_recorded_options(
-        folder, {**dataclasses.asdict(params), **written}, resume, assumed=WRITE_OPTIONS
+        folder,
+        {**dataclasses.asdict(params), **written},
+        resume,
+        assumed={**ASSUMED_OPTIONS, **WRITE_OPTIONS},
     )
     match_kwargs = {"max_disparity": max_disparity, **options}
     report = SequenceReport()

@@ -6,14 +6,14 @@ from pathlib import Path
 
 import click
 
-from ..params import DEFAULT_OCCLUSION_COST, METHODS
+from ..params import DEFAULT_OCCLUSION_COST, METHODS, SUBPIXEL_FITS
 from ..viz import PREVIEW_STYLES
 
 #: Methods whose result carries feature pairs.
 FEATURE_METHODS = ("dc", "dc-linear", "dsi3-gcp")
 
 #: The keyword arguments of :func:`dcstereo.match` that :func:`matching_options` collects.
-MATCH_OPTIONS = ("method", "window", "occlusion_cost", "cost", "fill")
+MATCH_OPTIONS = ("method", "window", "occlusion_cost", "cost", "fill", "subpixel")
 
 
 class CommandError(click.ClickException):
@@ -200,6 +200,13 @@ def matching_options(func):
             default=False,
             show_default=True,
             help="Fill occluded pixels with the background disparity (dense map).",
+        ),
+        click.option(
+            "--subpixel",
+            type=click.Choice(SUBPIXEL_FITS),
+            default=None,
+            help="Refine each whole-pixel disparity to a fraction of a pixel by this fit "
+            "through the window costs at d - 1, d, d + 1 (before --fill; default: off).",
         ),
         click.option(
             "--threads",

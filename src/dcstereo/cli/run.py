@@ -89,13 +89,6 @@ from ._common import (
     "disparity's cost over the best rival two or more pixels away; inf = none).",
 )
 @click.option(
-    "--subpixel",
-    type=click.Choice(["equiangular", "parabola"]),
-    default=None,
-    help="Refine each integer disparity to a fraction of a pixel by a fit through the "
-    "window costs at d - 1, d, d + 1 (dcstereo.subpixel; default: off).",
-)
-@click.option(
     "--tile-rows",
     type=int,
     default=None,
@@ -122,7 +115,6 @@ def run(
     ply_out,
     calibration,
     confidence_out,
-    subpixel,
     tile_rows,
     quiet,
 ):
@@ -191,10 +183,6 @@ def run(
         min_disparity=min_disparity,
         **match_options,
     )
-    if subpixel is not None:
-        from ..subpixel import refine_subpixel
-
-        result = refine_subpixel(result, left_image, right_image, fit=subpixel)
     seconds = time.perf_counter() - start
 
     with staged_outputs() as write:
