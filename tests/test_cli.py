@@ -210,6 +210,25 @@ def test_demo_runs_on_the_motorcycle_pair(tmp_path):
     np.testing.assert_array_equal(np.isfinite(z), np.isfinite(expected))
     assert (out / "cloud.ply").read_bytes().startswith(b"ply\nformat binary_little_endian")
     assert f"element vertex {np.isfinite(z).sum()}\n".encode() in (out / "cloud.ply").read_bytes()
+    # the confidence of the sparse map, and its split into a surer and a less sure half
+    from dcstereo import match
+    from dcstereo.confidence import confidence
+    from dcstereo.datasets import load_motorcycle
+
+    scene = load_motorcycle()
+    sparse = match(scene.left, scene.right, max_disparity=64, method="dsi5")
+    sure = confidence(sparse, scene.left, scene.right)
+    np.testing.assert_array_equal(
+        io.read_pfm(out / "confidence.pfm"), np.nan_to_num(sure, nan=np.inf)
+    )
+    scored = scene.masks["all"] & np.isfinite(sparse.disparity) & np.isfinite(sure)
+    bad = np.abs(sparse.disparity - scene.disparity)[scored] > 1.0
+    surer = sure[scored] >= np.median(sure[scored])
+    line = next(x for x in result.output.splitlines() if "confidence:" in x)
+    assert line.endswith(
+        f"bad-1.0 {100 * bad[surer].mean():.2f} %, the other half {100 * bad[~surer].mean():.2f} %"
+    )
+    assert bad[surer].mean() < bad[~surer].mean()
 
 
 def test_demo_bad_option_makes_no_folder(tmp_path):

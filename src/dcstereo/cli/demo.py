@@ -37,11 +37,13 @@ def demo(output, max_disparity, match_options, threads):
 
     Writes disparity.pfm, disparity.png (16-bit), occlusion.png, preview.png (the
     paper's display), preview_color.png, depth.pfm and cloud.ply (the coloured 3-D
-    points, with the calibration scikit-image gives for the pair) and, for the dc
-    methods, features.csv and features.png (the pairs in red) into OUTPUT, and prints the
-    bad-pixel rates and the depth error against the ground truth.
+    points, with the calibration scikit-image gives for the pair), confidence.pfm and,
+    for the dc methods, features.csv and features.png (the pairs in red) into OUTPUT, and
+    prints the bad-pixel rates, the depth error against the ground truth and how the
+    confidence ranks the pixels.
     """
     from .. import io, match
+    from ..confidence import confidence
     from ..datasets import load_motorcycle
     from ..geometry import depth, point_cloud
     from ..metrics import bad_pixel_rate, density
@@ -79,6 +81,8 @@ def demo(output, max_disparity, match_options, threads):
         write(io.write_pfm, folder / "depth.pfm", depth(final.disparity, scene.calibration))
         cloud = point_cloud(final.disparity, scene.calibration, scene.left)
         write(io.write_ply, folder / "cloud.ply", cloud.points, cloud.colors)
+        sure = confidence(result, scene.left, scene.right)
+        write(io.write_pfm, folder / "confidence.pfm", sure)
 
     height, width = scene.shape
     truth, known = scene.disparity, scene.masks["all"]
@@ -109,6 +113,13 @@ def demo(output, max_disparity, match_options, threads):
         f"  depth of the dense map: median error {np.median(error):.1f} mm "
         f"({100 * np.median(relative):.2f} %), {100 * np.mean(relative <= 0.05):.1f} % of "
         "pixels within 5 %"
+    )
+    scored = known & np.isfinite(result.disparity) & np.isfinite(sure)
+    bad = np.abs(result.disparity - truth)[scored] > 1.0
+    surer = sure[scored] >= np.median(sure[scored])
+    click.echo(
+        f"  confidence: the surer half of the estimates bad-1.0 {100 * bad[surer].mean():.2f} %, "
+        f"the other half {100 * bad[~surer].mean():.2f} %"
     )
     if result.features is not None:
         count = len(result.features)
