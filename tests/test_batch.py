@@ -551,3 +551,35 @@ def test_subpixel_is_a_recorded_option_that_older_folders_lack(pairs_dir, tmp_pa
         np.testing.assert_array_equal(
             io.read_pfm(output_path(fine, pair)), np.nan_to_num(expected.disparity, nan=np.inf)
         )
+
+
+def test_batch_confidence_here_and_on_dask(pairs_dir, tmp_path, dask_client):
+    from dcstereo.batch import confidence_path
+    from dcstereo.confidence import confidence
+
+    pairs = find_pairs(pairs_dir)[:3]
+    serial = run_batch(pairs, tmp_path / "serial", max_disparity=MAX_DISPARITY, confidence=True)
+    parallel = run_batch(pairs, tmp_path / "dask", max_disparity=MAX_DISPARITY,
+                         confidence=True, client=dask_client)  # fmt: skip
+    assert serial.done == parallel.done == [p.name for p in pairs]
+    for pair in pairs:
+        left, right = io.read_image(pair.left), io.read_image(pair.right)
+        expected = confidence(match(left, right, max_disparity=MAX_DISPARITY), left, right)
+        written = io.read_pfm(confidence_path(tmp_path / "serial", pair))
+        np.testing.assert_array_equal(written, np.nan_to_num(expected, nan=np.inf))
+        other = confidence_path(tmp_path / "dask", pair).read_bytes()
+        assert other == confidence_path(tmp_path / "serial", pair).read_bytes()
+    # complete only with it; recorded, so resuming without it is refused
+    confidence_path(tmp_path / "serial", pairs[1]).unlink()
+    again = run_batch(pairs, tmp_path / "serial", max_disparity=MAX_DISPARITY, confidence=True)
+    assert again.done == [pairs[1].name] and len(again.skipped) == 2
+    with pytest.raises(ValueError, match="other options: confidence"):
+        run_batch(pairs, tmp_path / "serial", max_disparity=MAX_DISPARITY)
+    with pytest.raises(TypeError, match="confidence must be a bool, got 1"):
+        run_batch(pairs, tmp_path / "x", max_disparity=MAX_DISPARITY, confidence=1)
+    # the CLI flag
+    out = tmp_path / "cli"
+    args = ["batch", str(pairs_dir), "-o", str(out), "--max-disparity", str(MAX_DISPARITY)]
+    result = CliRunner().invoke(main, [*args, "--confidence", "-q"])
+    assert result.exit_code == 0, result.output
+    assert len(list((out / "confidence").glob("*.pfm"))) == len(find_pairs(pairs_dir))

@@ -308,3 +308,26 @@ def test_video_depth_errors(sources, tmp_path):
     lines = result.output.strip().splitlines()
     assert result.exit_code == 1 and len(lines) == 1 and "missing.txt" in lines[0], lines
     assert not (tmp_path / "o").exists()
+
+
+def test_video_confidence_per_frame(sources, frames, tmp_path):
+    from dcstereo.confidence import confidence
+    from dcstereo.video import confidence_output_path
+
+    out = tmp_path / "out"
+    result = run_video(sources / "left", sources / "right", "-o", out, "--confidence")
+    assert result.exit_code == 0, result.output
+    for i, frame in enumerate(frames):
+        plain = match(frame.left, frame.right, max_disparity=MAX_DISPARITY)
+        expected = confidence(plain, frame.left, frame.right)
+        np.testing.assert_array_equal(
+            io.read_pfm(confidence_output_path(out, i)), np.nan_to_num(expected, nan=np.inf)
+        )
+    confidence_output_path(out, 2).unlink()
+    report = match_sequence(open_sequence(sources / "left", sources / "right"), out,
+                            max_disparity=MAX_DISPARITY, confidence=True)  # fmt: skip
+    assert len(report.done) == 1 and len(report.skipped) == N_FRAMES - 1
+    assert confidence_output_path(out, 2).is_file()
+    with pytest.raises(ValueError, match="other options: confidence"):
+        match_sequence(open_sequence(sources / "left", sources / "right"), out,
+                       max_disparity=MAX_DISPARITY)  # fmt: skip

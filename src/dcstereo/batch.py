@@ -6,6 +6,8 @@
   are skipped, the rest, a file damaged after it was written included, are redone.
 * A pair that fails (unreadable image, sizes that differ, a bad range for its size) is
   recorded with its reason, the others go on, and ``failures.csv`` lists them.
+* With ``confidence=True`` each pair's confidence map (:mod:`dcstereo.confidence`) is
+  written too, ``confidence/<name>.pfm``, computed by the worker that matched the pair.
 * With ``depth=True`` each pair's depth map is written too, ``depth/<name>.pfm``, from
   one calibration for all pairs or from the ``calib.txt`` in each pair folder (the
   Middlebury 2014 layout); a pair is complete when both of its files are.
@@ -30,6 +32,7 @@ from pathlib import Path
 from . import geometry, io
 from ._checks import is_integer
 from .api import match
+from .confidence import confidence as confidence_map
 from .geometry import Calibration
 from .params import MatchParams
 
@@ -41,6 +44,8 @@ FAILURES_FILE = "failures.csv"
 OPTIONS_FILE = "batch.json"
 #: The folder (in the output folder) of the depth maps, ``<name>.pfm`` each.
 DEPTH_FOLDER = "depth"
+#: The folder (in the output folder) of the confidence maps, ``<name>.pfm`` each.
+CONFIDENCE_FOLDER = "confidence"
 #: A pair folder's calibration file (Middlebury 2014's name and format).
 CALIB_NAME = "calib.txt"
 #: What outputs were made with when their ``batch.json`` predates an option.
@@ -252,6 +257,11 @@ def depth_path(output_dir: str | os.PathLike, pair: Pair) -> Path:
     return Path(output_dir) / DEPTH_FOLDER / f"{pair.name}.pfm"
 
 
+def confidence_path(output_dir: str | os.PathLike, pair: Pair) -> Path:
+    """Return where :func:`run_batch` writes the confidence of ``pair``."""
+    return Path(output_dir) / CONFIDENCE_FOLDER / f"{pair.name}.pfm"
+
+
 def run_batch(
     pairs: Iterable[Pair],
     output_dir: str | os.PathLike,
@@ -264,6 +274,7 @@ def run_batch(
     on_outcome: Callable[[PairOutcome], None] | None = None,
     depth: bool = False,
     calibration: Calibration | None = None,
+    confidence: bool = False,
     **options,
 ) -> BatchReport:
     """Match every pair and write ``<name>.pfm`` into ``output_dir``, atomically.
@@ -302,6 +313,10 @@ def run_batch(
     calibration : Calibration, optional
         With ``depth``: the geometry of every pair. None: each pair's own ``calib.txt``
         (:attr:`Pair.calib`, read by :meth:`Calibration.from_middlebury`).
+    confidence : bool
+        Also write each pair's confidence map (:func:`dcstereo.confidence.confidence`,
+        PFM, ``inf`` = none) to ``confidence/<name>.pfm``; a pair is then complete only
+        with it.
     **options
         The other options of :func:`dcstereo.match` (``min_disparity``, ``method``,
         ``window``...).
@@ -335,18 +350,23 @@ def run_batch(
         raise TypeError(
             f"calibration must be a Calibration or None, got {type(calibration).__name__}"
         )
-    if not isinstance(depth, bool):
-        raise TypeError(f"depth must be a bool, got {depth!r}")
+    for name, flag in (("depth", depth), ("confidence", confidence)):
+        if not isinstance(flag, bool):
+            raise TypeError(f"{name} must be a bool, got {flag!r}")
     if calibration is not None and not depth:
         raise ValueError("calibration is used only with depth=True")
     if depth:  # recorded only when on: an older batch.json (no depth) still resumes
         recorded["depth"] = (
             f"each pair's {CALIB_NAME}" if calibration is None else dataclasses.asdict(calibration)
         )
+    if confidence:  # recorded only when on, as depth
+        recorded["confidence"] = True
     make_output_folder(folder)
     check_recorded_options(folder, recorded, resume, assumed=ASSUMED_OPTIONS)
     if depth:
         make_output_folder(folder / DEPTH_FOLDER)
+    if confidence:
+        make_output_folder(folder / CONFIDENCE_FOLDER)
     report = BatchReport()
     by_name: dict[str, PairOutcome] = {}
 
@@ -358,7 +378,7 @@ def run_batch(
     todo = []
     cameras = {}
     for pair in pairs:
-        outputs = _outputs(folder, pair, depth)
+        outputs = _outputs(folder, pair, depth, confidence)
         for path in outputs:
             _remove_stale_temporaries(path)
         problem = pair.problem
@@ -376,9 +396,9 @@ def run_batch(
 
     if client is None:
         for pair in todo:
-            finish(pair, match_pair(pair, match_kwargs, threads))
+            finish(pair, match_pair(pair, match_kwargs, threads, confidence))
     else:
-        _run_on_dask(client, todo, match_kwargs, retries, threads, finish)
+        _run_on_dask(client, todo, match_kwargs, retries, threads, confidence, finish)
     report.outcomes = [by_name[p.name] for p in pairs]
     write_failures(
         folder,
@@ -391,15 +411,19 @@ def run_batch(
     return report
 
 
-def match_pair(pair: Pair, match_kwargs: dict, threads: int | None = None):
-    """Read and match one pair; return ``(disparity, seconds)`` or ``(None, reason)``.
+def match_pair(
+    pair: Pair, match_kwargs: dict, threads: int | None = None, confidence: bool = False
+):
+    """Read and match one pair; return ``(disparity, seconds, sure)`` or ``(None, reason, None)``.
 
-    The reasons a pair can fail on its own (unreadable image, sizes that differ, a
-    range or window that does not fit) come back as a one-line message; anything else
-    raises (and, on Dask, makes the task retry).
+    ``sure`` is the confidence map when ``confidence``, else None. The reasons a pair can
+    fail on its own (unreadable image, sizes that differ, a range or window that does not
+    fit) come back as a one-line message; anything else raises (and, on Dask, makes the
+    task retry).
     """
     if pair.left is None or pair.right is None:
-        return None, f"pair '{pair.name}' has no {'left' if pair.left is None else 'right'} image"
+        side = "left" if pair.left is None else "right"
+        return None, f"pair '{pair.name}' has no {side} image", None
     with numba_threads(threads):
         start = time.perf_counter()
         try:
@@ -407,8 +431,10 @@ def match_pair(pair: Pair, match_kwargs: dict, threads: int | None = None):
             right = io.read_image(pair.right)
             result = match(left, right, **match_kwargs)
         except (ValueError, TypeError) as exc:
-            return None, str(exc).strip().splitlines()[0] if str(exc).strip() else repr(exc)
-        return result.disparity, time.perf_counter() - start
+            reason = str(exc).strip().splitlines()[0] if str(exc).strip() else repr(exc)
+            return None, reason, None
+        sure = confidence_map(result, left, right) if confidence else None
+        return result.disparity, time.perf_counter() - start, sure
 
 
 def check_threads(threads, client=None) -> None:
@@ -447,9 +473,12 @@ def numba_threads(threads: int | None):
         numba.set_num_threads(previous)
 
 
-def _outputs(folder: Path, pair: Pair, depth: bool) -> list[Path]:
+def _outputs(folder: Path, pair: Pair, depth: bool, confidence: bool) -> list[Path]:
     """Return the files :func:`run_batch` writes for ``pair``."""
-    return [output_path(folder, pair)] + ([depth_path(folder, pair)] if depth else [])
+    paths = [output_path(folder, pair)]
+    paths += [depth_path(folder, pair)] if depth else []
+    paths += [confidence_path(folder, pair)] if confidence else []
+    return paths
 
 
 def _camera(pair: Pair, calibration: Calibration | None):
@@ -468,16 +497,19 @@ def _camera(pair: Pair, calibration: Calibration | None):
 
 
 def _finish(folder: Path, pair: Pair, answer, camera: Calibration | None) -> PairOutcome:
-    disparity, detail = answer
+    disparity, detail, sure = answer
     if disparity is None:
         return PairOutcome(pair, "failed", detail)
-    if camera is not None:  # the depth first: the disparity file says the pair is done
+    # the companions first: the disparity file says the pair is done
+    if camera is not None:
         io.write_pfm(depth_path(folder, pair), geometry.depth(disparity, camera))
+    if sure is not None:
+        io.write_pfm(confidence_path(folder, pair), sure)
     io.write_disparity(output_path(folder, pair), disparity)
     return PairOutcome(pair, "done", seconds=detail)
 
 
-def _run_on_dask(client, pairs, match_kwargs, retries, threads, finish):
+def _run_on_dask(client, pairs, match_kwargs, retries, threads, confidence, finish):
     from distributed import as_completed
 
     futures = {}
@@ -487,6 +519,7 @@ def _run_on_dask(client, pairs, match_kwargs, retries, threads, finish):
             pair,
             match_kwargs,
             1 if threads is None else threads,
+            confidence,
             key=f"dcstereo-pair-{pair.name}-{os.urandom(4).hex()}",
             retries=retries,
         )
@@ -496,7 +529,7 @@ def _run_on_dask(client, pairs, match_kwargs, retries, threads, finish):
         try:
             answer = future.result()
         except Exception as exc:  # the task failed for good (KilledWorker, ...)
-            answer = (None, f"task failed on the cluster: {type(exc).__name__}: {exc}")
+            answer = (None, f"task failed on the cluster: {type(exc).__name__}: {exc}", None)
         finish(pair, answer)
         future.release()
 

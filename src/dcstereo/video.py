@@ -39,6 +39,7 @@ from .batch import (
     numba_threads,
     write_failures,
 )
+from .confidence import confidence as confidence_map
 from .params import MatchParams
 
 #: File suffixes taken as frames in a frame folder.
@@ -407,6 +408,11 @@ def depth_output_path(output_dir: str | os.PathLike, index: int) -> Path:
     return Path(output_dir) / f"{frame_name(index)}-depth.pfm"
 
 
+def confidence_output_path(output_dir: str | os.PathLike, index: int) -> Path:
+    """Return the confidence map's path of frame ``index`` (``frameNNNNN-confidence.pfm``)."""
+    return Path(output_dir) / f"{frame_name(index)}-confidence.pfm"
+
+
 def match_sequence(
     sequence: StereoSequence,
     output_dir: str | os.PathLike,
@@ -419,6 +425,7 @@ def match_sequence(
     threads: int | None = None,
     on_frame: Callable[[str, str], None] | None = None,
     calibration: geometry.Calibration | None = None,
+    confidence: bool = False,
     **options,
 ) -> SequenceReport:
     """Match every frame of a sequence; write its disparity and preview atomically.
@@ -457,6 +464,10 @@ def match_sequence(
         (:func:`dcstereo.geometry.depth`) as ``frameNNNNN-depth.pfm`` (float32, in the
         baseline's unit, ``inf`` = none). A frame is then complete only when its three
         files are; ``batch.json`` records the calibration.
+    confidence : bool
+        Also write each frame's confidence map (:func:`dcstereo.confidence.confidence`)
+        as ``frameNNNNN-confidence.pfm`` (``inf`` = none); a frame is then complete only
+        with it.
     **options
         The other options of :func:`dcstereo.match`.
 
@@ -488,6 +499,8 @@ def match_sequence(
         raise TypeError(
             f"calibration must be a Calibration or None, got {type(calibration).__name__}"
         )
+    if not isinstance(confidence, bool):
+        raise TypeError(f"confidence must be a bool, got {confidence!r}")
     check_threads(threads, client)
     params = MatchParams(max_disparity=max_disparity, **options)
     if disparity_format == "png" and (params.min_disparity < 0 or params.max_disparity > 255):
@@ -499,6 +512,8 @@ def match_sequence(
     written = {"disparity_format": disparity_format, "preview_style": preview_style}
     if calibration is not None:  # recorded only when given: older folders still resume
         written["depth"] = dataclasses.asdict(calibration)
+    if confidence:
+        written["confidence"] = True
     check_recorded_options(
         folder,
         {**dataclasses.asdict(params), **written},
@@ -513,7 +528,7 @@ def match_sequence(
             on_frame(name, status)
 
     def finish(frame, answer):
-        disparity, occluded, detail = answer
+        disparity, occluded, detail, sure = answer
         if disparity is None:
             report.failed.append(FailureRow(frame.name, frame.source, "", detail))
             note(frame.name, "failed")
@@ -522,6 +537,8 @@ def match_sequence(
         if calibration is not None:
             z = geometry.depth(disparity, calibration)
             io.write_pfm(depth_output_path(folder, frame.index), z)
+        if sure is not None:
+            io.write_pfm(confidence_output_path(folder, frame.index), sure)
         io.write_disparity(disparity_path, disparity)
         io.write_rgb_png(preview_path, preview(disparity, occluded, style=preview_style))
         report.done.append(frame.name)
@@ -532,6 +549,8 @@ def match_sequence(
             outputs = list(output_paths(folder, frame.index, disparity_format))
             if calibration is not None:
                 outputs.append(depth_output_path(folder, frame.index))
+            if confidence:
+                outputs.append(confidence_output_path(folder, frame.index))
             if resume and all(io.is_complete(p) for p in outputs):
                 report.skipped.append(frame.name)
                 note(frame.name, "skipped")
@@ -539,33 +558,40 @@ def match_sequence(
             try:
                 left, right = frame.load()
             except ValueError as exc:
-                finish(frame, (None, None, str(exc)))
+                finish(frame, (None, None, str(exc), None))
                 continue
             yield frame, left, right
 
     if client is None:
         for frame, left, right in pending():
-            finish(frame, match_frame(left, right, match_kwargs, threads))
+            finish(frame, match_frame(left, right, match_kwargs, threads, confidence))
     else:
-        _run_on_dask(client, pending(), match_kwargs, threads, finish)
+        _run_on_dask(client, pending(), match_kwargs, threads, confidence, finish)
     report.done.sort()
     write_failures(folder, report.failed)
     report.seconds = time.perf_counter() - start
     return report
 
 
-def match_frame(left, right, match_kwargs: dict, threads: int | None = None):
-    """Match one frame; return ``(disparity, occluded, seconds)`` or ``(None, None, reason)``."""
+def match_frame(
+    left, right, match_kwargs: dict, threads: int | None = None, confidence: bool = False
+):
+    """Match one frame; return ``(disparity, occluded, seconds, sure)``.
+
+    ``sure`` is the confidence map when ``confidence``, else None; a frame that cannot be
+    matched gives ``(None, None, reason, None)``.
+    """
     with numba_threads(threads):
         start = time.perf_counter()
         try:
             result = match(left, right, **match_kwargs)
         except (ValueError, TypeError) as exc:
-            return None, None, str(exc).strip().splitlines()[0]
-        return result.disparity, result.occluded, time.perf_counter() - start
+            return None, None, str(exc).strip().splitlines()[0], None
+        sure = confidence_map(result, left, right) if confidence else None
+        return result.disparity, result.occluded, time.perf_counter() - start, sure
 
 
-def _run_on_dask(client, frames, match_kwargs, threads, finish):
+def _run_on_dask(client, frames, match_kwargs, threads, confidence, finish):
     from distributed import as_completed
 
     workers = max(1, len(client.scheduler_info().get("workers", {})))
@@ -582,6 +608,7 @@ def _run_on_dask(client, frames, match_kwargs, threads, finish):
             right_f,
             match_kwargs,
             1 if threads is None else threads,
+            confidence,
             key=f"dcstereo-frame-{frame.name}-{os.urandom(4).hex()}",
             retries=2,
         )
@@ -598,7 +625,8 @@ def _run_on_dask(client, frames, match_kwargs, threads, finish):
         try:
             answer = future.result()
         except Exception as exc:  # the task failed for good (KilledWorker, ...)
-            answer = (None, None, f"task failed on the cluster: {type(exc).__name__}: {exc}")
+            reason = f"task failed on the cluster: {type(exc).__name__}: {exc}"
+            answer = (None, None, reason, None)
         future.release()
         finish(frame, answer)
         item = next(frames, None)

@@ -163,6 +163,12 @@ def advancer(bar, description: str, total: int):
     default=None,
     help="With --depth: one calibration for every pair (Middlebury's calib.txt format).",
 )
+@click.option(
+    "--confidence",
+    is_flag=True,
+    help="Also write each pair's confidence map, OUTPUT/confidence/<name>.pfm (-1..1, "
+    "inf = none; see dcstereo.confidence).",
+)
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar; print only failures.")
 @one_line_errors
 def batch(
@@ -177,6 +183,7 @@ def batch(
     retries,
     depth,
     calib,
+    confidence,
     quiet,
 ):
     """Match every pair of SOURCE and write OUTPUT/<name>.pfm for each.
@@ -210,6 +217,7 @@ def batch(
             on_outcome=advancer(bar, "batch", len(pairs)),
             depth=depth,
             calibration=calibration,
+            confidence=confidence,
             min_disparity=min_disparity,
             **match_options,
         )

@@ -56,6 +56,12 @@ from .batch import advancer, dask_client, progress_bar, scheduler_option
     help="The rig's calibration (Middlebury's calib.txt format): also write each frame's "
     "depth map, frameNNNNN-depth.pfm (float32, in the baseline's unit, inf = none).",
 )
+@click.option(
+    "--confidence",
+    is_flag=True,
+    help="Also write each frame's confidence map, frameNNNNN-confidence.pfm (-1..1, "
+    "inf = none; see dcstereo.confidence).",
+)
 @scheduler_option
 @click.option(
     "--resume/--no-resume",
@@ -78,6 +84,7 @@ def video(
     preview_video,
     fps,
     calib,
+    confidence,
     scheduler,
     resume,
     quiet,
@@ -123,6 +130,7 @@ def video(
             threads=threads if scheduler is not None else None,
             on_frame=advancer(bar, "video", len(sequence)),
             calibration=calibration,
+            confidence=confidence,
             min_disparity=min_disparity,
             **match_options,
         )
