@@ -132,3 +132,26 @@ def test_run_confidence_out(pair):
     assert result.exit_code == 1
     assert "cannot write --confidence-out" in result.output and "use .pfm" in result.output
     assert not (folder / "d3.pfm").exists()
+
+
+def test_an_opencv_result_is_rated_with_the_sad(pair):
+    pytest.importorskip("cv2")
+    from dcstereo.opencv import match_opencv
+
+    folder, _ = pair
+    left, right = io.read_image(folder / "left.png"), io.read_image(folder / "right.png")
+    result = match_opencv(left, right, max_disparity=10, window=5)
+    got = confidence(result, left, right)
+    # its disparities are sixteenths: rated between the whole pixels around them
+    np.testing.assert_array_equal(got, twin_sad(result, left, right))
+    assert np.isfinite(got).sum() > 100
+
+
+def twin_sad(result, left, right):
+    """The twin with the SAD and the range asked for (OpenCV's params have no cost)."""
+    from dcstereo.params import MatchParams
+
+    p = result.params
+    params = MatchParams(max_disparity=p.max_disparity, min_disparity=p.min_disparity,
+                         window=p.window)  # fmt: skip
+    return twin(replace(result, params=params), left, right)

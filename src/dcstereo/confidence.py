@@ -43,7 +43,7 @@ def confidence(result: DisparityResult, left, right) -> np.ndarray:
         raise TypeError(f"result must be a DisparityResult, got {type(result).__name__}")
     d = result.disparity
     left, right = check_pair(left, right, d.shape)
-    params = result.params
+    params = result.params  # MatchParams, or an OpenCV baseline's (no cost: SAD)
     radius = params.window // 2
     wanted = np.isfinite(d) & ((result.flags & FLAG_FILLED) == 0)
     out = np.full(d.shape, np.nan, dtype=np.float32)
@@ -54,9 +54,9 @@ def confidence(result: DisparityResult, left, right) -> np.ndarray:
         d,
         wanted,
         params.min_disparity,
-        params.num_disparities,
+        params.max_disparity - params.min_disparity + 1,
         radius,
-        params.cost == "bt",
+        getattr(params, "cost", "sad") == "bt",
         nchunks,
         out,
     )
