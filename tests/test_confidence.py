@@ -155,3 +155,30 @@ def twin_sad(result, left, right):
     params = MatchParams(max_disparity=p.max_disparity, min_disparity=p.min_disparity,
                          window=p.window)  # fmt: skip
     return twin(replace(result, params=params), left, right)
+
+
+def test_run_ply_min_confidence(pair):
+    from dcstereo.geometry import Calibration, point_cloud
+    from test_geometry import read_ply
+
+    folder, _ = pair
+    left, right = io.read_image(folder / "left.png"), io.read_image(folder / "right.png")
+    args = ["run", folder / "left.png", folder / "right.png", "-o", folder / "d.pfm",
+            "--max-disparity", 10, "--fill", "--focal", 300, "--baseline", 80]  # fmt: skip
+    result = invoke(*args, "--ply", folder / "sure.ply", "--ply-min-confidence", 0.3)
+    assert result.exit_code == 0, result.output
+    matched = match(left, right, max_disparity=10, fill=True)
+    sure = confidence(matched, left, right)
+    keep = sure >= 0.3  # NaN (filled, none) is never kept
+    assert 0 < keep.sum() < np.isfinite(matched.disparity).sum()
+    expected = point_cloud(matched.disparity, Calibration(300, 80, 31.5, 11.5), left, mask=keep)
+    _, vertices = read_ply(folder / "sure.ply")
+    np.testing.assert_array_equal(np.stack([vertices[a] for a in "xyz"], 1), expected.points)
+    assert result.output.splitlines()[1] == f"{len(expected)} points -> {folder / 'sure.ply'}"
+    for extra, message in (
+        (["--ply-min-confidence", 0.3], "--ply-min-confidence is used only with --ply"),
+        (["--ply", folder / "x.ply", "--ply-min-confidence", 2],
+         "--ply-min-confidence must be between -1 and 1, got 2"),
+    ):  # fmt: skip
+        result = invoke(*args, *extra)
+        assert result.exit_code == 1 and message in result.output, result.output

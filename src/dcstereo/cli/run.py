@@ -80,6 +80,13 @@ from ._common import (
     help="Write the 3-D points of the pixels with a depth, coloured by LEFT (binary "
     "PLY, left camera frame: x right, y down, z forward); needs a calibration.",
 )
+@click.option(
+    "--ply-min-confidence",
+    type=float,
+    default=None,
+    help="Keep in --ply only the points whose confidence (see --confidence-out) is at "
+    "least this, -1..1; filled pixels have none and are left out.",
+)
 @calibration_options
 @click.option(
     "--confidence-out",
@@ -113,6 +120,7 @@ def run(
     depth_out,
     depth_scale,
     ply_out,
+    ply_min_confidence,
     calibration,
     confidence_out,
     tile_rows,
@@ -167,6 +175,13 @@ def run(
         io.check_suffix(ply_out, ".ply", "--ply")
     if confidence_out is not None:
         io.check_suffix(confidence_out, ".pfm", "--confidence-out")
+    if ply_min_confidence is not None:
+        if ply_out is None:
+            raise ValueError("--ply-min-confidence is used only with --ply")
+        if not -1 <= ply_min_confidence <= 1:
+            raise ValueError(
+                f"--ply-min-confidence must be between -1 and 1, got {ply_min_confidence:g}"
+            )
     set_threads(threads)
     left_image = io.read_image(left)
     right_image = io.read_image(right)
@@ -205,13 +220,17 @@ def run(
         if depth_out is not None:
             too_far = write(io.write_depth, depth_out, depth(result.disparity, camera),
                             scale=depth_scale)  # fmt: skip
-        if confidence_out is not None:
+        sure = None
+        if confidence_out is not None or ply_min_confidence is not None:
             from ..confidence import confidence
 
-            write(io.write_pfm, confidence_out, confidence(result, left_image, right_image))
+            sure = confidence(result, left_image, right_image)
+        if confidence_out is not None:
+            write(io.write_pfm, confidence_out, sure)
         if ply_out is not None:
             colors = left_image if left_image.dtype.kind == "u" else None
-            cloud = point_cloud(result.disparity, camera, colors)
+            keep = None if ply_min_confidence is None else sure >= ply_min_confidence
+            cloud = point_cloud(result.disparity, camera, colors, mask=keep)
             write(io.write_ply, ply_out, cloud.points, cloud.colors)
     if not quiet:
         height, width = result.disparity.shape
