@@ -403,6 +403,14 @@ def apply_path(path_x, path_k, path_s, n, dmin, disp_row, flag_row):
 # --------------------------------------------------------------------------- drivers
 
 
+def chunk_count(height: int) -> int:
+    """Return how many chunks of rows a row-parallel driver deals out: four per thread.
+
+    Never more than the rows, never fewer than one; ``_chunk_bounds`` sizes them.
+    """
+    return max(1, min(height, 4 * nb.get_num_threads()))
+
+
 @nb.njit(cache=True)
 def _chunk_bounds(height, nchunks, c):
     # sizes differ by at most one, spread evenly: the parallel loop hands each thread an

@@ -109,8 +109,7 @@ def _outputs(shape):
     disparity = np.empty((height, width), dtype=np.float32)
     flags = np.empty((height, width), dtype=np.uint8)
     total = np.empty(height, dtype=np.float64)
-    nchunks = max(1, min(height, 4 * numba.get_num_threads()))
-    return disparity, flags, total, nchunks
+    return disparity, flags, total, _kernels.chunk_count(height)
 
 
 def _features(partner, flags, ser=None, vs=None):

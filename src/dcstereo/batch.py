@@ -345,22 +345,10 @@ def run_batch(
         raise ValueError(f"retries must be an integer 0 or more, got {retries!r}")
     params = MatchParams(max_disparity=max_disparity, **options)  # refuse bad options now
     match_kwargs = {"max_disparity": max_disparity, **options}
-    recorded = dataclasses.asdict(params)
-    if calibration is not None and not isinstance(calibration, Calibration):
-        raise TypeError(
-            f"calibration must be a Calibration or None, got {type(calibration).__name__}"
-        )
-    for name, flag in (("depth", depth), ("confidence", confidence)):
-        if not isinstance(flag, bool):
-            raise TypeError(f"{name} must be a bool, got {flag!r}")
+    companions = companion_options(depth, calibration, confidence)
     if calibration is not None and not depth:
         raise ValueError("calibration is used only with depth=True")
-    if depth:  # recorded only when on: an older batch.json (no depth) still resumes
-        recorded["depth"] = (
-            f"each pair's {CALIB_NAME}" if calibration is None else dataclasses.asdict(calibration)
-        )
-    if confidence:  # recorded only when on, as depth
-        recorded["confidence"] = True
+    recorded = {**dataclasses.asdict(params), **companions}
     make_output_folder(folder)
     check_recorded_options(folder, recorded, resume, assumed=ASSUMED_OPTIONS)
     if depth:
@@ -496,15 +484,49 @@ def _camera(pair: Pair, calibration: Calibration | None):
         return None, str(exc).strip().splitlines()[0]
 
 
+def companion_options(depth: bool, calibration: Calibration | None, confidence: bool) -> dict:
+    """Check the options of the maps written beside each disparity; return their record.
+
+    The record is what ``batch.json`` keeps of them (:func:`run_batch` and
+    :func:`dcstereo.video.match_sequence`): only the maps switched on, so that a
+    ``batch.json`` from before them still resumes.
+    """
+    if calibration is not None and not isinstance(calibration, Calibration):
+        raise TypeError(
+            f"calibration must be a Calibration or None, got {type(calibration).__name__}"
+        )
+    for name, flag in (("depth", depth), ("confidence", confidence)):
+        if not isinstance(flag, bool):
+            raise TypeError(f"{name} must be a bool, got {flag!r}")
+    recorded = {}
+    if depth:
+        given = calibration is not None
+        recorded["depth"] = (
+            dataclasses.asdict(calibration) if given else f"each pair's {CALIB_NAME}"
+        )
+    if confidence:
+        recorded["confidence"] = True
+    return recorded
+
+
+def write_companions(disparity, camera: Calibration | None, depth_to, sure, confidence_to):
+    """Write a disparity map's depth (given a ``camera``) and confidence (given ``sure``).
+
+    Before the disparity itself: its file is what says the pair or frame is done.
+    """
+    if camera is not None:
+        io.write_pfm(depth_to, geometry.depth(disparity, camera))
+    if sure is not None:
+        io.write_pfm(confidence_to, sure)
+
+
 def _finish(folder: Path, pair: Pair, answer, camera: Calibration | None) -> PairOutcome:
     disparity, detail, sure = answer
     if disparity is None:
         return PairOutcome(pair, "failed", detail)
-    # the companions first: the disparity file says the pair is done
-    if camera is not None:
-        io.write_pfm(depth_path(folder, pair), geometry.depth(disparity, camera))
-    if sure is not None:
-        io.write_pfm(confidence_path(folder, pair), sure)
+    write_companions(
+        disparity, camera, depth_path(folder, pair), sure, confidence_path(folder, pair)
+    )
     io.write_disparity(output_path(folder, pair), disparity)
     return PairOutcome(pair, "done", seconds=detail)
 

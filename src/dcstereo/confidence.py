@@ -14,12 +14,11 @@ occlusion costs overruled them. It is the run's own evidence, so it can rank the
 (keep the surest), not say which are wrong.
 """
 
-import numba
 import numpy as np
 
 from . import _kernels
-from .result import FLAG_FILLED, DisparityResult
-from .signal import check_pair, padded_signal
+from .result import FLAG_FILLED, DisparityResult, check_result_pair
+from .signal import padded_signal
 
 
 def confidence(result: DisparityResult, left, right) -> np.ndarray:
@@ -39,15 +38,12 @@ def confidence(result: DisparityResult, left, right) -> np.ndarray:
         In ``[-1, 1]``; NaN where there is no estimate, where it was filled, and where no
         disparity two pixels away has a cost (a range of fewer than three).
     """
-    if not isinstance(result, DisparityResult):
-        raise TypeError(f"result must be a DisparityResult, got {type(result).__name__}")
+    left, right = check_result_pair(result, left, right)
     d = result.disparity
-    left, right = check_pair(left, right, d.shape)
     params = result.params  # MatchParams, or an OpenCV baseline's (no cost: SAD)
     radius = params.window // 2
     wanted = np.isfinite(d) & ((result.flags & FLAG_FILLED) == 0)
     out = np.full(d.shape, np.nan, dtype=np.float32)
-    nchunks = max(1, min(d.shape[0], 4 * numba.get_num_threads()))
     _kernels.confidence_rows(
         padded_signal(left, radius),
         padded_signal(right, radius),
@@ -57,7 +53,7 @@ def confidence(result: DisparityResult, left, right) -> np.ndarray:
         params.max_disparity - params.min_disparity + 1,
         radius,
         getattr(params, "cost", "sad") == "bt",
-        nchunks,
+        _kernels.chunk_count(d.shape[0]),
         out,
     )
     return out

@@ -376,7 +376,7 @@ def read_disparity(path: str | os.PathLike, *, scale: float | None = None) -> np
     ndarray of float32, shape (H, W)
         Disparity in pixels, NaN where there is no estimate.
     """
-    return _read_map(path, scale, "disparity")
+    return _read_map(path, None if scale is None else _check_scale(scale), "disparity")
 
 
 def read_depth(path: str | os.PathLike, *, scale: float = 1.0) -> np.ndarray:
@@ -401,9 +401,10 @@ def read_depth(path: str | os.PathLike, *, scale: float = 1.0) -> np.ndarray:
 
 
 def _read_map(path, scale: float | None, what: str) -> np.ndarray:
-    """Read a one-channel map: PFM (``inf`` = none) or integer image (``0`` = none)."""
-    if scale is not None:
-        scale = _check_scale(scale)
+    """Read a one-channel map: PFM (``inf`` = none) or integer image (``0`` = none).
+
+    ``scale`` is checked by the caller; None: 256 for a 16-bit image, required for 8 bits.
+    """
     stored = read_image(path)
     if stored.ndim != 2:
         raise ValueError(
@@ -451,22 +452,33 @@ def write_disparity_png16(
         If a disparity is negative or too large for 16 bits; nothing is written.
     """
     scale = _check_scale(scale)
-    d = _check_disparity(disparity)
-    finite = np.isfinite(d)
-    if finite.any():
-        smallest, largest = float(d[finite].min()), float(d[finite].max())
-        if smallest < 0:
-            raise ValueError(
-                f"cannot write '{path}': smallest disparity {smallest:g} is negative and a "
-                "16-bit PNG stores 0 or more"
-            )
-        if np.rint(largest * scale) > _PNG16_MAX:
-            raise ValueError(
-                f"cannot write '{path}': largest disparity {largest:g} exceeds the 16-bit "
-                f"limit {_PNG16_MAX / scale:g} at scale {scale:g}"
-            )
-    stored = np.rint(np.where(finite, d, 0.0) * scale)
-    stored = np.where(finite, np.maximum(stored, 1), 0).astype(np.uint16)
+    d, rounded, finite = _png16_values(path, disparity, scale, "disparity")
+    if finite.any() and rounded[finite].max() > _PNG16_MAX:
+        raise ValueError(
+            f"cannot write '{path}': largest disparity {float(d[finite].max()):g} exceeds "
+            f"the 16-bit limit {_PNG16_MAX / scale:g} at scale {scale:g}"
+        )
+    _save_png16(path, rounded, finite)
+
+
+def _png16_values(path, values, scale: float, what: str):
+    """Check a map for a 16-bit PNG: ``(values as float64, round(values * scale), finite)``.
+
+    Refuses a negative value (a PNG stores 0 or more); ``scale`` is already checked.
+    """
+    v = _check_map(values, what)
+    finite = np.isfinite(v)
+    if finite.any() and v[finite].min() < 0:
+        raise ValueError(
+            f"cannot write '{path}': smallest {what} {float(v[finite].min()):g} is negative "
+            "and a 16-bit PNG stores 0 or more"
+        )
+    return v, np.rint(np.where(finite, v, 0.0) * scale), finite
+
+
+def _save_png16(path, rounded: np.ndarray, keep: np.ndarray) -> None:
+    """Write ``rounded`` where ``keep`` (0 becomes 1: 0 means none) and 0 elsewhere, atomically."""
+    stored = np.where(keep, np.maximum(rounded, 1), 0).astype(np.uint16)
     with atomic_write(path) as tmp:
         Image.fromarray(stored).save(tmp, format="PNG")
 
@@ -501,23 +513,9 @@ def write_depth_png16(path: str | os.PathLike, depth: np.ndarray, *, scale: floa
     ValueError
         If a depth is negative; nothing is written.
     """
-    scale = _check_scale(scale)
-    z = _as_real_array(depth, "depth")
-    if z.ndim != 2:
-        raise ValueError(f"depth must be 2-D (H, W), got shape {z.shape}")
-    _check_not_empty(z, "depth")
-    z = z.astype(np.float64)
-    finite = np.isfinite(z)
-    if finite.any() and z[finite].min() < 0:
-        raise ValueError(
-            f"cannot write '{path}': smallest depth {z[finite].min():g} is negative and a "
-            "16-bit PNG stores 0 or more"
-        )
-    stored = np.rint(np.where(finite, z, 0.0) * scale)
-    far = finite & (stored > _PNG16_MAX)
-    stored = np.where(finite & ~far, np.maximum(stored, 1), 0).astype(np.uint16)
-    with atomic_write(path) as tmp:
-        Image.fromarray(stored).save(tmp, format="PNG")
+    _, rounded, finite = _png16_values(path, depth, _check_scale(scale), "depth")
+    far = finite & (rounded > _PNG16_MAX)
+    _save_png16(path, rounded, finite & ~far)
     return int(far.sum())
 
 
@@ -686,7 +684,7 @@ def write_disparity(path: str | os.PathLike, disparity: np.ndarray, **options) -
     """
     check_disparity_suffix(path)
     suffix = Path(path).suffix.lower()
-    d = _check_disparity(disparity)
+    d = _check_map(disparity)
     if suffix == ".png":
         write_disparity_png16(path, d, **options)
         return
@@ -749,12 +747,13 @@ def _check_not_empty(array: np.ndarray, name: str) -> None:
         raise ValueError(f"{name} is empty (shape {array.shape})")
 
 
-def _check_disparity(disparity: np.ndarray) -> np.ndarray:
-    d = _as_real_array(disparity, "disparity")
-    if d.ndim != 2:
-        raise ValueError(f"disparity must be 2-D (H, W), got shape {d.shape}")
-    _check_not_empty(d, "disparity")
-    return d.astype(np.float64)
+def _check_map(values: np.ndarray, name: str = "disparity") -> np.ndarray:
+    """Return a real, non-empty (H, W) map as float64 (``name`` in the messages)."""
+    v = _as_real_array(values, name)
+    if v.ndim != 2:
+        raise ValueError(f"{name} must be 2-D (H, W), got shape {v.shape}")
+    _check_not_empty(v, name)
+    return v.astype(np.float64)
 
 
 def _check_scale(scale: float) -> float:

@@ -83,10 +83,9 @@ Memory is O(W x D x (orientations + 2 x discounted pixels)) per thread; rows are
 independent and run in parallel.
 """
 
-import numba
 import numpy as np
 
-from . import _redert_kernels
+from . import _kernels, _redert_kernels
 from .params import MatchParams
 from .result import DisparityResult
 from .signal import SIGNAL_STEPS, check_pair, padded_signal
@@ -182,7 +181,7 @@ def match_redert(
     flags = np.empty((height, width), dtype=np.uint8)
     slopes = np.empty((height, width), dtype=np.float32)
     total = np.empty(height, dtype=np.float64)
-    nchunks = max(1, min(height, 4 * numba.get_num_threads()))
+    nchunks = _kernels.chunk_count(height)
     steps, oq = orientation_steps(params.orientations)
     scale = redert_cost_scale(params.window, steps)
     occlusion = float(np.rint(params.occlusion_cost * scale))

@@ -5,6 +5,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .params import MatchParams
+from .signal import check_pair
 
 #: The DP left this left pixel without a partner (a step of eq. 5).
 FLAG_OCCLUDED = 1
@@ -99,6 +100,17 @@ class DisparityResult:
         disparity, was_filled = fill_occlusions(self.disparity)
         flags = self.flags | np.where(was_filled, FLAG_FILLED, 0).astype(np.uint8)
         return replace(self, disparity=disparity, flags=flags)
+
+
+def check_result_pair(result, left, right):
+    """Check that ``result`` is a :class:`DisparityResult` and ``left``/``right`` its pair.
+
+    For the functions that take a result and the images it came from; returns the
+    images as :func:`~dcstereo.signal.check_pair` does.
+    """
+    if not isinstance(result, DisparityResult):
+        raise TypeError(f"result must be a DisparityResult, got {type(result).__name__}")
+    return check_pair(left, right, result.disparity.shape)
 
 
 def _describe(value) -> str:

@@ -18,12 +18,14 @@ is not the least of the three (the DP's smoothness chose it over its neighbours)
 ``dcstereo.match(..., subpixel="equiangular")`` runs it inside the match, before ``fill``.
 """
 
+from dataclasses import replace
+
 import numpy as np
 
 from . import _subpixel_kernels
 from .params import SUBPIXEL_FITS as FITS
-from .result import FLAG_FILLED, DisparityResult
-from .signal import check_pair, padded_signal
+from .result import FLAG_FILLED, DisparityResult, check_result_pair
+from .signal import padded_signal
 
 
 def refine_subpixel(
@@ -45,11 +47,9 @@ def refine_subpixel(
     DisparityResult
         Each refined pixel moved by less than half a pixel.
     """
-    if not isinstance(result, DisparityResult):
-        raise TypeError(f"result must be a DisparityResult, got {type(result).__name__}")
     if fit not in FITS:
         raise ValueError(f"fit must be one of {', '.join(FITS)}, got {fit!r}")
-    left, right = check_pair(left, right, result.disparity.shape)
+    left, right = check_result_pair(result, left, right)
     params = result.params
     radius = params.window // 2
     d = result.disparity
@@ -67,10 +67,4 @@ def refine_subpixel(
         FITS.index(fit),
         out,
     )
-    return DisparityResult(
-        disparity=out,
-        flags=result.flags,
-        params=result.params,
-        path_cost=result.path_cost,
-        features=result.features,
-    )
+    return replace(result, disparity=out)

@@ -35,8 +35,10 @@ from .batch import (
     FailureRow,
     check_recorded_options,
     check_threads,
+    companion_options,
     make_output_folder,
     numba_threads,
+    write_companions,
     write_failures,
 )
 from .confidence import confidence as confidence_map
@@ -495,12 +497,7 @@ def match_sequence(
     if disparity_format not in ("pfm", "png"):
         raise ValueError(f"disparity_format must be 'pfm' or 'png', got {disparity_format!r}")
     check_preview_style(preview_style, "preview_style")
-    if calibration is not None and not isinstance(calibration, geometry.Calibration):
-        raise TypeError(
-            f"calibration must be a Calibration or None, got {type(calibration).__name__}"
-        )
-    if not isinstance(confidence, bool):
-        raise TypeError(f"confidence must be a bool, got {confidence!r}")
+    companions = companion_options(calibration is not None, calibration, confidence)
     check_threads(threads, client)
     params = MatchParams(max_disparity=max_disparity, **options)
     if disparity_format == "png" and (params.min_disparity < 0 or params.max_disparity > 255):
@@ -510,10 +507,7 @@ def match_sequence(
         )
     make_output_folder(folder)
     written = {"disparity_format": disparity_format, "preview_style": preview_style}
-    if calibration is not None:  # recorded only when given: older folders still resume
-        written["depth"] = dataclasses.asdict(calibration)
-    if confidence:
-        written["confidence"] = True
+    written.update(companions)
     check_recorded_options(
         folder,
         {**dataclasses.asdict(params), **written},
@@ -534,11 +528,13 @@ def match_sequence(
             note(frame.name, "failed")
             return
         disparity_path, preview_path = output_paths(folder, frame.index, disparity_format)
-        if calibration is not None:
-            z = geometry.depth(disparity, calibration)
-            io.write_pfm(depth_output_path(folder, frame.index), z)
-        if sure is not None:
-            io.write_pfm(confidence_output_path(folder, frame.index), sure)
+        write_companions(
+            disparity,
+            calibration,
+            depth_output_path(folder, frame.index),
+            sure,
+            confidence_output_path(folder, frame.index),
+        )
         io.write_disparity(disparity_path, disparity)
         io.write_rgb_png(preview_path, preview(disparity, occluded, style=preview_style))
         report.done.append(frame.name)
