@@ -101,6 +101,35 @@ def test_bench_table_and_json(tmp_path):
     assert payload["rows"][1]["dense"]["nonocc"]["bad-1.0"] < 20.0
 
 
+def test_bench_subpixel_occlusion_cost_and_threshold(tmp_path):
+    write_v2_scene(tmp_path / "data" / "a", seed=5)
+    maes = {}
+    for extra in ([], ["--subpixel", "parabola", "--occlusion-cost", "12"]):
+        out = tmp_path / f"bench{len(extra)}.json"
+        result = invoke(
+            "bench", tmp_path / "data", "--methods", "dc", "--threshold", "0.25", "--json", out,
+            "--quiet", *extra,
+        )  # fmt: skip
+        assert result.exit_code == 0, result.output
+        assert "bad-0.25 nonocc %" in result.output and "bad-1.0" not in result.output
+        payload = json.loads(out.read_text())
+        dense = payload["rows"][0]["dense"]["nonocc"]
+        assert {"bad-0.25", "bad-0.5", "bad-1.0", "bad-2.0", "bad-4.0"} <= set(dense)
+        maes[len(extra)] = dense["mae"]
+        expected = {"occlusion_cost": 12.0 if extra else 10.0, "subpixel": extra[1] if extra else None}
+        assert payload["match_options"] == expected
+    assert maes[0] != maes[4]  # the refined map scores differently
+
+
+def test_bench_bad_threshold_fails_before_running(tmp_path):
+    write_v2_scene(tmp_path / "data" / "a", seed=5)
+    for value in ("0", "-1", "nan"):
+        result = invoke("bench", tmp_path / "data", "--methods", "dc", "--threshold", value)
+        assert result.exit_code == 1
+        assert "--threshold must be a positive number of pixels" in result.output
+        assert "dc" not in result.output.replace("--threshold", "")
+
+
 def test_bench_errors(tmp_path):
     (tmp_path / "empty").mkdir()
     result = invoke("bench", tmp_path / "empty", "--methods", "block")

@@ -114,6 +114,32 @@ def test_run_method_matches_match():
     np.testing.assert_array_equal(a.disparity, b.disparity)
 
 
+def test_bench_table_shows_the_chosen_threshold_and_the_mae():
+    rows = bench([toy_scene()], ["dsi5"], thresholds=(1.0, 3.0))
+    text = render(bench_table(rows, threshold=3))
+    assert "bad-3.0 nonocc" in text and "bad-1.0" not in text and "mae nonocc" in text
+    assert f"{rows[0]['dense']['nonocc']['mae']:.3f}" in text
+    with pytest.raises(ValueError, match=r"not scored at the threshold 0.5 \(bad-0.5\)"):
+        bench_table(rows, threshold=0.5)
+
+
+def test_bench_match_options_reach_dcstereos_methods_only():
+    import dcstereo
+
+    cv2 = pytest.importorskip("cv2")
+    assert cv2 is not None
+    scene = toy_scene()
+    options = {"subpixel": "parabola", "occlusion_cost": 12.0}
+    rows = bench([scene], ["dc", "opencv-sgbm"], match_options=options, keep_results=True)
+    ours = dcstereo.match(scene.left, scene.right, max_disparity=10, **options)
+    np.testing.assert_array_equal(rows[0]["result"].disparity, ours.disparity)
+    assert rows[0]["result"].params.subpixel == "parabola"
+    d = rows[0]["result"].disparity
+    assert np.any(np.isfinite(d) & (d != np.floor(d)))  # refined
+    plain = run_method("opencv-sgbm", scene.left, scene.right, max_disparity=10)
+    np.testing.assert_array_equal(rows[1]["result"].disparity, plain.disparity)
+
+
 # --- OpenCV --------------------------------------------------------------------------
 
 

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .datasets import StereoScene, find_scenes, load_scene, scene_layout
-from .metrics import DEFAULT_THRESHOLDS, evaluate
+from .metrics import DEFAULT_THRESHOLDS, bad_key, evaluate
 from .opencv import OPENCV_METHODS
 from .params import METHODS
 from .result import DisparityResult
@@ -239,6 +239,7 @@ def bench(
     methods: Sequence[str],
     *,
     options: dict | None = None,
+    match_options: dict | None = None,
     thresholds: Sequence[float] = DEFAULT_THRESHOLDS,
     progress=None,
     keep_results: bool = False,
@@ -254,6 +255,10 @@ def bench(
         Names from :func:`available_methods`.
     options : dict, optional
         Passed to every method (for example ``{"window": 5}``).
+    match_options : dict, optional
+        Passed to dcstereo's methods only, not to OpenCV's: the options of
+        :func:`dcstereo.match` that OpenCV's matchers do not have (for example
+        ``{"subpixel": "equiangular", "occlusion_cost": 12}``).
     thresholds : sequence of float
         Bad-pixel thresholds.
     progress : callable, optional
@@ -273,12 +278,14 @@ def bench(
         ``seconds`` is the wall time of one call, compilation excluded.
     """
     options = dict(options or {})
+    ours = {**options, **(match_options or {})}
     warmed: set = set()
     rows = []
     for item in scenes:
         scene = item if isinstance(item, StereoScene) else _load(item, truth_scale)
         for method in methods:
-            _warm_up(method, scene, options, warmed)
+            method_options = options if method in OPENCV_METHODS else ours
+            _warm_up(method, scene, method_options, warmed)
             start = time.perf_counter()
             result = run_method(
                 method,
@@ -286,7 +293,7 @@ def bench(
                 scene.right,
                 max_disparity=scene.max_disparity,
                 min_disparity=scene.min_disparity,
-                **options,
+                **method_options,
             )
             seconds = time.perf_counter() - start
             row = {
@@ -382,25 +389,44 @@ def _cell(scores: dict, mask: str, key: str, digits: int = 2) -> str:
     return "nan" if value != value else f"{value:.{digits}f}"
 
 
-def bench_table(rows: Sequence[dict], *, title: str | None = None):
+def bench_table(rows: Sequence[dict], *, title: str | None = None, threshold: float = 1.0):
     """Build a rich table of :func:`bench` rows, then the mean row of each method.
 
-    Columns: scene, method, dense bad-1.0 in the nonocc / all / disc masks (%), the
-    sparse map's density over ``all`` (%), and the time (ms).
+    Columns: scene, method, the dense map's bad-``threshold`` in the nonocc / all / disc
+    masks (%) and its mean absolute error over nonocc (px), the sparse map's density over
+    ``all`` (%), and the time (ms).
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        Rows of :func:`bench`.
+    title : str, optional
+        The table's title.
+    threshold : float
+        The bad-pixel threshold shown; the rows must have been scored with it.
 
     Returns
     -------
     rich.table.Table
+
+    Raises
+    ------
+    ValueError
+        When the rows have no bad-``threshold`` score.
     """
     from rich.table import Table
 
+    key = bad_key(threshold)
+    if rows and not any(key in scores for scores in rows[0]["dense"].values()):
+        raise ValueError(f"the rows were not scored at the threshold {threshold:g} ({key})")
     table = Table(title=title)
     for name, justify in [
         ("scene", "left"),
         ("method", "left"),
-        ("bad-1.0 nonocc %", "right"),
-        ("bad-1.0 all %", "right"),
-        ("bad-1.0 disc %", "right"),
+        (f"{key} nonocc %", "right"),
+        (f"{key} all %", "right"),
+        (f"{key} disc %", "right"),
+        ("mae nonocc px", "right"),
         ("density %", "right"),
         ("time ms", "right"),
     ]:
@@ -412,9 +438,10 @@ def bench_table(rows: Sequence[dict], *, title: str | None = None):
         table.add_row(
             row["scene"],
             row["method"],
-            _cell(row["dense"], "nonocc", "bad-1.0"),
-            _cell(row["dense"], "all", "bad-1.0"),
-            _cell(row["dense"], "disc", "bad-1.0"),
+            _cell(row["dense"], "nonocc", key),
+            _cell(row["dense"], "all", key),
+            _cell(row["dense"], "disc", key),
+            _cell(row["dense"], "nonocc", "mae", 3),
             _cell(row["sparse"], "all", "density", 1),
             f"{1000 * row['seconds']:.0f}",
         )

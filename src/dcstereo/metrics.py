@@ -221,6 +221,15 @@ def density(estimate: np.ndarray, truth: np.ndarray, *, mask: np.ndarray | None 
     return 100.0 * float(np.count_nonzero(np.isfinite(estimate[scored]))) / float(scored.sum())
 
 
+def bad_key(threshold: float) -> str:
+    """The key of the bad-pixel rate at ``threshold`` in :func:`evaluate`'s scores.
+
+    >>> bad_key(1), bad_key(0.5)
+    ('bad-1.0', 'bad-0.5')
+    """
+    return f"bad-{float(threshold)}"
+
+
 def evaluate(
     estimate: np.ndarray,
     truth: np.ndarray,
@@ -281,7 +290,7 @@ def evaluate(
         signed = est[scored] - tru[scored]
         error = np.abs(signed)
         finite = np.isfinite(error)
-        row = {f"bad-{t}": _bad_rate(error, t) for t in thresholds}
+        row = {bad_key(t): _bad_rate(error, t) for t in thresholds}
         if finite.any():
             row["mae"] = float(error[finite].mean())
             row["rms"] = float(np.sqrt(np.mean(signed[finite] ** 2)))

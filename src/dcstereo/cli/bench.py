@@ -1,7 +1,11 @@
 """``dcstereo bench``: run methods over every scene under a folder and tabulate the scores."""
 
+import math
+
 import click
 
+from ..metrics import DEFAULT_THRESHOLDS
+from ..params import DEFAULT_OCCLUSION_COST, SUBPIXEL_FITS
 from ._common import check_output_paths, one_line_errors, set_threads
 
 
@@ -15,6 +19,27 @@ from ._common import check_output_paths, one_line_errors, set_threads
     "dcstereo method, and OpenCV's when it is installed.",
 )
 @click.option("--window", type=int, default=5, show_default=True, help="Odd window side.")
+@click.option(
+    "--occlusion-cost",
+    type=float,
+    default=DEFAULT_OCCLUSION_COST,
+    show_default=True,
+    help="Cost of one occluded pixel (dcstereo's methods).",
+)
+@click.option(
+    "--subpixel",
+    type=click.Choice(SUBPIXEL_FITS),
+    default=None,
+    help="Refine dcstereo's whole-pixel disparities by this fit (see run --subpixel; "
+    "OpenCV's are sub-pixel already). Default: off.",
+)
+@click.option(
+    "--threshold",
+    type=float,
+    default=1.0,
+    show_default=True,
+    help="Bad-pixel threshold of the table, in pixels (the JSON has 0.5, 1, 2, 4 and it).",
+)
 @click.option(
     "--json",
     "json_out",
@@ -33,13 +58,17 @@ from ._common import check_output_paths, one_line_errors, set_threads
 @click.option("--threads", type=int, default=None, help="Number of threads (default: all).")
 @click.option("--quiet", "-q", is_flag=True, help="Print only the table.")
 @one_line_errors
-def bench(data_dir, methods, window, json_out, gt_scale, threads, quiet):
+def bench(
+    data_dir, methods, window, occlusion_cost, subpixel, threshold, json_out, gt_scale, threads,
+    quiet,
+):  # fmt: skip
     """Run METHODS on every scene folder under DATA_DIR and print a table.
 
     Scene folders of any layout are found at any depth (v2, 2005/2006, 2014); all are
     loaded before any method runs, and one that cannot be read stops the bench. The table
-    gives bad-1.0 (%) of the filled (dense) maps in the nonocc, all and disc masks, the
-    density of the raw map and the time per run, then the mean of each method.
+    gives bad-1.0 (or --threshold) (%) of the filled (dense) maps in the nonocc, all and
+    disc masks and their mean absolute error over nonocc, the density of the raw map and
+    the time per run, then the mean of each method.
     """
     from .. import io
     from ..evaluation import (
@@ -54,6 +83,10 @@ def bench(data_dir, methods, window, json_out, gt_scale, threads, quiet):
 
     check_output_paths(json_out)
     names = parse_methods(methods)
+    if not (math.isfinite(threshold) and threshold > 0):
+        raise ValueError(f"--threshold must be a positive number of pixels, got {threshold:g}")
+    thresholds = sorted({*DEFAULT_THRESHOLDS, threshold})
+    match_options = {"occlusion_cost": occlusion_cost, "subpixel": subpixel}
     set_threads(threads)
 
     def progress(scene, method, seconds):
@@ -61,10 +94,22 @@ def bench(data_dir, methods, window, json_out, gt_scale, threads, quiet):
             click.echo(f"{scene:>14s} {method:<12s} {1000 * seconds:8.0f} ms", err=True)
 
     rows = bench_folder(
-        data_dir, names, options={"window": window}, progress=progress, truth_scale=gt_scale
+        data_dir,
+        names,
+        options={"window": window},
+        match_options=match_options,
+        thresholds=thresholds,
+        progress=progress,
+        truth_scale=gt_scale,
     )
-    click.echo(render(bench_table(rows, title=f"bench {data_dir}")), nl=False)
+    table = bench_table(rows, title=f"bench {data_dir}", threshold=threshold)
+    click.echo(render(table), nl=False)
     if json_out is not None:
-        payload = {"machine": machine_description(), "window": window, "rows": json_rows(rows)}
+        payload = {
+            "machine": machine_description(),
+            "window": window,
+            "match_options": match_options,
+            "rows": json_rows(rows),
+        }
         with io.atomic_write(json_out) as tmp:
             tmp.write_text(to_json(payload, indent=1), encoding="utf-8")
