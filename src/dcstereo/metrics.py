@@ -222,7 +222,7 @@ def density(estimate: np.ndarray, truth: np.ndarray, *, mask: np.ndarray | None 
 
 
 def bad_key(threshold: float) -> str:
-    """The key of the bad-pixel rate at ``threshold`` in :func:`evaluate`'s scores.
+    """Return the key of the bad-pixel rate at ``threshold`` in :func:`evaluate`'s scores.
 
     >>> bad_key(1), bad_key(0.5)
     ('bad-1.0', 'bad-0.5')
