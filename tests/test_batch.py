@@ -553,6 +553,31 @@ def test_subpixel_is_a_recorded_option_that_older_folders_lack(pairs_dir, tmp_pa
         )
 
 
+def test_median_is_a_recorded_option_that_older_folders_lack(pairs_dir, tmp_path):
+    import json
+
+    pairs = find_pairs(pairs_dir)[:2]
+    out = tmp_path / "out"
+    run_batch(pairs, out, max_disparity=MAX_DISPARITY)
+    recorded = json.loads((out / "batch.json").read_text())
+    assert recorded["median"] == 0
+    del recorded["median"], recorded["subpixel"]  # as written before both options
+    (out / "batch.json").write_text(json.dumps(recorded))
+    assert run_batch(pairs, out, max_disparity=MAX_DISPARITY).skipped == [p.name for p in pairs]
+    with pytest.raises(ValueError, match=r"other options: median 0 \(now 5\)"):
+        run_batch(pairs, out, max_disparity=MAX_DISPARITY, median=5)
+    filtered = tmp_path / "filtered"
+    args = ["batch", str(pairs_dir), "-o", str(filtered), "--max-disparity", str(MAX_DISPARITY)]
+    result = CliRunner().invoke(main, [*args, "--median", "5", "-q"])
+    assert result.exit_code == 0, result.output
+    for pair in pairs:
+        expected = match(io.read_image(pair.left), io.read_image(pair.right),
+                         max_disparity=MAX_DISPARITY, median=5)  # fmt: skip
+        np.testing.assert_array_equal(
+            io.read_pfm(output_path(filtered, pair)), np.nan_to_num(expected.disparity, nan=np.inf)
+        )
+
+
 def test_batch_confidence_here_and_on_dask(pairs_dir, tmp_path, dask_client):
     from dcstereo.batch import confidence_path
     from dcstereo.confidence import confidence

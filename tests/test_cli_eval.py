@@ -104,7 +104,7 @@ def test_bench_table_and_json(tmp_path):
 def test_bench_subpixel_occlusion_cost_and_threshold(tmp_path):
     write_v2_scene(tmp_path / "data" / "a", seed=5)
     maes = {}
-    for extra in ([], ["--subpixel", "parabola", "--occlusion-cost", "12"]):
+    for extra in ([], ["--subpixel", "parabola", "--occlusion-cost", "12", "--median", "3"]):
         out = tmp_path / f"bench{len(extra)}.json"
         result = invoke(
             "bench", tmp_path / "data", "--methods", "dc", "--threshold", "0.25", "--json", out,
@@ -116,20 +116,24 @@ def test_bench_subpixel_occlusion_cost_and_threshold(tmp_path):
         dense = payload["rows"][0]["dense"]["nonocc"]
         assert {"bad-0.25", "bad-0.5", "bad-1.0", "bad-2.0", "bad-4.0"} <= set(dense)
         maes[len(extra)] = dense["mae"]
-        expected = {"occlusion_cost": 10.0, "subpixel": None}
+        expected = {"occlusion_cost": 10.0, "subpixel": None, "median": 0}
         if extra:
-            expected = {"occlusion_cost": 12.0, "subpixel": "parabola"}
+            expected = {"occlusion_cost": 12.0, "subpixel": "parabola", "median": 3}
         assert payload["match_options"] == expected
-    assert maes[0] != maes[4]  # the refined map scores differently
+    assert maes[0] != maes[6]  # the refined, filtered map scores differently
 
 
-def test_bench_bad_threshold_fails_before_running(tmp_path):
+def test_bench_bad_threshold_or_median_fails_before_running(tmp_path):
     write_v2_scene(tmp_path / "data" / "a", seed=5)
-    for value in ("0", "-1", "nan"):
-        result = invoke("bench", tmp_path / "data", "--methods", "dc", "--threshold", value)
-        assert result.exit_code == 1
-        assert "--threshold must be a positive number of pixels" in result.output
-        assert "dc" not in result.output.replace("--threshold", "")
+    for option, value, message in [
+        ("--threshold", "0", "--threshold must be a positive number of pixels"),
+        ("--threshold", "-1", "--threshold must be a positive number of pixels"),
+        ("--threshold", "nan", "--threshold must be a positive number of pixels"),
+        ("--median", "4", "--median must be 0 (off) or an odd integer from 3 to 15, got 4"),
+    ]:
+        result = invoke("bench", tmp_path / "data", "--methods", "block,dc", option, value)
+        lines = result.output.strip().splitlines()
+        assert result.exit_code == 1 and len(lines) == 1 and message in lines[0], lines
 
 
 def test_bench_errors(tmp_path):

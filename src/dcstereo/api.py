@@ -7,6 +7,7 @@ import numpy as np
 
 from . import _band_kernels, _kernels
 from .params import MatchParams
+from .postfilter import median_filter
 from .redert import match_redert as _match_redert
 from .result import FLAG_FEATURE, DisparityResult
 from .signal import SIGNAL_STEPS, check_pair, padded_signal
@@ -53,7 +54,8 @@ def match(
         ``window`` (odd, default 5), ``occlusion_cost`` (per pixel, gray levels of mean
         absolute difference, default 10), ``fill`` (default False), ``cost``
         (``"sad"`` or ``"bt"``, Birchfield-Tomasi), ``subpixel`` (None, ``"equiangular"``
-        or ``"parabola"``, see :mod:`dcstereo.subpixel`). See
+        or ``"parabola"``, see :mod:`dcstereo.subpixel`), ``median`` (0, or the odd side of
+        a median filter, see :mod:`dcstereo.postfilter`). See
         :class:`~dcstereo.params.MatchParams`.
 
     Returns
@@ -87,6 +89,8 @@ def match(
         ) from err
     if params.subpixel is not None:
         result = refine_subpixel(result, left, right, fit=params.subpixel)
+    if params.median:
+        result = median_filter(result, params.median)
     return result.filled() if params.fill else result
 
 

@@ -49,7 +49,7 @@ CONFIDENCE_FOLDER = "confidence"
 #: A pair folder's calibration file (Middlebury 2014's name and format).
 CALIB_NAME = "calib.txt"
 #: What outputs were made with when their ``batch.json`` predates an option.
-ASSUMED_OPTIONS = {"subpixel": None}
+ASSUMED_OPTIONS = {"subpixel": None, "median": 0}
 #: Longest pair name, in bytes of UTF-8: the temporary name of its output
 #: (:data:`dcstereo.io.TEMPORARY_NAME_EXTRA` more than ``<name>.pfm``) must fit the 255
 #: bytes file systems allow a name.

@@ -39,6 +39,23 @@ COSTS = ("sad", "bt")
 #: ``subpixel``: the fits of :func:`dcstereo.subpixel.refine_subpixel`.
 SUBPIXEL_FITS = ("equiangular", "parabola")
 
+#: ``median``: the largest window of :func:`dcstereo.postfilter.median_filter`.
+MAX_MEDIAN = 15
+
+
+def check_median(value, name: str = "median") -> int:
+    """Return a median filter's window side: 0 (off) or odd, 3 to :data:`MAX_MEDIAN`."""
+    if isinstance(value, np.integer):
+        value = int(value)
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise TypeError(f"{name} must be an integer, got {value!r}")
+    if value != 0 and not (3 <= value <= MAX_MEDIAN and value % 2 == 1):
+        raise ValueError(
+            f"{name} must be 0 (off) or an odd integer from 3 to {MAX_MEDIAN}, got {value}"
+        )
+    return value
+
+
 #: ``redert``: the surface orientations (disparity slopes, px/px) of the DP states.
 DEFAULT_ORIENTATIONS = (-0.5, -0.25, -0.125, 0.0, 0.125, 0.25, 0.5)
 #: ``redert``: cost of a change of orientation between neighbouring matched pixels, in
@@ -150,6 +167,11 @@ class MatchParams:
         ``"equiangular"`` or ``"parabola"``: refined to a fraction of a pixel by
         :func:`dcstereo.subpixel.refine_subpixel` before ``fill``, so the filled pixels
         take their neighbours' refined values.
+    median : int
+        0 (default): no post-filter. An odd side from 3 to :data:`MAX_MEDIAN`: every
+        estimate but the feature pairs' takes the median of the estimates in that square
+        around it (:func:`dcstereo.postfilter.median_filter`), after ``subpixel`` and
+        before ``fill``.
     orientations : tuple of float
         ``redert`` only: the surface orientations of the DP states, as disparity slopes
         (pixels of disparity per pixel), each one of ``0, +-1/16, +-1/8, +-1/4, +-1/2,
@@ -198,6 +220,7 @@ class MatchParams:
     gcp_uniqueness: float = DEFAULT_GCP_UNIQUENESS
     gcp_variance_floor: float = DEFAULT_GCP_VARIANCE_FLOOR
     subpixel: str | None = None
+    median: int = 0
 
     def __post_init__(self):
         for field in fields(self):  # numpy scalars (np.int64(4), np.True_): the Python value
@@ -240,6 +263,7 @@ class MatchParams:
             raise ValueError(
                 f"subpixel must be None or one of {', '.join(SUBPIXEL_FITS)}, got {self.subpixel!r}"
             )
+        object.__setattr__(self, "median", check_median(self.median))
         if self.cost == "bt" and self.method == "redert":
             raise ValueError("cost='bt' is not supported by redert (its window is sheared)")
         for name in (

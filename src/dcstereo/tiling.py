@@ -6,16 +6,19 @@ edge row). A band of output rows ``y0 .. y1 - 1`` therefore needs the input rows
 ``y0 - r .. y1 - 1 + r`` (clipped to the image) and nothing else, and matching that band on
 its own gives bit for bit the rows of the whole-image result: the band's own edge padding
 only touches its first and last ``r`` rows, which are context, not output. The bands can
-run one after the other (memory: one band) or as one Dask task each.
+run one after the other (memory: one band) or as one Dask task each. The one step that
+reads across rows of the map, the ``median`` post-filter, runs once on the stitched map
+(then ``fill``).
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ._checks import is_integer
 from .api import match
 from .params import MatchParams
+from .postfilter import median_filter
 from .result import DisparityResult
 from .signal import check_pair
 
@@ -138,6 +141,8 @@ def match_tiled(
     height, width = left.shape[:2]
     params.check_image_size(height, width)
     bands = row_bands(height, tile_rows, params.window)
+    if params.median:  # reads rows of the neighbouring bands: once, on the stitched map
+        match_kwargs = {**match_kwargs, "median": 0, "fill": False}
     if client is None:
         parts = [
             match(
@@ -153,7 +158,12 @@ def match_tiled(
             )
             futures.append(client.submit(_match_band, *pieces, match_kwargs, pure=False, retries=2))
         parts = client.gather(futures)
-    return _stitch(bands, parts, height, width)
+    result = _stitch(bands, parts, height, width)
+    if params.median:
+        result = replace(median_filter(result, params.median), params=params)
+        if params.fill:
+            result = result.filled()
+    return result
 
 
 def _match_band(left: np.ndarray, right: np.ndarray, match_kwargs: dict) -> DisparityResult:

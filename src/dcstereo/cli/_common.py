@@ -6,14 +6,14 @@ from pathlib import Path
 
 import click
 
-from ..params import DEFAULT_OCCLUSION_COST, METHODS, SUBPIXEL_FITS
+from ..params import DEFAULT_OCCLUSION_COST, MAX_MEDIAN, METHODS, SUBPIXEL_FITS
 from ..viz import PREVIEW_STYLES
 
 #: Methods whose result carries feature pairs.
 FEATURE_METHODS = ("dc", "dc-linear", "dsi3-gcp")
 
 #: The keyword arguments of :func:`dcstereo.match` that :func:`matching_options` collects.
-MATCH_OPTIONS = ("method", "window", "occlusion_cost", "cost", "fill", "subpixel")
+MATCH_OPTIONS = ("method", "window", "occlusion_cost", "cost", "fill", "subpixel", "median")
 
 
 class CommandError(click.ClickException):
@@ -208,6 +208,7 @@ def matching_options(func):
             help="Refine each whole-pixel disparity to a fraction of a pixel by this fit "
             "through the window costs at d - 1, d, d + 1 (before --fill; default: off).",
         ),
+        median_option,
         click.option(
             "--threads",
             type=int,
@@ -216,6 +217,18 @@ def matching_options(func):
         ),
     ]
     return _option_group(func, "match_options", MATCH_OPTIONS, options)
+
+
+#: ``--median K``: the post-filter of :mod:`dcstereo.postfilter`.
+median_option = click.option(
+    "--median",
+    type=int,
+    default=0,
+    show_default=True,
+    help="Median post-filter: every estimate but the feature pairs' takes the median of "
+    f"the estimates in this odd square around it, 3 to {MAX_MEDIAN} (after --subpixel, "
+    "before --fill; 0: off).",
+)
 
 
 def _option_group(func, key, names, options):

@@ -5,8 +5,8 @@ import math
 import click
 
 from ..metrics import DEFAULT_THRESHOLDS
-from ..params import DEFAULT_OCCLUSION_COST, SUBPIXEL_FITS
-from ._common import check_output_paths, one_line_errors, set_threads
+from ..params import DEFAULT_OCCLUSION_COST, SUBPIXEL_FITS, check_median
+from ._common import check_output_paths, median_option, one_line_errors, set_threads
 
 
 @click.command()
@@ -31,8 +31,10 @@ from ._common import check_output_paths, one_line_errors, set_threads
     type=click.Choice(SUBPIXEL_FITS),
     default=None,
     help="Refine dcstereo's whole-pixel disparities by this fit (see run --subpixel; "
-    "OpenCV's are sub-pixel already). Default: off.",
+    "OpenCV's are sub-pixel already). Default: off. It and --median, --occlusion-cost "
+    "reach dcstereo's methods only.",
 )
+@median_option
 @click.option(
     "--threshold",
     type=float,
@@ -59,8 +61,8 @@ from ._common import check_output_paths, one_line_errors, set_threads
 @click.option("--quiet", "-q", is_flag=True, help="Print only the table.")
 @one_line_errors
 def bench(
-    data_dir, methods, window, occlusion_cost, subpixel, threshold, json_out, gt_scale, threads,
-    quiet,
+    data_dir, methods, window, occlusion_cost, subpixel, median, threshold, json_out, gt_scale,
+    threads, quiet,
 ):  # fmt: skip
     """Run METHODS on every scene folder under DATA_DIR and print a table.
 
@@ -86,7 +88,8 @@ def bench(
     if not (math.isfinite(threshold) and threshold > 0):
         raise ValueError(f"--threshold must be a positive number of pixels, got {threshold:g}")
     thresholds = sorted({*DEFAULT_THRESHOLDS, threshold})
-    match_options = {"occlusion_cost": occlusion_cost, "subpixel": subpixel}
+    check_median(median, "--median")
+    match_options = {"occlusion_cost": occlusion_cost, "subpixel": subpixel, "median": median}
     set_threads(threads)
 
     def progress(scene, method, seconds):

@@ -1,0 +1,61 @@
+"""A median filter of the disparity map: the post-filter of CNES Pandora's pipeline.
+
+A scanline DP decides each row on its own, so its maps carry short horizontal streaks and
+single-row spikes where neighbouring rows agree. :func:`median_filter` gives every pixel
+with an estimate the median of the estimates in the square window around it; a pixel
+without one (occluded, beyond the border) stays without, so the occlusion map and the flags
+do not change, and the feature pairs of the ``dc`` methods keep their disparities (they are
+the matches the method trusts most, and its path passes through them).
+
+``dcstereo.match(..., median=5)`` runs it inside the match, after ``subpixel`` and before
+``fill``: the filled pixels then take the filtered background.
+"""
+
+from dataclasses import replace
+
+import numpy as np
+
+from . import _postfilter_kernels
+from .params import MAX_MEDIAN, check_median
+from .result import FLAG_FEATURE, DisparityResult
+
+__all__ = ["MAX_MEDIAN", "median_filter"]
+
+
+def median_filter(result: DisparityResult, size: int = 5) -> DisparityResult:
+    """Return ``result`` with each estimate replaced by the median of those around it.
+
+    Parameters
+    ----------
+    result : DisparityResult
+        From :func:`dcstereo.match` (filled or not).
+    size : int
+        Odd side of the square window, 3 to :data:`MAX_MEDIAN`. The window is cut at the
+        image's edges; only the pixels with an estimate in it count (of an even count,
+        the mean of the middle two).
+
+    Returns
+    -------
+    DisparityResult
+        The same flags, occlusions and features; the feature pixels keep their values.
+
+    Examples
+    --------
+    >>> import numpy as np, dcstereo
+    >>> from dcstereo.postfilter import median_filter
+    >>> rng = np.random.default_rng(0)
+    >>> right = rng.integers(0, 256, (20, 40), dtype=np.uint8)
+    >>> result = dcstereo.match(np.roll(right, 3, axis=1), right, max_disparity=6)
+    >>> float(np.nanmedian(median_filter(result, 3).disparity))
+    3.0
+    """
+    if not isinstance(result, DisparityResult):
+        raise TypeError(f"result must be a DisparityResult, got {type(result).__name__}")
+    size = check_median(size, "size")
+    if size == 0:
+        raise ValueError("size must be an odd integer from 3, got 0")
+    d = result.disparity
+    moved = np.isfinite(d) & ((result.flags & FLAG_FEATURE) == 0)
+    out = d.copy()
+    _postfilter_kernels.median_rows(d, moved, size // 2, out)
+    return replace(result, disparity=out)

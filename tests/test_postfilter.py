@@ -1,0 +1,137 @@
+"""The median post-filter (``dcstereo.postfilter``): the kernel against a plain twin, what
+it leaves alone, inside ``match`` and tiled, its errors, and ``run --median``."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from dcstereo import FLAG_FEATURE, FLAG_OCCLUDED, MatchParams, io, match
+from dcstereo.postfilter import MAX_MEDIAN, median_filter
+from dcstereo.tiling import match_tiled
+from test_cli import invoke
+
+
+def twin(disparity, flags, size):
+    """The filter as its docstring says, pixel by pixel: sorted values, the middle one(s)."""
+    radius = size // 2
+    height, width = disparity.shape
+    out = disparity.copy()
+    for y, x in np.ndindex(disparity.shape):
+        if not np.isfinite(disparity[y, x]) or flags[y, x] & FLAG_FEATURE:
+            continue
+        window = disparity[max(0, y - radius) : y + radius + 1, max(0, x - radius) : x + radius + 1]
+        values = sorted(float(v) for v in window.ravel() if np.isfinite(v))
+        n = len(values)
+        middle = values[n // 2] if n % 2 else (values[n // 2 - 1] + values[n // 2]) / 2
+        out[y, x] = np.float32(middle)
+    return out
+
+
+def random_result(seed, height=13, width=29):
+    """A dsi3 result whose map is replaced by every kind of pixel the filter meets."""
+    rng = np.random.default_rng(seed)
+    left = rng.integers(0, 256, (height, width), dtype=np.uint8)
+    result = match(left, np.roll(left, -2, axis=1), max_disparity=4, window=3, method="dsi3")
+    d = rng.integers(0, 9, (height, width)).astype(np.float32)
+    d[rng.random(d.shape) < 0.2] += 0.5  # half pixels
+    d[rng.random(d.shape) < 0.1] += np.float32(rng.random())  # sub-pixel values
+    d[rng.random(d.shape) < 0.25] = np.nan  # no estimate: an even count happens
+    flags = np.where(np.isnan(d), FLAG_OCCLUDED, 0).astype(np.uint8)
+    flags[(rng.random(d.shape) < 0.1) & ~np.isnan(d)] |= FLAG_FEATURE
+    return replace(result, disparity=d, flags=flags)
+
+
+@pytest.mark.parametrize("size", [3, 5, 7, MAX_MEDIAN])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_kernel_equals_its_twin(size, seed):
+    result = random_result(seed)
+    filtered = median_filter(result, size)
+    np.testing.assert_array_equal(filtered.disparity, twin(result.disparity, result.flags, size))
+    assert (filtered.disparity != result.disparity)[np.isfinite(result.disparity)].sum() > 20
+
+
+def test_what_is_left_alone():
+    result = random_result(3)
+    filtered = median_filter(result, 5)
+    d = result.disparity
+    assert np.array_equal(np.isnan(filtered.disparity), np.isnan(d))  # occlusions stay
+    feature = (result.flags & FLAG_FEATURE) != 0
+    np.testing.assert_array_equal(filtered.disparity[feature], d[feature])
+    assert filtered.flags is result.flags and filtered.params == result.params
+    assert filtered.features is result.features
+
+
+def test_a_spike_and_a_streak_go():
+    d = np.full((9, 20), 6.0, dtype=np.float32)
+    d[4, 3] = 13.0  # a spike
+    d[2, 8:15] = 2.0  # a one-row streak, as a scanline DP leaves
+    d[:, :2] = np.nan
+    result = replace(random_result(0, 9, 20), disparity=d, flags=np.zeros(d.shape, np.uint8))
+    out = median_filter(result, 3).disparity
+    np.testing.assert_array_equal(out[:, 2:], 6.0)
+    assert np.isnan(out[:, :2]).all()
+
+
+def test_match_filters_after_subpixel_and_before_filling(pair):
+    folder, _ = pair
+    left, right = io.read_image(folder / "left.png"), io.read_image(folder / "right.png")
+    plain = match(left, right, max_disparity=10, subpixel="parabola")
+    inside = match(left, right, max_disparity=10, subpixel="parabola", median=5)
+    np.testing.assert_array_equal(inside.disparity, median_filter(plain, 5).disparity)
+    assert inside.params.median == 5 and plain.params.median == 0
+    filled = match(left, right, max_disparity=10, subpixel="parabola", median=5, fill=True)
+    np.testing.assert_array_equal(filled.disparity, median_filter(plain, 5).filled().disparity)
+    # the reliable pairs keep their disparities: the path still passes through them
+    whole = match(left, right, max_disparity=10, median=5)
+    rows, xl, xr = (whole.features[:, i].astype(int) for i in range(3))
+    assert len(rows) > 20
+    np.testing.assert_array_equal(whole.disparity[rows, xl], xl - xr)
+
+
+@pytest.mark.parametrize("fill", [False, True])
+def test_tiled_equals_untiled(pair, fill):
+    folder, _ = pair
+    left, right = io.read_image(folder / "left.png"), io.read_image(folder / "right.png")
+    kwargs = {"max_disparity": 10, "median": 5, "fill": fill}
+    whole = match(left, right, **kwargs)
+    tiled = match_tiled(left, right, tile_rows=4, **kwargs)
+    np.testing.assert_array_equal(tiled.disparity, whole.disparity)
+    np.testing.assert_array_equal(tiled.flags, whole.flags)
+    np.testing.assert_array_equal(tiled.features, whole.features)
+    assert tiled.params == whole.params
+
+
+def test_errors():
+    result = random_result(0)
+    for bad in (1, 2, 4, MAX_MEDIAN + 2, -3):
+        message = f"median must be 0 \\(off\\) or an odd integer from 3 to {MAX_MEDIAN}, got {bad}"
+        with pytest.raises(ValueError, match=message):
+            MatchParams(max_disparity=4, median=bad)
+    for bad in (True, 2.5, "5", None):
+        with pytest.raises(TypeError, match="median must be an integer"):
+            MatchParams(max_disparity=4, median=bad)
+    assert MatchParams(max_disparity=4, median=np.int64(3)).median == 3
+    with pytest.raises(ValueError, match="size must be an odd integer from 3, got 0"):
+        median_filter(result, 0)
+    with pytest.raises(ValueError, match="size must be 0 \\(off\\) or an odd integer"):
+        median_filter(result, 4)
+    with pytest.raises(TypeError, match="result must be a DisparityResult, got ndarray"):
+        median_filter(result.disparity, 3)
+
+
+def test_run_median(pair):
+    folder, _ = pair
+    left, right = io.read_image(folder / "left.png"), io.read_image(folder / "right.png")
+    out = folder / "d.pfm"
+    result = invoke("run", folder / "left.png", folder / "right.png", "-o", out,
+                    "--max-disparity", 10, "--median", 3, "--fill", "-q")  # fmt: skip
+    assert result.exit_code == 0, result.output
+    expected = match(left, right, max_disparity=10, median=3, fill=True)
+    np.testing.assert_array_equal(io.read_pfm(out), expected.disparity)
+    bad = folder / "bad.pfm"
+    result = invoke("run", folder / "left.png", folder / "right.png", "-o", bad,
+                    "--max-disparity", 10, "--median", 4)  # fmt: skip
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == 1 and len(lines) == 1 and "median must be 0 (off)" in lines[0]
+    assert not bad.exists()
