@@ -15,6 +15,7 @@ from dcstereo import io, match
 from dcstereo.batch import (
     FAILURES_FILE,
     Pair,
+    cloud_path,
     depth_path,
     find_pairs,
     output_path,
@@ -22,7 +23,7 @@ from dcstereo.batch import (
     run_batch,
 )
 from dcstereo.cli import main
-from dcstereo.geometry import Calibration, depth
+from dcstereo.geometry import Calibration, depth, point_cloud
 from dcstereo.synthetic import synthetic_sequence
 
 distributed = pytest.importorskip("distributed")
@@ -524,6 +525,92 @@ def test_cli_batch_depth(calib_pairs, tmp_path):
         lines = result.output.strip().splitlines()
         assert result.exit_code == 1 and len(lines) == 1 and message in lines[0], lines
         assert not (tmp_path / "x").exists()
+
+
+def expected_cloud(pair: Pair, calibration: Calibration, folder: Path, **kwargs) -> bytes:
+    """The bytes of the PLY file ``run`` would write for the pair."""
+    left = io.read_image(pair.left)
+    result = match(left, io.read_image(pair.right), **kwargs)
+    cloud = point_cloud(result.disparity, calibration, left)
+    io.write_ply(folder / f"{pair.name}-expected.ply", cloud.points, cloud.colors)
+    return (folder / f"{pair.name}-expected.ply").read_bytes()
+
+
+def test_batch_ply_from_each_pair_folders_calib(calib_pairs, tmp_path):
+    pairs = find_pairs(calib_pairs)
+    out = tmp_path / "out"
+    report = run_batch(pairs, out, max_disparity=8, ply=True, fill=True)
+    assert report.done == ["pair00", "pair01"]
+    assert report.failed[0].message.startswith(
+        "pair 'pair02' has no calib.txt for its point cloud (give one calibration"
+    )
+    for pair in pairs[:2]:
+        calib = Calibration.from_middlebury(pair.calib)
+        expected = expected_cloud(pair, calib, tmp_path, max_disparity=8, fill=True)
+        assert cloud_path(out, pair).read_bytes() == expected
+        assert io.is_complete(cloud_path(out, pair))
+        assert not depth_path(out, pair).exists()  # only what was asked for
+    # resume: a cloud cut short is not complete, and its pair is redone
+    cut = cloud_path(out, pairs[0])
+    cut.write_bytes(cut.read_bytes()[:-7])
+    assert not io.is_complete(cut)
+    again = run_batch(pairs, out, max_disparity=8, ply=True, fill=True)
+    assert again.done == ["pair00"] and again.skipped == ["pair01"]
+    assert io.is_complete(cut)
+    # the cloud is a recorded option: resuming without it over its outputs is refused
+    with pytest.raises(ValueError, match="other options: .*ply"):
+        run_batch(pairs, out, max_disparity=8, fill=True)
+
+
+def test_batch_ply_and_depth_on_dask_equal_serial(calib_pairs, tmp_path, dask_client):
+    pairs = find_pairs(calib_pairs)[:2]
+    calib = Calibration(focal=400, baseline=50, cx=20, cy=12)
+    kwargs = {"max_disparity": 8, "depth": True, "ply": True, "calibration": calib}
+    serial = run_batch(pairs, tmp_path / "serial", **kwargs)
+    parallel = run_batch(pairs, tmp_path / "dask", client=dask_client, **kwargs)
+    assert serial.done == parallel.done == ["pair00", "pair01"]
+    for pair in pairs:
+        assert (tmp_path / "dask" / "cloud" / f"{pair.name}.ply").read_bytes() == (
+            expected_cloud(pair, calib, tmp_path, max_disparity=8)
+        )
+        for where in (output_path, depth_path, cloud_path):
+            a, b = where(tmp_path / "serial", pair), where(tmp_path / "dask", pair)
+            assert a.read_bytes() == b.read_bytes()
+
+
+def test_cli_batch_ply(calib_pairs, tmp_path):
+    out = tmp_path / "out"
+    (tmp_path / "all.txt").write_text(CALIB_B)
+    args = ["batch", str(calib_pairs), "-o", str(out), "--max-disparity", "8", "-q"]
+    result = CliRunner().invoke(main, [*args, "--ply", "--calib", str(tmp_path / "all.txt")])
+    assert result.exit_code == 0, result.output
+    calib = Calibration.from_middlebury(tmp_path / "all.txt")
+    for pair in find_pairs(calib_pairs):
+        assert (out / "cloud" / f"{pair.name}.ply").read_bytes() == expected_cloud(
+            pair, calib, tmp_path, max_disparity=8
+        )
+    result = CliRunner().invoke(main, [*args[:3], str(tmp_path / "x"), *args[4:], "--calib",
+                                       str(tmp_path / "all.txt")])  # fmt: skip
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == 1 and lines == ["Error: --calib is used only with --depth or --ply"]
+
+
+def test_is_complete_reads_a_ply_files_header(tmp_path):
+    path = tmp_path / "c.ply"
+    rng = np.random.default_rng(0)
+    points = rng.random((10, 3))
+    for colors in (None, rng.integers(0, 256, (10, 3), dtype=np.uint8)):
+        io.write_ply(path, points, colors)
+        assert io.is_complete(path)
+        whole = path.read_bytes()
+        for broken in (whole[:-1], whole + b"x", whole.replace(b"vertex 10", b"vertex 11"),
+                       whole.replace(b"binary_little_endian", b"ascii"),
+                       whole.replace(b"float x", b"quad x"), whole.replace(b"end_header", b"x"),
+                       b"", b"ply\n"):  # fmt: skip
+            path.write_bytes(broken)
+            assert not io.is_complete(path), broken[:80]
+    io.write_ply(path, np.empty((0, 3)))
+    assert io.is_complete(path)
 
 
 def test_subpixel_is_a_recorded_option_that_older_folders_lack(pairs_dir, tmp_path):

@@ -46,6 +46,8 @@ OPTIONS_FILE = "batch.json"
 DEPTH_FOLDER = "depth"
 #: The folder (in the output folder) of the confidence maps, ``<name>.pfm`` each.
 CONFIDENCE_FOLDER = "confidence"
+#: The folder (in the output folder) of the point clouds, ``<name>.ply`` each.
+CLOUD_FOLDER = "cloud"
 #: A pair folder's calibration file (Middlebury 2014's name and format).
 CALIB_NAME = "calib.txt"
 #: What outputs were made with when their ``batch.json`` predates an option.
@@ -262,6 +264,11 @@ def confidence_path(output_dir: str | os.PathLike, pair: Pair) -> Path:
     return Path(output_dir) / CONFIDENCE_FOLDER / f"{pair.name}.pfm"
 
 
+def cloud_path(output_dir: str | os.PathLike, pair: Pair) -> Path:
+    """Return where :func:`run_batch` writes the point cloud of ``pair`` (``cloud/<name>.ply``)."""
+    return Path(output_dir) / CLOUD_FOLDER / f"{pair.name}.ply"
+
+
 def run_batch(
     pairs: Iterable[Pair],
     output_dir: str | os.PathLike,
@@ -275,6 +282,7 @@ def run_batch(
     depth: bool = False,
     calibration: Calibration | None = None,
     confidence: bool = False,
+    ply: bool = False,
     **options,
 ) -> BatchReport:
     """Match every pair and write ``<name>.pfm`` into ``output_dir``, atomically.
@@ -311,12 +319,18 @@ def run_batch(
         (skipped on resume) only when both files are, and a pair without a calibration
         fails, reported with the others.
     calibration : Calibration, optional
-        With ``depth``: the geometry of every pair. None: each pair's own ``calib.txt``
-        (:attr:`Pair.calib`, read by :meth:`Calibration.from_middlebury`).
+        With ``depth`` or ``ply``: the geometry of every pair. None: each pair's own
+        ``calib.txt`` (:attr:`Pair.calib`, read by :meth:`Calibration.from_middlebury`).
     confidence : bool
         Also write each pair's confidence map (:func:`dcstereo.confidence.confidence`,
         PFM, ``inf`` = none) to ``confidence/<name>.pfm``; a pair is then complete only
         with it.
+    ply : bool
+        Also write each pair's point cloud (:func:`dcstereo.geometry.point_cloud` of its
+        disparity, coloured by its left image when that is 8 or 16 bits; binary PLY) to
+        ``cloud/<name>.ply``; it needs a calibration as ``depth`` does, and a pair is
+        then complete only with it. The left image is read again where the outputs are
+        written, for the colours.
     **options
         The other options of :func:`dcstereo.match` (``min_disparity``, ``method``,
         ``window``...).
@@ -345,16 +359,15 @@ def run_batch(
         raise ValueError(f"retries must be an integer 0 or more, got {retries!r}")
     params = MatchParams(max_disparity=max_disparity, **options)  # refuse bad options now
     match_kwargs = {"max_disparity": max_disparity, **options}
-    companions = companion_options(depth, calibration, confidence)
-    if calibration is not None and not depth:
-        raise ValueError("calibration is used only with depth=True")
+    companions = companion_options(depth, calibration, confidence, ply)
+    if calibration is not None and not (depth or ply):
+        raise ValueError("calibration is used only with depth=True or ply=True")
     recorded = {**dataclasses.asdict(params), **companions}
     make_output_folder(folder)
     check_recorded_options(folder, recorded, resume, assumed=ASSUMED_OPTIONS)
-    if depth:
-        make_output_folder(folder / DEPTH_FOLDER)
-    if confidence:
-        make_output_folder(folder / CONFIDENCE_FOLDER)
+    extras = {DEPTH_FOLDER: depth, CONFIDENCE_FOLDER: confidence, CLOUD_FOLDER: ply}
+    for name in (name for name, wanted in extras.items() if wanted):
+        make_output_folder(folder / name)
     report = BatchReport()
     by_name: dict[str, PairOutcome] = {}
 
@@ -366,12 +379,12 @@ def run_batch(
     todo = []
     cameras = {}
     for pair in pairs:
-        outputs = _outputs(folder, pair, depth, confidence)
+        outputs = _outputs(folder, pair, depth, confidence, ply)
         for path in outputs:
             _remove_stale_temporaries(path)
         problem = pair.problem
-        if problem is None and depth:
-            cameras[pair.name], problem = _camera(pair, calibration)
+        if problem is None and (depth or ply):
+            cameras[pair.name], problem = _camera(pair, calibration, depth, ply)
         if problem is not None:
             record(PairOutcome(pair, "failed", problem))
         elif resume and all(io.is_complete(path) for path in outputs):
@@ -380,7 +393,7 @@ def run_batch(
             todo.append(pair)
 
     def finish(pair, answer):
-        record(_finish(folder, pair, answer, cameras.get(pair.name)))
+        record(_finish(folder, pair, answer, cameras.get(pair.name), depth, ply))
 
     if client is None:
         for pair in todo:
@@ -461,21 +474,23 @@ def numba_threads(threads: int | None):
         numba.set_num_threads(previous)
 
 
-def _outputs(folder: Path, pair: Pair, depth: bool, confidence: bool) -> list[Path]:
+def _outputs(folder: Path, pair: Pair, depth: bool, confidence: bool, ply: bool) -> list[Path]:
     """Return the files :func:`run_batch` writes for ``pair``."""
     paths = [output_path(folder, pair)]
     paths += [depth_path(folder, pair)] if depth else []
     paths += [confidence_path(folder, pair)] if confidence else []
+    paths += [cloud_path(folder, pair)] if ply else []
     return paths
 
 
-def _camera(pair: Pair, calibration: Calibration | None):
-    """Return ``(Calibration, None)`` for ``pair``'s depth, or ``(None, reason)``."""
+def _camera(pair: Pair, calibration: Calibration | None, depth: bool, ply: bool):
+    """Return ``(Calibration, None)`` for ``pair``'s depth or cloud, or ``(None, reason)``."""
     if calibration is not None:
         return calibration, None
     if pair.calib is None:
+        what = " and ".join(name for name, on in (("depth", depth), ("point cloud", ply)) if on)
         return None, (
-            f"pair '{pair.name}' has no {CALIB_NAME} for its depth (give one calibration "
+            f"pair '{pair.name}' has no {CALIB_NAME} for its {what} (give one calibration "
             "for all pairs: calibration=, or batch --calib)"
         )
     try:
@@ -484,7 +499,9 @@ def _camera(pair: Pair, calibration: Calibration | None):
         return None, str(exc).strip().splitlines()[0]
 
 
-def companion_options(depth: bool, calibration: Calibration | None, confidence: bool) -> dict:
+def companion_options(
+    depth: bool, calibration: Calibration | None, confidence: bool, ply: bool = False
+) -> dict:
     """Check the options of the maps written beside each disparity; return their record.
 
     The record is what ``batch.json`` keeps of them (:func:`run_batch` and
@@ -495,37 +512,62 @@ def companion_options(depth: bool, calibration: Calibration | None, confidence: 
         raise TypeError(
             f"calibration must be a Calibration or None, got {type(calibration).__name__}"
         )
-    for name, flag in (("depth", depth), ("confidence", confidence)):
+    for name, flag in (("depth", depth), ("confidence", confidence), ("ply", ply)):
         if not isinstance(flag, bool):
             raise TypeError(f"{name} must be a bool, got {flag!r}")
     recorded = {}
+    camera = dataclasses.asdict(calibration) if calibration is not None else None
     if depth:
-        given = calibration is not None
-        recorded["depth"] = (
-            dataclasses.asdict(calibration) if given else f"each pair's {CALIB_NAME}"
-        )
+        recorded["depth"] = camera or f"each pair's {CALIB_NAME}"
     if confidence:
         recorded["confidence"] = True
+    if ply:
+        recorded["ply"] = camera or f"each pair's {CALIB_NAME}"
     return recorded
 
 
-def write_companions(disparity, camera: Calibration | None, depth_to, sure, confidence_to):
-    """Write a disparity map's depth (given a ``camera``) and confidence (given ``sure``).
+def write_companions(
+    disparity, camera: Calibration | None, depth_to, sure, confidence_to, cloud=None
+):
+    """Write a disparity map's depth, confidence and point cloud, those that are asked for.
 
-    Before the disparity itself: its file is what says the pair or frame is done.
+    The depth given ``camera`` and ``depth_to``, the confidence given ``sure``, the cloud
+    given ``cloud``, its path and its colours (or None; it needs ``camera`` too). Before
+    the disparity itself: its file is what says the pair or frame is done.
     """
-    if camera is not None:
+    if camera is not None and depth_to is not None:
         io.write_pfm(depth_to, geometry.depth(disparity, camera))
     if sure is not None:
         io.write_pfm(confidence_to, sure)
+    if cloud is not None:
+        cloud_to, colors = cloud
+        points = geometry.point_cloud(disparity, camera, colors)
+        io.write_ply(cloud_to, points.points, points.colors)
 
 
-def _finish(folder: Path, pair: Pair, answer, camera: Calibration | None) -> PairOutcome:
+def _cloud_colors(pair: Pair):
+    """Return the left image of ``pair`` for a cloud's colours (None unless 8 or 16 bits)."""
+    image = io.read_image(pair.left)
+    return image if image.dtype.kind == "u" else None
+
+
+def _finish(
+    folder: Path, pair: Pair, answer, camera: Calibration | None, depth: bool, ply: bool
+) -> PairOutcome:
     disparity, detail, sure = answer
     if disparity is None:
         return PairOutcome(pair, "failed", detail)
+    try:
+        cloud = (cloud_path(folder, pair), _cloud_colors(pair)) if ply else None
+    except (ValueError, TypeError) as exc:  # the left image went away since it was matched
+        return PairOutcome(pair, "failed", str(exc).strip().splitlines()[0])
     write_companions(
-        disparity, camera, depth_path(folder, pair), sure, confidence_path(folder, pair)
+        disparity,
+        camera,
+        depth_path(folder, pair) if depth else None,
+        sure,
+        confidence_path(folder, pair),
+        cloud,
     )
     io.write_disparity(output_path(folder, pair), disparity)
     return PairOutcome(pair, "done", seconds=detail)

@@ -273,9 +273,10 @@ def is_complete(path: str | os.PathLike) -> bool:
 
     Files are written atomically, but one can still be cut short later (a full disk, an
     interrupted copy). A PFM is complete when its header parses and the file is exactly
-    the header plus its ``width * height * channels`` float32 values; any other file when
-    Pillow's ``verify`` passes (a PNG: every chunk's CRC, up to the end chunk). A missing
-    or unreadable file is not complete.
+    the header plus its ``width * height * channels`` float32 values; a binary PLY (as
+    :func:`write_ply` writes) when it is exactly its header plus its vertices; any other
+    file when Pillow's ``verify`` passes (a PNG: every chunk's CRC, up to the end chunk).
+    A missing or unreadable file is not complete.
     """
     path = Path(path)
     if not path.is_file():  # a FIFO or a device would block the read below
@@ -285,11 +286,36 @@ def is_complete(path: str | os.PathLike) -> bool:
             with open(path, "rb") as f:
                 width, height, channels, _, pos = _pfm_header(f.read(256), path)
             return path.stat().st_size == pos + 4 * width * height * channels
+        if path.suffix.lower() == ".ply":
+            return _ply_complete(path)
         with Image.open(path) as image:
             image.verify()
         return True
-    except (OSError, ValueError, SyntaxError, EOFError, struct.error):
+    except (OSError, ValueError, SyntaxError, EOFError, struct.error, KeyError, IndexError):
         return False
+
+
+#: Bytes of the PLY property types :func:`write_ply` and :func:`is_complete` know.
+_PLY_SIZES = {"char": 1, "uchar": 1, "short": 2, "ushort": 2, "int": 4, "uint": 4,
+              "float": 4, "double": 8}  # fmt: skip
+
+
+def _ply_complete(path: Path) -> bool:
+    """Whether ``path`` is a binary PLY of one vertex element, exactly as long as it says."""
+    with open(path, "rb") as f:
+        head = f.read(4096)
+    end = head.find(b"end_header\n")
+    if not head.startswith(b"ply\n") or end < 0:
+        return False
+    lines = head[:end].decode("ascii").splitlines()
+    if "format binary_little_endian 1.0" not in lines:
+        return False
+    elements = [line.split() for line in lines if line.startswith("element ")]
+    if len(elements) != 1 or elements[0][1] != "vertex":
+        return False
+    count = int(elements[0][2])
+    sizes = [_PLY_SIZES[line.split()[1]] for line in lines if line.startswith("property ")]
+    return path.stat().st_size == end + len(b"end_header\n") + count * sum(sizes)
 
 
 def read_pfm(path: str | os.PathLike) -> np.ndarray:

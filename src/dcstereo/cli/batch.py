@@ -158,10 +158,16 @@ def advancer(bar, description: str, total: int):
     "baseline's unit, inf = none), from --calib or from the calib.txt in each pair folder.",
 )
 @click.option(
+    "--ply",
+    is_flag=True,
+    help="Also write each pair's point cloud, OUTPUT/cloud/<name>.ply (binary PLY, left "
+    "camera frame, coloured by the left image), from --calib or each pair's calib.txt.",
+)
+@click.option(
     "--calib",
     type=click.Path(dir_okay=False),
     default=None,
-    help="With --depth: one calibration for every pair (Middlebury's calib.txt format).",
+    help="With --depth or --ply: one calibration for every pair (Middlebury's calib.txt format).",
 )
 @click.option(
     "--confidence",
@@ -182,6 +188,7 @@ def batch(
     resume,
     retries,
     depth,
+    ply,
     calib,
     confidence,
     quiet,
@@ -190,7 +197,7 @@ def batch(
 
     SOURCE is a CSV file of left,right[,name] rows (paths relative to the CSV), or a
     folder with one folder per pair holding left.* and right.* (or Middlebury's im0.*
-    and im1.*, and calib.txt for --depth). A pair that fails is reported (and listed in
+    and im1.*, and calib.txt for --depth and --ply). A pair that fails is reported (and listed in
     OUTPUT/failures.csv) while the others go on; the exit code is 1 when any pair failed.
     """
     from ..batch import FAILURES_FILE, find_pairs, run_batch
@@ -198,8 +205,8 @@ def batch(
     from ..params import MatchParams
 
     folder = output_folder(output)
-    if calib is not None and not depth:
-        raise CommandError("--calib is used only with --depth")
+    if calib is not None and not (depth or ply):
+        raise CommandError("--calib is used only with --depth or --ply")
     calibration = None if calib is None else Calibration.from_middlebury(calib)
     pairs = find_pairs(source)
     # Refuse bad options before a cluster starts; run_batch makes the folder once valid.
@@ -218,6 +225,7 @@ def batch(
             depth=depth,
             calibration=calibration,
             confidence=confidence,
+            ply=ply,
             min_disparity=min_disparity,
             **match_options,
         )
