@@ -139,7 +139,9 @@ def test_a_corrupt_frame_is_reported_and_the_others_complete(sources, tmp_path):
 def test_sequence_on_a_local_cluster_equals_serial(sources, tmp_path):
     distributed = pytest.importorskip("distributed")
     serial, parallel = tmp_path / "serial", tmp_path / "dask"
-    assert run_video(sources / "left", sources / "right", "-o", serial).exit_code == 0
+    (tmp_path / "calib.txt").write_text(RIG)
+    extras = ("--calib", tmp_path / "calib.txt", "--ply")  # the clouds' colours travel too
+    assert run_video(sources / "left", sources / "right", "-o", serial, *extras).exit_code == 0
     with (
         distributed.LocalCluster(
             n_workers=2, processes=True, threads_per_worker=1, dashboard_address=":0"
@@ -148,9 +150,10 @@ def test_sequence_on_a_local_cluster_equals_serial(sources, tmp_path):
     ):
         address = client.scheduler.address
         result = run_video(
-            sources / "left", sources / "right", "-o", parallel, "--scheduler", address
+            sources / "left", sources / "right", "-o", parallel, "--scheduler", address, *extras
         )
     assert result.exit_code == 0, result.output
+    assert len(list(serial.glob("frame*.ply"))) == N_FRAMES
     for path in sorted(serial.glob("frame*")):
         assert (parallel / path.name).read_bytes() == path.read_bytes()
 
@@ -307,6 +310,41 @@ def test_video_depth_errors(sources, tmp_path):
                        tmp_path / "missing.txt")  # fmt: skip
     lines = result.output.strip().splitlines()
     assert result.exit_code == 1 and len(lines) == 1 and "missing.txt" in lines[0], lines
+    assert not (tmp_path / "o").exists()
+
+
+def test_video_ply_per_frame(sources, frames, tmp_path):
+    from dcstereo.geometry import point_cloud
+    from dcstereo.video import cloud_output_path
+
+    (tmp_path / "calib.txt").write_text(RIG)
+    calib = Calibration.from_middlebury(tmp_path / "calib.txt")
+    out = tmp_path / "out"
+    result = run_video(sources / "left", sources / "right", "-o", out, "--calib",
+                       tmp_path / "calib.txt", "--ply")  # fmt: skip
+    assert result.exit_code == 0, result.output
+    for i, frame in enumerate(frames):
+        cloud = point_cloud(reference(frame), calib, frame.left)
+        io.write_ply(tmp_path / "expected.ply", cloud.points, cloud.colors)
+        assert cloud_output_path(out, i).read_bytes() == (tmp_path / "expected.ply").read_bytes()
+        assert cloud_output_path(out, i).name == f"frame{i:05d}.ply"
+    # a cloud cut short redoes its frame; the cloud is a recorded option
+    cut = cloud_output_path(out, 1)
+    cut.write_bytes(cut.read_bytes()[:-3])
+    report = match_sequence(open_sequence(sources / "left", sources / "right"), out,
+                            max_disparity=MAX_DISPARITY, calibration=calib, ply=True)  # fmt: skip
+    assert len(report.done) == 1 and len(report.skipped) == N_FRAMES - 1 and io.is_complete(cut)
+    with pytest.raises(ValueError, match="other options: .*ply"):
+        match_sequence(open_sequence(sources / "left", sources / "right"), out,
+                       max_disparity=MAX_DISPARITY, calibration=calib)  # fmt: skip
+    # a cloud needs the rig's geometry
+    with pytest.raises(ValueError, match="ply=True needs a calibration"):
+        match_sequence(open_sequence(sources / "left", sources / "right"), tmp_path / "o",
+                       max_disparity=MAX_DISPARITY, ply=True)  # fmt: skip
+    result = run_video(sources / "left", sources / "right", "-o", tmp_path / "o", "--ply")
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == 1
+    assert lines == ["Error: --ply needs --calib (the point clouds' geometry)"]
     assert not (tmp_path / "o").exists()
 
 

@@ -415,6 +415,11 @@ def confidence_output_path(output_dir: str | os.PathLike, index: int) -> Path:
     return Path(output_dir) / f"{frame_name(index)}-confidence.pfm"
 
 
+def cloud_output_path(output_dir: str | os.PathLike, index: int) -> Path:
+    """Return the point cloud's path of frame ``index`` (``frameNNNNN.ply``)."""
+    return Path(output_dir) / f"{frame_name(index)}.ply"
+
+
 def match_sequence(
     sequence: StereoSequence,
     output_dir: str | os.PathLike,
@@ -428,6 +433,7 @@ def match_sequence(
     on_frame: Callable[[str, str], None] | None = None,
     calibration: geometry.Calibration | None = None,
     confidence: bool = False,
+    ply: bool = False,
     **options,
 ) -> SequenceReport:
     """Match every frame of a sequence; write its disparity and preview atomically.
@@ -470,6 +476,11 @@ def match_sequence(
         Also write each frame's confidence map (:func:`dcstereo.confidence.confidence`)
         as ``frameNNNNN-confidence.pfm`` (``inf`` = none); a frame is then complete only
         with it.
+    ply : bool
+        Also write each frame's point cloud (:func:`dcstereo.geometry.point_cloud`,
+        coloured by the left frame when it is 8 or 16 bits; binary PLY) as
+        ``frameNNNNN.ply``; needs ``calibration``, and a frame is then complete only with
+        it.
     **options
         The other options of :func:`dcstereo.match`.
 
@@ -497,7 +508,9 @@ def match_sequence(
     if disparity_format not in ("pfm", "png"):
         raise ValueError(f"disparity_format must be 'pfm' or 'png', got {disparity_format!r}")
     check_preview_style(preview_style, "preview_style")
-    companions = companion_options(calibration is not None, calibration, confidence)
+    companions = companion_options(calibration is not None, calibration, confidence, ply)
+    if ply and calibration is None:
+        raise ValueError("ply=True needs a calibration (the point clouds' geometry)")
     check_threads(threads, client)
     params = MatchParams(max_disparity=max_disparity, **options)
     if disparity_format == "png" and (params.min_disparity < 0 or params.max_disparity > 255):
@@ -521,19 +534,21 @@ def match_sequence(
         if on_frame is not None:
             on_frame(name, status)
 
-    def finish(frame, answer):
+    def finish(frame, answer, left=None):
         disparity, occluded, detail, sure = answer
         if disparity is None:
             report.failed.append(FailureRow(frame.name, frame.source, "", detail))
             note(frame.name, "failed")
             return
         disparity_path, preview_path = output_paths(folder, frame.index, disparity_format)
+        colors = left if left is not None and left.dtype.kind == "u" else None
         write_companions(
             disparity,
             calibration,
             depth_output_path(folder, frame.index),
             sure,
             confidence_output_path(folder, frame.index),
+            (cloud_output_path(folder, frame.index), colors) if ply else None,
         )
         io.write_disparity(disparity_path, disparity)
         io.write_rgb_png(preview_path, preview(disparity, occluded, style=preview_style))
@@ -547,6 +562,8 @@ def match_sequence(
                 outputs.append(depth_output_path(folder, frame.index))
             if confidence:
                 outputs.append(confidence_output_path(folder, frame.index))
+            if ply:
+                outputs.append(cloud_output_path(folder, frame.index))
             if resume and all(io.is_complete(p) for p in outputs):
                 report.skipped.append(frame.name)
                 note(frame.name, "skipped")
@@ -560,9 +577,9 @@ def match_sequence(
 
     if client is None:
         for frame, left, right in pending():
-            finish(frame, match_frame(left, right, match_kwargs, threads, confidence))
+            finish(frame, match_frame(left, right, match_kwargs, threads, confidence), left)
     else:
-        _run_on_dask(client, pending(), match_kwargs, threads, confidence, finish)
+        _run_on_dask(client, pending(), match_kwargs, threads, confidence, finish, ply)
     report.done.sort()
     write_failures(folder, report.failed)
     report.seconds = time.perf_counter() - start
@@ -587,7 +604,11 @@ def match_frame(
         return result.disparity, result.occluded, time.perf_counter() - start, sure
 
 
-def _run_on_dask(client, frames, match_kwargs, threads, confidence, finish):
+def _run_on_dask(client, frames, match_kwargs, threads, confidence, finish, keep_left=False):
+    """Match the frames on the cluster, a few in flight; ``finish(frame, answer, left)``.
+
+    ``left`` is the frame's left view when ``keep_left`` (a cloud's colours), else None.
+    """
     from distributed import as_completed
 
     workers = max(1, len(client.scheduler_info().get("workers", {})))
@@ -608,7 +629,7 @@ def _run_on_dask(client, frames, match_kwargs, threads, confidence, finish):
             key=f"dcstereo-frame-{frame.name}-{os.urandom(4).hex()}",
             retries=2,
         )
-        owner[future.key] = frame
+        owner[future.key] = (frame, left if keep_left else None)
         queue.add(future)
 
     frames = iter(frames)
@@ -617,14 +638,14 @@ def _run_on_dask(client, frames, match_kwargs, threads, confidence, finish):
         if queue.count() >= in_flight:
             break
     for future in queue:
-        frame = owner.pop(future.key)
+        frame, left = owner.pop(future.key)
         try:
             answer = future.result()
         except Exception as exc:  # the task failed for good (KilledWorker, ...)
             reason = f"task failed on the cluster: {type(exc).__name__}: {exc}"
             answer = (None, None, reason, None)
         future.release()
-        finish(frame, answer)
+        finish(frame, answer, left)
         item = next(frames, None)
         if item is not None:
             submit(item)

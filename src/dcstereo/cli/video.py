@@ -62,6 +62,12 @@ from .batch import advancer, dask_client, progress_bar, scheduler_option
     help="Also write each frame's confidence map, frameNNNNN-confidence.pfm (-1..1, "
     "inf = none; see dcstereo.confidence).",
 )
+@click.option(
+    "--ply",
+    is_flag=True,
+    help="With --calib: also write each frame's point cloud, frameNNNNN.ply (binary PLY, "
+    "left camera frame, coloured by the left view).",
+)
 @scheduler_option
 @click.option(
     "--resume/--no-resume",
@@ -85,6 +91,7 @@ def video(
     fps,
     calib,
     confidence,
+    ply,
     scheduler,
     resume,
     quiet,
@@ -113,6 +120,8 @@ def video(
             )
     if fps is not None and not fps > 0:
         raise CommandError(f"--fps must be positive, got {fps}")
+    if ply and calib is None:
+        raise CommandError("--ply needs --calib (the point clouds' geometry)")
     calibration = None if calib is None else Calibration.from_middlebury(calib)
     sequence = open_sequence(left, right)
     # Refuse bad options before a cluster starts; match_sequence makes the folder once valid.
@@ -131,6 +140,7 @@ def video(
             on_frame=advancer(bar, "video", len(sequence)),
             calibration=calibration,
             confidence=confidence,
+            ply=ply,
             min_disparity=min_disparity,
             **match_options,
         )
