@@ -231,6 +231,22 @@ def test_demo_runs_on_the_motorcycle_pair(tmp_path):
     assert bad[surer].mean() < bad[~surer].mean()
 
 
+def test_demo_says_the_options_beyond_the_paper(tmp_path):
+    pytest.importorskip("skimage")
+    from dcstereo import match
+    from dcstereo.datasets import load_motorcycle
+
+    out = tmp_path / "demo"
+    result = invoke("demo", "--output", out, "--method", "dsi5", "--median", 3, "--threads", 1)
+    assert result.exit_code == 0, result.output
+    assert "method dsi5, window 5, occlusion cost 10, median 3: " in result.output
+    scene = load_motorcycle()
+    expected = match(scene.left, scene.right, max_disparity=64, method="dsi5", median=3)
+    np.testing.assert_array_equal(
+        io.read_pfm(out / "disparity.pfm"), np.nan_to_num(expected.disparity, nan=np.inf)
+    )
+
+
 def test_demo_bad_option_makes_no_folder(tmp_path):
     pytest.importorskip("skimage")
     out = tmp_path / "demo"

@@ -91,10 +91,15 @@ def demo(output, max_disparity, match_options, threads):
         f"Middlebury 2014 Motorcycle (scikit-image), {width}x{height}, "
         f"disparities 0..{max_disparity}"
     )
+    extras = [f"cost {options['cost']}"] if options["cost"] != "sad" else []
+    extras += [f"sub-pixel {options['subpixel']}"] if options["subpixel"] else []
+    extras += [f"median {options['median']}"] if options["median"] else []
     click.echo(
         f"method {options['method']}, window {options['window']}, "
-        f"occlusion cost {options['occlusion_cost']:g}: "
-        f"{seconds * 1000:.0f} ms ({evaluations / seconds / 1e6:.0f} M disparity evaluations/s)"
+        f"occlusion cost {options['occlusion_cost']:g}"
+        + "".join(f", {extra}" for extra in extras)
+        + f": {seconds * 1000:.0f} ms ({evaluations / seconds / 1e6:.0f} M disparity "
+        "evaluations/s)"
     )
     for name, estimate in (("sparse (occlusions left empty)", result), ("dense (filled)", dense)):
         d = estimate.disparity
