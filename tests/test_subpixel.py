@@ -68,6 +68,28 @@ def test_kernel_equals_its_twin(fit, seed):
     assert np.all(np.abs(refined - d)[np.isfinite(d)] <= 0.5)
 
 
+@pytest.mark.parametrize("fit", ["equiangular", "parabola"])
+@pytest.mark.parametrize("window, dmin", [(3, 1), (5, -4), (7, 0)])
+def test_kernel_equals_its_twin_on_runs_of_one_disparity(fit, window, dmin):
+    # runs of equal d, broken by skipped pixels and changes: the kernel slides its sums
+    # along a run and sums anew after a break; the image edges take the edge rules
+    rng = np.random.default_rng(window)
+    h, w = 11, 41
+    left = rng.integers(0, 256, (h, w), dtype=np.uint8)
+    right = np.roll(left, -3, axis=1)
+    right = np.clip(right.astype(int) + rng.integers(-20, 21, right.shape), 0, 255)
+    right = right.astype(np.uint8)
+    kwargs = {"max_disparity": dmin + 9, "min_disparity": dmin, "window": window}
+    result = match(left, right, method="dsi3", **kwargs)
+    d = np.repeat(rng.integers(dmin, dmin + 10, (h, 6)), 7, axis=1)[:, :w].astype(np.float32)
+    d[:, 1::9] += 0.5  # skipped: a half pixel breaks the run
+    d[rng.random((h, w)) < 0.05] = np.nan
+    result = replace(result, disparity=d, flags=np.zeros((h, w), np.uint8))
+    refined = refine_subpixel(result, left, right, fit=fit).disparity
+    np.testing.assert_array_equal(refined, twin(result, left, right, fit))
+    assert (refined != d).sum() > 40  # the fits ran, not only the skips
+
+
 def shifted_pair(true, height=60, width=160, seed=0):
     """A smooth texture and its copy shifted by a fractional ``true`` (linear interpolation)."""
     rng = np.random.default_rng(seed)

@@ -34,6 +34,15 @@ def _window_sad(left_p, right_p, y, x, d, radius, width):
     return total * win / used
 
 
+@nb.njit(cache=True, inline="always")
+def _column_sad(left_p, right_p, y, xp, e, win):
+    """One column of eq. 4's window: rows ``y .. y + win - 1`` of padded column ``xp``."""
+    total = 0
+    for t in range(win):
+        total += abs(left_p[y + t, xp] - right_p[y + t, xp - e])
+    return total
+
+
 @nb.njit(cache=True, parallel=True)
 def refine_rows(left_p, right_p, disparity, wanted, dmin, dmax, radius, fit, out):
     """Write into ``out`` each wanted pixel's disparity moved by its fitted offset.
@@ -45,18 +54,57 @@ def refine_rows(left_p, right_p, disparity, wanted, dmin, dmax, radius, fit, out
     opposite slopes through the three points, the fit suited to absolute differences) or
     ``(c0 - c2) / (2 (c0 - 2 c1 + c2))`` (``FIT_PARABOLA``), both within ``[-0.5, 0.5]``;
     a flat or non-minimal triple keeps ``d``. Returns nothing; rows run in parallel.
+
+    Inside the images (every column of the three windows in both) the window sums are
+    kept as integers per row: a pixel after one of the same ``d`` slides them by a column
+    (the column leaving subtracted, the one entering added), others sum their window
+    anew; near an edge :func:`_window_sad` applies its rules. The sums are exact either
+    way, so the results do not depend on the order.
     """
     height, width = disparity.shape
+    win = 2 * radius + 1
     for y in nb.prange(height):
+        run_x = -2  # the last pixel whose inside sums s0, s1, s2 are kept, and its d
+        run_d = 0
+        s0 = 0
+        s1 = 0
+        s2 = 0
         for x in range(width):
             if not wanted[y, x]:
                 continue
             d = int(disparity[y, x])
             if d - 1 < dmin or d + 1 > dmax:
                 continue
-            c0 = _window_sad(left_p, right_p, y, x, d - 1, radius, width)
-            c1 = _window_sad(left_p, right_p, y, x, d, radius, width)
-            c2 = _window_sad(left_p, right_p, y, x, d + 1, radius, width)
+            inside = x - radius >= 0 and x + radius < width
+            inside = inside and x - radius - d - 1 >= 0 and x + radius - d + 1 < width
+            if inside and run_x == x - 1 and run_d == d:
+                gone = x - 1  # padded column of the column x - 1 - radius
+                new = x + 2 * radius  # padded column of x + radius
+                s0 += _column_sad(left_p, right_p, y, new, d - 1, win)
+                s0 -= _column_sad(left_p, right_p, y, gone, d - 1, win)
+                s1 += _column_sad(left_p, right_p, y, new, d, win)
+                s1 -= _column_sad(left_p, right_p, y, gone, d, win)
+                s2 += _column_sad(left_p, right_p, y, new, d + 1, win)
+                s2 -= _column_sad(left_p, right_p, y, gone, d + 1, win)
+            elif inside:
+                s0 = 0
+                s1 = 0
+                s2 = 0
+                for xp in range(x, x + win):
+                    s0 += _column_sad(left_p, right_p, y, xp, d - 1, win)
+                    s1 += _column_sad(left_p, right_p, y, xp, d, win)
+                    s2 += _column_sad(left_p, right_p, y, xp, d + 1, win)
+            if inside:
+                run_x = x
+                run_d = d
+                c0 = float(s0)
+                c1 = float(s1)
+                c2 = float(s2)
+            else:  # a window's column leaves an image: the edge rules of _window_sad
+                run_x = -2
+                c0 = _window_sad(left_p, right_p, y, x, d - 1, radius, width)
+                c1 = _window_sad(left_p, right_p, y, x, d, radius, width)
+                c2 = _window_sad(left_p, right_p, y, x, d + 1, radius, width)
             if not (c1 <= c0 and c1 <= c2) or c2 == np.inf or c0 == np.inf:
                 continue
             if fit == FIT_EQUIANGULAR:
