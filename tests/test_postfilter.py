@@ -6,8 +6,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from dcstereo import FLAG_FEATURE, FLAG_OCCLUDED, MatchParams, io, match
-from dcstereo.postfilter import MAX_MEDIAN, median_filter
+from dcstereo import FLAG_FEATURE, FLAG_OCCLUDED, MatchParams, _postfilter_kernels, io, match
+from dcstereo.postfilter import MAX_BINS, MAX_MEDIAN, median_filter
 from dcstereo.tiling import match_tiled
 from test_cli import invoke
 
@@ -28,14 +28,19 @@ def twin(disparity, flags, size):
     return out
 
 
-def random_result(seed, height=13, width=29):
-    """A dsi3 result whose map is replaced by every kind of pixel the filter meets."""
+def random_result(seed, height=13, width=29, subpixel=True, low=0, values=9):
+    """A dsi3 result whose map is replaced by every kind of pixel the filter meets.
+
+    Without ``subpixel`` the map holds whole and half pixels only (from ``low``), the maps
+    the matchers give, which the filter slides a histogram over.
+    """
     rng = np.random.default_rng(seed)
     left = rng.integers(0, 256, (height, width), dtype=np.uint8)
     result = match(left, np.roll(left, -2, axis=1), max_disparity=4, window=3, method="dsi3")
-    d = rng.integers(0, 9, (height, width)).astype(np.float32)
+    d = rng.integers(low, low + values, (height, width)).astype(np.float32)
     d[rng.random(d.shape) < 0.2] += 0.5  # half pixels
-    d[rng.random(d.shape) < 0.1] += np.float32(rng.random())  # sub-pixel values
+    if subpixel:
+        d[rng.random(d.shape) < 0.1] += np.float32(rng.random())  # sub-pixel values
     d[rng.random(d.shape) < 0.25] = np.nan  # no estimate: an even count happens
     flags = np.where(np.isnan(d), FLAG_OCCLUDED, 0).astype(np.uint8)
     flags[(rng.random(d.shape) < 0.1) & ~np.isnan(d)] |= FLAG_FEATURE
@@ -49,6 +54,37 @@ def test_kernel_equals_its_twin(size, seed):
     filtered = median_filter(result, size)
     np.testing.assert_array_equal(filtered.disparity, twin(result.disparity, result.flags, size))
     assert (filtered.disparity != result.disparity)[np.isfinite(result.disparity)].sum() > 20
+
+
+@pytest.mark.parametrize("size", [3, 5, 9, MAX_MEDIAN])
+@pytest.mark.parametrize("seed, low, values", [(0, 0, 9), (1, -7, 3), (2, 40, 64), (3, 5, 1)])
+def test_the_sliding_histogram_equals_the_twin(size, seed, low, values):
+    result = random_result(seed, 17, 37, subpixel=False, low=low, values=values)
+    bins = np.empty(result.disparity.shape, dtype=np.int32)
+    assert _postfilter_kernels.half_pixel_bins(result.disparity, MAX_BINS, bins)[1] > 0
+    filtered = median_filter(result, size)
+    np.testing.assert_array_equal(filtered.disparity, twin(result.disparity, result.flags, size))
+
+
+def test_maps_the_histogram_does_not_take_are_sorted():
+    result = random_result(4, subpixel=False)
+    d = result.disparity.copy()
+    d[3, 3] = 9000.0  # a span of more than MAX_BINS half pixels
+    wide = replace(result, disparity=d)
+    bins = np.empty(d.shape, dtype=np.int32)
+    assert _postfilter_kernels.half_pixel_bins(d, MAX_BINS, bins) == (0.0, 0)
+    np.testing.assert_array_equal(median_filter(wide, 5).disparity, twin(d, result.flags, 5))
+    empty = replace(result, disparity=np.full_like(d, np.nan))
+    assert _postfilter_kernels.half_pixel_bins(empty.disparity, MAX_BINS, bins) == (0.0, 0)
+    assert np.isnan(median_filter(empty, 3).disparity).all()
+    # both kernels agree on a map of half pixels
+    bins = np.empty(d.shape, dtype=np.int32)
+    low, nbins = _postfilter_kernels.half_pixel_bins(result.disparity, MAX_BINS, bins)
+    moved = np.isfinite(result.disparity)
+    a, b = result.disparity.copy(), result.disparity.copy()
+    _postfilter_kernels.median_rows(result.disparity, moved, 2, a)
+    _postfilter_kernels.median_rows_binned(bins, moved, 2, nbins, low, b)
+    np.testing.assert_array_equal(a, b)
 
 
 def test_what_is_left_alone():

@@ -43,3 +43,100 @@ def median_rows(disparity, moved, radius, out):
             else:
                 middle = 0.5 * (np.float64(values[half - 1]) + np.float64(values[half]))
                 out[y, x] = np.float32(middle)
+
+
+@nb.njit(cache=True, parallel=True)
+def median_rows_binned(bins, moved, radius, nbins, low, out):
+    """:func:`median_rows` for a map of half pixels, by a histogram slid along each row.
+
+    ``bins[y, x]`` is ``2 (d - low)`` for a pixel with an estimate ``d`` (an integer in
+    ``0 .. nbins - 1``) and -1 for one without. Each row keeps the histogram of its
+    window's bins and the count of values below a pointer bin (Huang, Yang and Tang,
+    1979): a step along the row adds the column entering the window and takes away the
+    one leaving, and the pointer moves to the bin that holds the middle value. The
+    median is ``low + bin / 2``, of an even count the mean of the middle two, as in
+    :func:`median_rows`. Returns nothing; rows run in parallel.
+    """
+    height, width = bins.shape
+    for y in nb.prange(height):
+        hist = np.zeros(nbins, dtype=np.int32)
+        top = max(0, y - radius)
+        bottom = min(height, y + radius + 1)
+        count = 0  # values in the window
+        below = 0  # values in the window whose bin is below the pointer
+        pointer = 0
+        for xx in range(min(width, radius + 1)):  # the window of x = 0
+            for yy in range(top, bottom):
+                b = bins[yy, xx]
+                if b >= 0:
+                    hist[b] += 1
+                    count += 1
+        for x in range(width):
+            if x > 0:
+                enter = x + radius
+                leave = x - radius - 1
+                if enter < width:
+                    for yy in range(top, bottom):
+                        b = bins[yy, enter]
+                        if b >= 0:
+                            hist[b] += 1
+                            count += 1
+                            if b < pointer:
+                                below += 1
+                if leave >= 0:
+                    for yy in range(top, bottom):
+                        b = bins[yy, leave]
+                        if b >= 0:
+                            hist[b] -= 1
+                            count -= 1
+                            if b < pointer:
+                                below -= 1
+            if not moved[y, x]:
+                continue
+            k = (count - 1) // 2  # the middle value's rank (of two, the lower)
+            while below > k:  # the pointer bin must hold rank k
+                pointer -= 1
+                below -= hist[pointer]
+            while below + hist[pointer] <= k:
+                below += hist[pointer]
+                pointer += 1
+            first = pointer
+            if count % 2 == 1 or k + 1 < below + hist[pointer]:
+                second = first
+            else:  # rank k + 1 is in the next bin that holds a value
+                second = pointer + 1
+                while hist[second] == 0:
+                    second += 1
+            middle = low + 0.25 * (first + second)  # the mean of low + bin / 2 of both
+            out[y, x] = np.float32(middle)
+
+
+@nb.njit(cache=True, parallel=True)
+def half_pixel_bins(disparity, max_bins, bins):
+    """Fill ``bins`` with ``2 (d - low)`` (-1 where no estimate) for a map of half pixels.
+
+    ``low`` is the least estimate. Returns ``(low, nbins)``, or ``(0.0, 0)`` (``bins``
+    then unspecified) when the map has no estimate, a value that is not a whole or half
+    pixel, or a span of ``max_bins`` half pixels or more.
+    """
+    height, width = disparity.shape
+    lows = np.full(height, np.inf)
+    highs = np.full(height, -np.inf)
+    halves = np.ones(height, dtype=np.bool_)
+    for y in nb.prange(height):
+        for x in range(width):
+            v = np.float64(disparity[y, x])
+            if not np.isfinite(v):
+                continue
+            lows[y] = min(lows[y], v)
+            highs[y] = max(highs[y], v)
+            if 2.0 * v != np.floor(2.0 * v):
+                halves[y] = False
+    low = lows.min()
+    if not np.isfinite(low) or not halves.all() or 2.0 * (highs.max() - low) >= max_bins:
+        return 0.0, 0
+    for y in nb.prange(height):
+        for x in range(width):
+            v = np.float64(disparity[y, x])
+            bins[y, x] = np.int32(2.0 * (v - low)) if np.isfinite(v) else -1
+    return low, int(2.0 * (highs.max() - low)) + 1

@@ -57,5 +57,15 @@ def median_filter(result: DisparityResult, size: int = 5) -> DisparityResult:
     d = result.disparity
     moved = np.isfinite(d) & ((result.flags & FLAG_FEATURE) == 0)
     out = d.copy()
-    _postfilter_kernels.median_rows(d, moved, size // 2, out)
+    bins = np.empty(d.shape, dtype=np.int32)
+    low, nbins = _postfilter_kernels.half_pixel_bins(d, MAX_BINS, bins)
+    if nbins:  # whole and half pixels only: a histogram slid along the rows
+        _postfilter_kernels.median_rows_binned(bins, moved, size // 2, nbins, low, out)
+    else:  # sub-pixel values: each window sorted
+        _postfilter_kernels.median_rows(d, moved, size // 2, out)
     return replace(result, disparity=out)
+
+
+#: The most histogram bins (half pixels of the map's span) the sliding histogram takes;
+#: a map of whole and half pixels with a wider span has each window sorted instead.
+MAX_BINS = 1 << 14
