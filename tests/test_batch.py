@@ -527,6 +527,83 @@ def test_cli_batch_depth(calib_pairs, tmp_path):
         assert not (tmp_path / "x").exists()
 
 
+def expected_depth_png(pair, calibration, folder, scale, **kwargs) -> bytes:
+    """The bytes of the 16-bit depth PNG ``run --depth-out z.png`` would write."""
+    result = match(io.read_image(pair.left), io.read_image(pair.right), **kwargs)
+    io.write_depth(folder / "expected.png", depth(result.disparity, calibration), scale=scale)
+    return (folder / "expected.png").read_bytes()
+
+
+def test_batch_depth_as_16_bit_png(calib_pairs, tmp_path):
+    import json
+
+    pairs = find_pairs(calib_pairs)[:2]
+    out = tmp_path / "out"
+    report = run_batch(pairs, out, max_disparity=8, depth=True, depth_format="png",
+                       depth_scale=4.0)  # fmt: skip
+    assert report.done == ["pair00", "pair01"]
+    for pair in pairs:
+        calib = Calibration.from_middlebury(pair.calib)
+        written = depth_path(out, pair, "png")
+        assert written.name == f"{pair.name}.png" and not depth_path(out, pair).exists()
+        assert written.read_bytes() == expected_depth_png(pair, calib, tmp_path, 4.0,
+                                                          max_disparity=8)  # fmt: skip
+    assert json.loads((out / "batch.json").read_text())["depth_png_scale"] == 4.0
+    # resuming: the same skips; another format or scale is refused
+    assert run_batch(pairs, out, max_disparity=8, depth=True, depth_format="png",
+                     depth_scale=4.0).skipped == ["pair00", "pair01"]  # fmt: skip
+    for other in ({}, {"depth_format": "png"}):
+        with pytest.raises(ValueError, match="other options: depth_png_scale"):
+            run_batch(pairs, out, max_disparity=8, depth=True, **other)
+    # a PNG cut short redoes its pair
+    cut = depth_path(out, pairs[1], "png")
+    cut.write_bytes(cut.read_bytes()[:-20])
+    again = run_batch(pairs, out, max_disparity=8, depth=True, depth_format="png",
+                      depth_scale=4.0)  # fmt: skip
+    assert again.done == ["pair01"] and io.is_complete(cut)
+
+
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        ({"depth": True, "depth_format": "tif"}, "depth_format must be 'pfm' or 'png', got 'tif'"),
+        ({"depth_format": "png"}, "depth_format is used only when the depth maps are written"),
+        ({"depth": True, "depth_scale": 2.0}, "depth_scale is used only with depth_format='png'"),
+        ({"depth": True, "depth_format": "png", "depth_scale": 0},
+         "depth_scale must be a positive number, got 0"),
+    ],
+)  # fmt: skip
+def test_batch_depth_format_options_are_checked_first(calib_pairs, tmp_path, options, message):
+    with pytest.raises(ValueError, match=message):
+        run_batch(find_pairs(calib_pairs), tmp_path / "out", max_disparity=8, **options)
+    assert not (tmp_path / "out").exists()
+
+
+def test_cli_batch_depth_png(calib_pairs, tmp_path):
+    (tmp_path / "all.txt").write_text(CALIB_B)
+    calib = Calibration.from_middlebury(tmp_path / "all.txt")
+    args = ["batch", str(calib_pairs), "--max-disparity", "8", "-q", "--calib",
+            str(tmp_path / "all.txt")]  # fmt: skip
+    out = tmp_path / "out"
+    result = CliRunner().invoke(main, [*args, "-o", str(out), "--depth", "--depth-format", "png",
+                                       "--depth-scale", "10"])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    for pair in find_pairs(calib_pairs):
+        assert (out / "depth" / f"{pair.name}.png").read_bytes() == expected_depth_png(
+            pair, calib, tmp_path, 10.0, max_disparity=8
+        )
+    for extra, message in (
+        (["--depth-format", "png"], "--depth-format is used only with --depth"),
+        (["--depth", "--depth-scale", "3"], "--depth-scale is used only with --depth-format png"),
+        (["--depth", "--depth-format", "png", "--depth-scale", "-1"],
+         "depth_scale must be a positive number, got -1"),
+    ):  # fmt: skip
+        result = CliRunner().invoke(main, [*args[:4], "-o", str(tmp_path / "x"), *extra])
+        lines = result.output.strip().splitlines()
+        assert result.exit_code == 1 and len(lines) == 1 and message in lines[0], lines
+        assert not (tmp_path / "x").exists()
+
+
 def expected_cloud(pair: Pair, calibration: Calibration, folder: Path, **kwargs) -> bytes:
     """The bytes of the PLY file ``run`` would write for the pair."""
     left = io.read_image(pair.left)

@@ -313,6 +313,26 @@ def test_video_depth_errors(sources, tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+def test_video_depth_as_16_bit_png(sources, frames, tmp_path):
+    (tmp_path / "calib.txt").write_text(RIG)
+    calib = Calibration.from_middlebury(tmp_path / "calib.txt")
+    out = tmp_path / "out"
+    options = ("--calib", tmp_path / "calib.txt", "--depth-format", "png", "--depth-scale", 2)
+    result = run_video(sources / "left", sources / "right", "-o", out, *options)
+    assert result.exit_code == 0, result.output
+    for i, frame in enumerate(frames):
+        io.write_depth(tmp_path / "expected.png", depth(reference(frame), calib), scale=2.0)
+        written = depth_output_path(out, i, "png")
+        assert written.name == f"frame{i:05d}-depth.png"
+        assert written.read_bytes() == (tmp_path / "expected.png").read_bytes()
+    assert not depth_output_path(out, 0).exists()
+    result = run_video(sources / "left", sources / "right", "-o", tmp_path / "o",
+                       "--depth-format", "png")  # fmt: skip
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == 1
+    assert lines == ["Error: --depth-format is used only with --calib (the depth maps)"]
+
+
 def test_video_ply_per_frame(sources, frames, tmp_path):
     from dcstereo.geometry import point_cloud
     from dcstereo.video import cloud_output_path

@@ -24,13 +24,14 @@ import contextlib
 import csv
 import dataclasses
 import json
+import math
 import os
 import time
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
 from . import geometry, io
-from ._checks import is_integer
+from ._checks import is_integer, is_number
 from .api import match
 from .confidence import confidence as confidence_map
 from .geometry import Calibration
@@ -48,6 +49,8 @@ DEPTH_FOLDER = "depth"
 CONFIDENCE_FOLDER = "confidence"
 #: The folder (in the output folder) of the point clouds, ``<name>.ply`` each.
 CLOUD_FOLDER = "cloud"
+#: The file formats of the depth maps: float32 PFM, or 16-bit PNG of ``round(z * scale)``.
+DEPTH_FORMATS = ("pfm", "png")
 #: A pair folder's calibration file (Middlebury 2014's name and format).
 CALIB_NAME = "calib.txt"
 #: What outputs were made with when their ``batch.json`` predates an option.
@@ -254,9 +257,9 @@ def output_path(output_dir: str | os.PathLike, pair: Pair) -> Path:
     return Path(output_dir) / f"{pair.name}.pfm"
 
 
-def depth_path(output_dir: str | os.PathLike, pair: Pair) -> Path:
-    """Return where :func:`run_batch` writes the depth of ``pair`` (``depth/<name>.pfm``)."""
-    return Path(output_dir) / DEPTH_FOLDER / f"{pair.name}.pfm"
+def depth_path(output_dir: str | os.PathLike, pair: Pair, depth_format: str = "pfm") -> Path:
+    """Return where :func:`run_batch` writes the depth of ``pair``: ``depth/<name>.pfm|png``."""
+    return Path(output_dir) / DEPTH_FOLDER / f"{pair.name}.{depth_format}"
 
 
 def confidence_path(output_dir: str | os.PathLike, pair: Pair) -> Path:
@@ -283,6 +286,8 @@ def run_batch(
     calibration: Calibration | None = None,
     confidence: bool = False,
     ply: bool = False,
+    depth_format: str = "pfm",
+    depth_scale: float | None = None,
     **options,
 ) -> BatchReport:
     """Match every pair and write ``<name>.pfm`` into ``output_dir``, atomically.
@@ -325,6 +330,13 @@ def run_batch(
         Also write each pair's confidence map (:func:`dcstereo.confidence.confidence`,
         PFM, ``inf`` = none) to ``confidence/<name>.pfm``; a pair is then complete only
         with it.
+    depth_format : {"pfm", "png"}
+        With ``depth``: ``depth/<name>.pfm`` (float32) or ``depth/<name>.png`` (16 bits of
+        ``round(z * depth_scale)``, 0 = none, the RGB-D convention; a depth beyond 16 bits
+        is written as none, see :func:`dcstereo.io.write_depth_png16`).
+    depth_scale : float, optional
+        With ``depth_format="png"``: stored value per unit of depth (default 1:
+        millimetres for a baseline in millimetres).
     ply : bool
         Also write each pair's point cloud (:func:`dcstereo.geometry.point_cloud` of its
         disparity, coloured by its left image when that is 8 or 16 bits; binary PLY) to
@@ -359,7 +371,9 @@ def run_batch(
         raise ValueError(f"retries must be an integer 0 or more, got {retries!r}")
     params = MatchParams(max_disparity=max_disparity, **options)  # refuse bad options now
     match_kwargs = {"max_disparity": max_disparity, **options}
-    companions = companion_options(depth, calibration, confidence, ply)
+    companions = companion_options(
+        depth, calibration, confidence, ply, depth_format=depth_format, depth_scale=depth_scale
+    )
     if calibration is not None and not (depth or ply):
         raise ValueError("calibration is used only with depth=True or ply=True")
     recorded = {**dataclasses.asdict(params), **companions}
@@ -379,7 +393,7 @@ def run_batch(
     todo = []
     cameras = {}
     for pair in pairs:
-        outputs = _outputs(folder, pair, depth, confidence, ply)
+        outputs = _outputs(folder, pair, depth and depth_format, confidence, ply)
         for path in outputs:
             _remove_stale_temporaries(path)
         problem = pair.problem
@@ -393,7 +407,8 @@ def run_batch(
             todo.append(pair)
 
     def finish(pair, answer):
-        record(_finish(folder, pair, answer, cameras.get(pair.name), depth, ply))
+        depth_to = depth_path(folder, pair, depth_format) if depth else None
+        record(_finish(folder, pair, answer, cameras.get(pair.name), depth_to, depth_scale, ply))
 
     if client is None:
         for pair in todo:
@@ -474,10 +489,10 @@ def numba_threads(threads: int | None):
         numba.set_num_threads(previous)
 
 
-def _outputs(folder: Path, pair: Pair, depth: bool, confidence: bool, ply: bool) -> list[Path]:
-    """Return the files :func:`run_batch` writes for ``pair``."""
+def _outputs(folder: Path, pair: Pair, depth, confidence: bool, ply: bool) -> list[Path]:
+    """Return the files :func:`run_batch` writes for ``pair`` (``depth``: format or False)."""
     paths = [output_path(folder, pair)]
-    paths += [depth_path(folder, pair)] if depth else []
+    paths += [depth_path(folder, pair, depth)] if depth else []
     paths += [confidence_path(folder, pair)] if confidence else []
     paths += [cloud_path(folder, pair)] if ply else []
     return paths
@@ -500,7 +515,13 @@ def _camera(pair: Pair, calibration: Calibration | None, depth: bool, ply: bool)
 
 
 def companion_options(
-    depth: bool, calibration: Calibration | None, confidence: bool, ply: bool = False
+    depth: bool,
+    calibration: Calibration | None,
+    confidence: bool,
+    ply: bool = False,
+    *,
+    depth_format: str = "pfm",
+    depth_scale: float | None = None,
 ) -> dict:
     """Check the options of the maps written beside each disparity; return their record.
 
@@ -515,10 +536,21 @@ def companion_options(
     for name, flag in (("depth", depth), ("confidence", confidence), ("ply", ply)):
         if not isinstance(flag, bool):
             raise TypeError(f"{name} must be a bool, got {flag!r}")
+    if depth_format not in DEPTH_FORMATS:
+        raise ValueError(f"depth_format must be 'pfm' or 'png', got {depth_format!r}")
+    if depth_format != "pfm" and not depth:
+        raise ValueError("depth_format is used only when the depth maps are written")
+    if depth_scale is not None:
+        if depth_format != "png":
+            raise ValueError("depth_scale is used only with depth_format='png'")
+        if not is_number(depth_scale) or not (0 < depth_scale < math.inf):
+            raise ValueError(f"depth_scale must be a positive number, got {depth_scale!r}")
     recorded = {}
     camera = dataclasses.asdict(calibration) if calibration is not None else None
     if depth:
         recorded["depth"] = camera or f"each pair's {CALIB_NAME}"
+    if depth and depth_format == "png":  # only then: a batch.json from before still resumes
+        recorded["depth_png_scale"] = 1.0 if depth_scale is None else float(depth_scale)
     if confidence:
         recorded["confidence"] = True
     if ply:
@@ -527,16 +559,20 @@ def companion_options(
 
 
 def write_companions(
-    disparity, camera: Calibration | None, depth_to, sure, confidence_to, cloud=None
-):
+    disparity, camera: Calibration | None, depth_to, sure, confidence_to, cloud=None,
+    depth_scale=None,
+):  # fmt: skip
     """Write a disparity map's depth, confidence and point cloud, those that are asked for.
 
     The depth given ``camera`` and ``depth_to``, the confidence given ``sure``, the cloud
-    given ``cloud``, its path and its colours (or None; it needs ``camera`` too). Before
+    given ``cloud``, its path and its colours (or None; it needs ``camera`` too). The
+    depth's format is its path's suffix (``depth_scale``: a PNG's value per unit). Before
     the disparity itself: its file is what says the pair or frame is done.
     """
     if camera is not None and depth_to is not None:
-        io.write_pfm(depth_to, geometry.depth(disparity, camera))
+        png = Path(depth_to).suffix.lower() == ".png"
+        scale = (1.0 if depth_scale is None else depth_scale) if png else None
+        io.write_depth(depth_to, geometry.depth(disparity, camera), scale=scale)
     if sure is not None:
         io.write_pfm(confidence_to, sure)
     if cloud is not None:
@@ -552,7 +588,7 @@ def _cloud_colors(pair: Pair):
 
 
 def _finish(
-    folder: Path, pair: Pair, answer, camera: Calibration | None, depth: bool, ply: bool
+    folder: Path, pair: Pair, answer, camera: Calibration | None, depth_to, depth_scale, ply
 ) -> PairOutcome:
     disparity, detail, sure = answer
     if disparity is None:
@@ -562,12 +598,7 @@ def _finish(
     except (ValueError, TypeError) as exc:  # the left image went away since it was matched
         return PairOutcome(pair, "failed", str(exc).strip().splitlines()[0])
     write_companions(
-        disparity,
-        camera,
-        depth_path(folder, pair) if depth else None,
-        sure,
-        confidence_path(folder, pair),
-        cloud,
+        disparity, camera, depth_to, sure, confidence_path(folder, pair), cloud, depth_scale
     )
     io.write_disparity(output_path(folder, pair), disparity)
     return PairOutcome(pair, "done", seconds=detail)

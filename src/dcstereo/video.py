@@ -405,9 +405,9 @@ def output_paths(output_dir: str | os.PathLike, index: int, fmt: str = "pfm"):
     return stem.with_name(f"{stem.name}.{fmt}"), stem.with_name(f"{stem.name}-preview.png")
 
 
-def depth_output_path(output_dir: str | os.PathLike, index: int) -> Path:
-    """Return the depth map's path of frame ``index`` (``frameNNNNN-depth.pfm``)."""
-    return Path(output_dir) / f"{frame_name(index)}-depth.pfm"
+def depth_output_path(output_dir: str | os.PathLike, index: int, depth_format: str = "pfm") -> Path:
+    """Return the depth map's path of frame ``index`` (``frameNNNNN-depth.pfm|png``)."""
+    return Path(output_dir) / f"{frame_name(index)}-depth.{depth_format}"
 
 
 def confidence_output_path(output_dir: str | os.PathLike, index: int) -> Path:
@@ -434,6 +434,8 @@ def match_sequence(
     calibration: geometry.Calibration | None = None,
     confidence: bool = False,
     ply: bool = False,
+    depth_format: str = "pfm",
+    depth_scale: float | None = None,
     **options,
 ) -> SequenceReport:
     """Match every frame of a sequence; write its disparity and preview atomically.
@@ -476,6 +478,12 @@ def match_sequence(
         Also write each frame's confidence map (:func:`dcstereo.confidence.confidence`)
         as ``frameNNNNN-confidence.pfm`` (``inf`` = none); a frame is then complete only
         with it.
+    depth_format : {"pfm", "png"}
+        With ``calibration``: ``frameNNNNN-depth.pfm`` (float32) or ``-depth.png`` (16
+        bits of ``round(z * depth_scale)``, 0 = none; see
+        :func:`dcstereo.io.write_depth_png16`).
+    depth_scale : float, optional
+        With ``depth_format="png"``: stored value per unit of depth (default 1).
     ply : bool
         Also write each frame's point cloud (:func:`dcstereo.geometry.point_cloud`,
         coloured by the left frame when it is 8 or 16 bits; binary PLY) as
@@ -508,7 +516,10 @@ def match_sequence(
     if disparity_format not in ("pfm", "png"):
         raise ValueError(f"disparity_format must be 'pfm' or 'png', got {disparity_format!r}")
     check_preview_style(preview_style, "preview_style")
-    companions = companion_options(calibration is not None, calibration, confidence, ply)
+    companions = companion_options(
+        calibration is not None, calibration, confidence, ply,
+        depth_format=depth_format, depth_scale=depth_scale,
+    )  # fmt: skip
     if ply and calibration is None:
         raise ValueError("ply=True needs a calibration (the point clouds' geometry)")
     check_threads(threads, client)
@@ -545,10 +556,11 @@ def match_sequence(
         write_companions(
             disparity,
             calibration,
-            depth_output_path(folder, frame.index),
+            depth_output_path(folder, frame.index, depth_format),
             sure,
             confidence_output_path(folder, frame.index),
             (cloud_output_path(folder, frame.index), colors) if ply else None,
+            depth_scale,
         )
         io.write_disparity(disparity_path, disparity)
         io.write_rgb_png(preview_path, preview(disparity, occluded, style=preview_style))
@@ -559,7 +571,7 @@ def match_sequence(
         for frame in sequence.frames():
             outputs = list(output_paths(folder, frame.index, disparity_format))
             if calibration is not None:
-                outputs.append(depth_output_path(folder, frame.index))
+                outputs.append(depth_output_path(folder, frame.index, depth_format))
             if confidence:
                 outputs.append(confidence_output_path(folder, frame.index))
             if ply:

@@ -158,6 +158,21 @@ def advancer(bar, description: str, total: int):
     "baseline's unit, inf = none), from --calib or from the calib.txt in each pair folder.",
 )
 @click.option(
+    "--depth-format",
+    type=click.Choice(["pfm", "png"]),
+    default="pfm",
+    show_default=True,
+    help="The depth maps' format: pfm (float32, in the baseline's unit, inf = none) or png "
+    "(16-bit, round(depth * --depth-scale), 0 = none).",
+)
+@click.option(
+    "--depth-scale",
+    type=float,
+    default=None,
+    help="Stored value per unit of depth in a png depth map (default 1: millimetres for a "
+    "baseline in mm).",
+)
+@click.option(
     "--ply",
     is_flag=True,
     help="Also write each pair's point cloud, OUTPUT/cloud/<name>.ply (binary PLY, left "
@@ -189,6 +204,8 @@ def batch(
     retries,
     depth,
     ply,
+    depth_format,
+    depth_scale,
     calib,
     confidence,
     quiet,
@@ -207,6 +224,10 @@ def batch(
     folder = output_folder(output)
     if calib is not None and not (depth or ply):
         raise CommandError("--calib is used only with --depth or --ply")
+    if depth_format != "pfm" and not depth:
+        raise CommandError("--depth-format is used only with --depth")
+    if depth_scale is not None and depth_format != "png":
+        raise CommandError("--depth-scale is used only with --depth-format png")
     calibration = None if calib is None else Calibration.from_middlebury(calib)
     pairs = find_pairs(source)
     # Refuse bad options before a cluster starts; run_batch makes the folder once valid.
@@ -226,6 +247,8 @@ def batch(
             calibration=calibration,
             confidence=confidence,
             ply=ply,
+            depth_format=depth_format,
+            depth_scale=depth_scale,
             min_disparity=min_disparity,
             **match_options,
         )

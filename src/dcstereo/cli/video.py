@@ -63,6 +63,21 @@ from .batch import advancer, dask_client, progress_bar, scheduler_option
     "inf = none; see dcstereo.confidence).",
 )
 @click.option(
+    "--depth-format",
+    type=click.Choice(["pfm", "png"]),
+    default="pfm",
+    show_default=True,
+    help="The depth maps' format: pfm (float32, in the baseline's unit, inf = none) or png "
+    "(16-bit, round(depth * --depth-scale), 0 = none).",
+)
+@click.option(
+    "--depth-scale",
+    type=float,
+    default=None,
+    help="Stored value per unit of depth in a png depth map (default 1: millimetres for a "
+    "baseline in mm).",
+)
+@click.option(
     "--ply",
     is_flag=True,
     help="With --calib: also write each frame's point cloud, frameNNNNN.ply (binary PLY, "
@@ -92,6 +107,8 @@ def video(
     calib,
     confidence,
     ply,
+    depth_format,
+    depth_scale,
     scheduler,
     resume,
     quiet,
@@ -122,6 +139,10 @@ def video(
         raise CommandError(f"--fps must be positive, got {fps}")
     if ply and calib is None:
         raise CommandError("--ply needs --calib (the point clouds' geometry)")
+    if depth_format != "pfm" and calib is None:
+        raise CommandError("--depth-format is used only with --calib (the depth maps)")
+    if depth_scale is not None and depth_format != "png":
+        raise CommandError("--depth-scale is used only with --depth-format png")
     calibration = None if calib is None else Calibration.from_middlebury(calib)
     sequence = open_sequence(left, right)
     # Refuse bad options before a cluster starts; match_sequence makes the folder once valid.
@@ -141,6 +162,8 @@ def video(
             calibration=calibration,
             confidence=confidence,
             ply=ply,
+            depth_format=depth_format,
+            depth_scale=depth_scale,
             min_disparity=min_disparity,
             **match_options,
         )
