@@ -231,6 +231,25 @@ median_option = click.option(
 )
 
 
+def depth_file_options(func):
+    """Add ``--depth-format pfm|png`` and ``--depth-scale S`` (batch and video's depth files)."""
+    func = click.option(
+        "--depth-scale",
+        type=float,
+        default=None,
+        help="Stored value per unit of depth in a png depth map (default 1: millimetres for "
+        "a baseline in mm).",
+    )(func)
+    return click.option(
+        "--depth-format",
+        type=click.Choice(["pfm", "png"]),
+        default="pfm",
+        show_default=True,
+        help="The depth maps' format: pfm (float32, in the baseline's unit, inf = none) or "
+        "png (16-bit, round(depth * --depth-scale), 0 = none).",
+    )(func)
+
+
 def _option_group(func, key, names, options):
     """Add ``options`` to the command ``func``, which gets those in ``names`` as one dict.
 

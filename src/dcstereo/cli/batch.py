@@ -8,6 +8,7 @@ import click
 from ._common import (
     CommandError,
     apply_threads,
+    depth_file_options,
     disparity_range_options,
     matching_options,
     one_line_errors,
@@ -157,21 +158,7 @@ def advancer(bar, description: str, total: int):
     help="Also write each pair's depth map, OUTPUT/depth/<name>.pfm (float32, in the "
     "baseline's unit, inf = none), from --calib or from the calib.txt in each pair folder.",
 )
-@click.option(
-    "--depth-format",
-    type=click.Choice(["pfm", "png"]),
-    default="pfm",
-    show_default=True,
-    help="The depth maps' format: pfm (float32, in the baseline's unit, inf = none) or png "
-    "(16-bit, round(depth * --depth-scale), 0 = none).",
-)
-@click.option(
-    "--depth-scale",
-    type=float,
-    default=None,
-    help="Stored value per unit of depth in a png depth map (default 1: millimetres for a "
-    "baseline in mm).",
-)
+@depth_file_options
 @click.option(
     "--ply",
     is_flag=True,

@@ -7,6 +7,7 @@ import click
 from ._common import (
     CommandError,
     apply_threads,
+    depth_file_options,
     disparity_range_options,
     matching_options,
     one_line_errors,
@@ -62,21 +63,7 @@ from .batch import advancer, dask_client, progress_bar, scheduler_option
     help="Also write each frame's confidence map, frameNNNNN-confidence.pfm (-1..1, "
     "inf = none; see dcstereo.confidence).",
 )
-@click.option(
-    "--depth-format",
-    type=click.Choice(["pfm", "png"]),
-    default="pfm",
-    show_default=True,
-    help="The depth maps' format: pfm (float32, in the baseline's unit, inf = none) or png "
-    "(16-bit, round(depth * --depth-scale), 0 = none).",
-)
-@click.option(
-    "--depth-scale",
-    type=float,
-    default=None,
-    help="Stored value per unit of depth in a png depth map (default 1: millimetres for a "
-    "baseline in mm).",
-)
+@depth_file_options
 @click.option(
     "--ply",
     is_flag=True,
