@@ -53,9 +53,11 @@ def test_kernel_equals_its_twin(cost, seed):
     left[:3, 5:12] = right[:3, 3:10] = 77  # a flat patch: ties
     result = match(left, right, max_disparity=5, min_disparity=-1, window=3, method="dsi3",
                    cost=cost)  # fmt: skip
-    # integer and half-pixel disparities over the whole range, none, filled
+    # integer, half-pixel and sub-pixel disparities over the whole range, none, filled
     d = rng.integers(-1, 6, (h, w)).astype(np.float32)
     d[(rng.random((h, w)) < 0.15) & (d < 5)] += 0.5
+    d[(rng.random((h, w)) < 0.15) & (d < 5) & (d == np.floor(d))] += np.float32(0.25)
+    d[(rng.random((h, w)) < 0.1) & (d < 5) & (d == np.floor(d))] += np.float32(0.875)
     d[rng.random((h, w)) < 0.1] = np.nan
     flags = np.where(rng.random((h, w)) < 0.1, FLAG_FILLED, 0).astype(np.uint8)
     result = replace(result, disparity=d, flags=flags)

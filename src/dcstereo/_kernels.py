@@ -1451,10 +1451,13 @@ def confidence_rows(left_p, right_p, disparity, wanted, dmin, ndisp, radius, bt,
                 lo = int(np.floor(v))
                 hi = int(np.ceil(v))
                 c = min(cost[x, lo], cost[x, hi])
+                # the rivals, |k - v| >= 2: k <= lo - 2 and k >= hi + 2 (for a whole, a
+                # half and any fractional v alike), two runs without a test per cell
                 r = np.inf
-                for k in range(ndisp):
-                    if abs(k - v) >= 2.0 and cost[x, k] < r:
-                        r = cost[x, k]
+                for k in range(0, max(0, lo - 1)):
+                    r = min(r, cost[x, k])
+                for k in range(hi + 2, ndisp):
+                    r = min(r, cost[x, k])
                 if r == np.inf:
                     continue
                 if r > 0.0:
