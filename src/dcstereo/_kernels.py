@@ -1324,28 +1324,46 @@ def match_dc_rows(
 
 
 @nb.njit(cache=True, inline="always")
-def _bt_pixel2(left_p, right_p, r, xp, jp, lo, hi):
-    """Twice the Birchfield-Tomasi dissimilarity of padded row ``r``, columns ``xp <-> jp``.
+def _bt_cell2(l2, l_min, l_max, r2, r_min, r_max):
+    """Twice the Birchfield-Tomasi dissimilarity of a left and a right pixel.
 
-    ``xp`` and ``jp`` are padded column indices, ``lo..hi`` the padded columns of the
-    image itself: a neighbour outside them is replaced by the pixel itself. Doubled, the
-    half-pixel interpolations ``(I[x] + I[x +- 1]) / 2`` are the integers ``I[x] + I[x +- 1]``.
+    From each pixel's doubled value and the least and largest of it and its two doubled
+    half-pixel interpolations (:func:`_bt_row_bounds`; doubled, ``(I[x] + I[x +- 1]) / 2``
+    is the integer ``I[x] + I[x +- 1]``).
     """
-    lv = left_p[r, xp]
-    l2 = 2 * lv
-    l_m = lv + left_p[r, max(xp - 1, lo)]
-    l_p = lv + left_p[r, min(xp + 1, hi)]
-    rv = right_p[r, jp]
-    r2 = 2 * rv
-    r_m = rv + right_p[r, max(jp - 1, lo)]
-    r_p = rv + right_p[r, min(jp + 1, hi)]
-    r_min = min(r2, min(r_m, r_p))
-    r_max = max(r2, max(r_m, r_p))
-    l_min = min(l2, min(l_m, l_p))
-    l_max = max(l2, max(l_m, l_p))
     d_lr = max(0, max(l2 - r_max, r_min - l2))
     d_rl = max(0, max(r2 - l_max, l_min - r2))
     return min(d_lr, d_rl)
+
+
+@nb.njit(cache=True, inline="always")
+def _bt_row_bounds(img_p, r, lo, hi, v2, v_min, v_max, reverse=False):
+    """Fill a padded row's doubled values and their interpolation bounds, columns ``lo..hi``.
+
+    ``v2`` the doubled value, ``v_min``/``v_max`` the least and largest of it and the two
+    doubled half-pixel interpolations (a neighbour outside ``lo..hi``, the image's padded
+    columns, is the pixel itself). ``reverse``: column ``xp``'s at ``len(v2) - 1 - xp``.
+    """
+    last = v2.shape[0] - 1
+    for xp in range(lo, hi + 1):
+        v = img_p[r, xp]
+        twice = 2 * v
+        minus = v + img_p[r, max(xp - 1, lo)]
+        plus = v + img_p[r, min(xp + 1, hi)]
+        i = last - xp if reverse else xp
+        v2[i] = twice
+        v_min[i] = min(twice, min(minus, plus))
+        v_max[i] = max(twice, max(minus, plus))
+
+
+@nb.njit(cache=True, inline="always")
+def _bt_bounds_buffers(wp):
+    """Six int32 rows of ``wp``: a view's values and bounds for two padded rows."""
+    return (
+        np.empty(wp, dtype=np.int32), np.empty(wp, dtype=np.int32),
+        np.empty(wp, dtype=np.int32), np.empty(wp, dtype=np.int32),
+        np.empty(wp, dtype=np.int32), np.empty(wp, dtype=np.int32),
+    )  # fmt: skip
 
 
 @nb.njit(cache=True)
@@ -1369,27 +1387,72 @@ def row_costs_bt(left_p, right_p, y, dmin, ndisp, radius, vcol, out, incremental
     win = 2 * radius + 1
     lo = radius
     hi = radius + width - 1
+    # each padded row's doubled values and their least and largest doubled half-pixel
+    # interpolations, made once per row instead of once per cell
+    l2, l_min, l_max, l2b, l_minb, l_maxb = _bt_bounds_buffers(wp)
+    r2, r_min, r_max, r2b, r_minb, r_maxb = _bt_bounds_buffers(wp)
     if incremental:
         top = y - 1
         bottom = y + 2 * radius
+        _bt_row_bounds(left_p, top, lo, hi, l2, l_min, l_max)
+        _bt_row_bounds(right_p, top, lo, hi, r2, r_min, r_max, True)
+        _bt_row_bounds(left_p, bottom, lo, hi, l2b, l_minb, l_maxb)
+        _bt_row_bounds(right_p, bottom, lo, hi, r2b, r_minb, r_maxb, True)
         for x in range(width):
-            base = x - dmin + radius
+            xp = x + radius
+            lb2, lbmin, lbmax = l2b[xp], l_minb[xp], l_maxb[xp]
+            lt2, ltmin, ltmax = l2[xp], l_min[xp], l_max[xp]
+            rbase = wp - 1 - (x - dmin + radius)  # reversed: k increasing reads forward
             k_lo = max(0, x - dmin - (width - 1))
             k_hi = min(ndisp - 1, x - dmin)
             for k in range(k_lo, k_hi + 1):
-                jp = base - k
-                vcol[x, k] += _bt_pixel2(left_p, right_p, bottom, x + radius, jp, lo, hi)
-                vcol[x, k] -= _bt_pixel2(left_p, right_p, top, x + radius, jp, lo, hi)
+                i = rbase + k
+                vcol[x, k] += _bt_cell2(
+                    lb2, lbmin, lbmax, r2b[i], r_minb[i], r_maxb[i]
+                ) - _bt_cell2(lt2, ltmin, ltmax, r2[i], r_min[i], r_max[i])
     else:
         for x in range(width):
             for k in range(ndisp):
                 vcol[x, k] = 0
-            base = x - dmin + radius
-            k_lo = max(0, x - dmin - (width - 1))
-            k_hi = min(ndisp - 1, x - dmin)
-            for t in range(win):
+        for t in range(win):
+            _bt_row_bounds(left_p, y + t, lo, hi, l2, l_min, l_max)
+            _bt_row_bounds(right_p, y + t, lo, hi, r2, r_min, r_max, True)
+            for x in range(width):
+                xp = x + radius
+                lv2, lvmin, lvmax = l2[xp], l_min[xp], l_max[xp]
+                rbase = wp - 1 - (x - dmin + radius)
+                k_lo = max(0, x - dmin - (width - 1))
+                k_hi = min(ndisp - 1, x - dmin)
                 for k in range(k_lo, k_hi + 1):
-                    vcol[x, k] += _bt_pixel2(left_p, right_p, y + t, x + radius, base - k, lo, hi)
+                    i = rbase + k
+                    vcol[x, k] += _bt_cell2(lv2, lvmin, lvmax, r2[i], r_min[i], r_max[i])
+    # horizontal sums of the doubled values, running over x for every k at once (as
+    # row_costs; the cells outside the right image hold 0), then halved
+    for k in range(ndisp):
+        out[0, k] = 0.0
+    for c in range(min(radius, width - 1) + 1):
+        for k in range(ndisp):
+            out[0, k] += vcol[c, k]
+    for x in range(1, width):
+        add = x + radius
+        sub = x - radius - 1
+        if add < width and sub >= 0:
+            for k in range(ndisp):
+                out[x, k] = out[x - 1, k] + (vcol[add, k] - vcol[sub, k])
+        elif add < width:
+            for k in range(ndisp):
+                out[x, k] = out[x - 1, k] + vcol[add, k]
+        elif sub >= 0:
+            for k in range(ndisp):
+                out[x, k] = out[x - 1, k] - vcol[sub, k]
+        else:
+            for k in range(ndisp):
+                out[x, k] = out[x - 1, k]
+    for x in range(width):
+        for k in range(ndisp):
+            out[x, k] *= 0.5  # exact: the sums are integers
+    # outside the image, and the truncated windows near the ends of each disparity's
+    # range (halving first changes no bit: a power of two commutes with the rounding)
     for k in range(ndisp):
         d = dmin + k
         x0 = max(0, d)
@@ -1398,22 +1461,16 @@ def row_costs_bt(left_p, right_p, y, dmin, ndisp, radius, vcol, out, incremental
             out[x, k] = np.inf
         for x in range(max(x1, 0), width):
             out[x, k] = np.inf
-        if x0 >= x1:
-            continue
-        s = 0
-        for c in range(x0, min(x0 + radius, x1 - 1) + 1):
-            s += vcol[c, k]
-        for x in range(x0, x1):
-            if x > x0:
-                if x + radius < x1:
-                    s += vcol[x + radius, k]
-                if x - radius - 1 >= x0:
-                    s -= vcol[x - radius - 1, k]
+        lo_end = min(x0 + radius, x1)
+        hi_start = max(x1 - radius, lo_end)
+        for x in range(x0, lo_end):
             used = min(x + radius, x1 - 1) - max(x - radius, x0) + 1
-            if used == win:
-                out[x, k] = 0.5 * s
-            else:
-                out[x, k] = s * win / used * 0.5
+            if used != win:
+                out[x, k] = out[x, k] * win / used
+        for x in range(hi_start, x1):
+            used = min(x + radius, x1 - 1) - max(x - radius, x0) + 1
+            if used != win:
+                out[x, k] = out[x, k] * win / used
 
 
 @nb.njit(cache=True)
