@@ -45,25 +45,47 @@ def median_rows(disparity, moved, radius, out):
                 out[y, x] = np.float32(middle)
 
 
-@nb.njit(cache=True, parallel=True)
-def median_rows_binned(bins, moved, radius, nbins, low, out):
-    """:func:`median_rows` for a map of half pixels, by a histogram slid along each row.
+@nb.njit(cache=True, inline="always")
+def _bucket_values(disparity, bins, top, bottom, left, right, bucket, values, n):
+    """Append to ``values[n:]`` the window's values in ``bucket``, sorted; return the count."""
+    for yy in range(top, bottom):
+        for xx in range(left, right):
+            if bins[yy, xx] != bucket:
+                continue
+            value = disparity[yy, xx]
+            j = n
+            while j > 0 and values[j - 1] > value:
+                values[j] = values[j - 1]
+                j -= 1
+            values[j] = value
+            n += 1
+    return n
 
-    ``bins[y, x]`` is ``2 (d - low)`` for a pixel with an estimate ``d`` (an integer in
-    ``0 .. nbins - 1``) and -1 for one without. Each row keeps the histogram of its
-    window's bins and the count of values below a pointer bin (Huang, Yang and Tang,
-    1979): a step along the row adds the column entering the window and takes away the
-    one leaving, and the pointer moves to the bin that holds the middle value. The
-    median is ``low + bin / 2``, of an even count the mean of the middle two, as in
-    :func:`median_rows`. Returns nothing; rows run in parallel.
+
+@nb.njit(cache=True, parallel=True)
+def median_rows_binned(disparity, bins, moved, radius, nbins, low, exact, out):
+    """:func:`median_rows` by a histogram of value buckets slid along each row.
+
+    ``bins[y, x]`` is the bucket of a pixel with an estimate ``d`` (:func:`value_buckets`:
+    an integer in ``0 .. nbins - 1``, never smaller for a larger ``d``) and -1 for one
+    without. Each row keeps the histogram of its window's buckets and the count of values
+    below a pointer bucket (Huang, Yang and Tang, 1979): a step along the row adds the
+    column entering the window and takes away the one leaving, and the pointer moves to the
+    bucket that holds the middle value. ``exact``: every value is ``low + bucket / 2`` (a
+    map of whole and half pixels), so the bucket is the value; otherwise the window's values
+    in the middle bucket(s), a few, are sorted to find the middle one(s). Of an even count,
+    the mean of the middle two, as :func:`median_rows`. Returns nothing; rows run in
+    parallel.
     """
     height, width = bins.shape
+    side = 2 * radius + 1
     for y in nb.prange(height):
         hist = np.zeros(nbins, dtype=np.int32)
+        values = np.empty(side * side, dtype=np.float32)
         top = max(0, y - radius)
         bottom = min(height, y + radius + 1)
         count = 0  # values in the window
-        below = 0  # values in the window whose bin is below the pointer
+        below = 0  # values in the window whose bucket is below the pointer
         pointer = 0
         for xx in range(min(width, radius + 1)):  # the window of x = 0
             for yy in range(top, bottom):
@@ -94,7 +116,7 @@ def median_rows_binned(bins, moved, radius, nbins, low, out):
             if not moved[y, x]:
                 continue
             k = (count - 1) // 2  # the middle value's rank (of two, the lower)
-            while below > k:  # the pointer bin must hold rank k
+            while below > k:  # the pointer bucket must hold rank k
                 pointer -= 1
                 below -= hist[pointer]
             while below + hist[pointer] <= k:
@@ -103,21 +125,40 @@ def median_rows_binned(bins, moved, radius, nbins, low, out):
             first = pointer
             if count % 2 == 1 or k + 1 < below + hist[pointer]:
                 second = first
-            else:  # rank k + 1 is in the next bin that holds a value
+            else:  # rank k + 1 is in the next bucket that holds a value
                 second = pointer + 1
                 while hist[second] == 0:
                     second += 1
-            middle = low + 0.25 * (first + second)  # the mean of low + bin / 2 of both
+            if exact:
+                middle = low + 0.25 * (first + second)  # the mean of low + bucket / 2 of both
+            else:
+                left = max(0, x - radius)
+                right = min(width, x + radius + 1)
+                n = _bucket_values(disparity, bins, top, bottom, left, right, first, values, 0)
+                if second != first:
+                    n = _bucket_values(disparity, bins, top, bottom, left, right, second, values, n)
+                rank = k - below  # of the lower middle value among the gathered ones
+                if count % 2 == 1:
+                    middle = np.float64(values[rank])
+                else:
+                    middle = 0.5 * (np.float64(values[rank]) + np.float64(values[rank + 1]))
             out[y, x] = np.float32(middle)
 
 
-@nb.njit(cache=True, parallel=True)
-def half_pixel_bins(disparity, max_bins, bins):
-    """Fill ``bins`` with ``2 (d - low)`` (-1 where no estimate) for a map of half pixels.
+#: The finest buckets of a sub-pixel map, per pixel of disparity (finer: fewer values to
+#: sort in the middle bucket, measured best up to here on the development scenes).
+FINEST_BUCKETS = 128.0
 
-    ``low`` is the least estimate. Returns ``(low, nbins)``, or ``(0.0, 0)`` (``bins``
-    then unspecified) when the map has no estimate, a value that is not a whole or half
-    pixel, or a span of ``max_bins`` half pixels or more.
+
+@nb.njit(cache=True, parallel=True)
+def value_buckets(disparity, max_bins, bins):
+    """Fill ``bins`` with the histogram buckets ``floor(scale (d - low))`` (-1: no estimate).
+
+    ``low`` is the least estimate. A map of whole and half pixels gets ``scale`` 2, one
+    value to a bucket (``exact``: ``d = low + bucket / 2``); any other map the finest power
+    of two up to :data:`FINEST_BUCKETS` whose buckets over the map's span number fewer than
+    ``max_bins``. Returns ``(low, nbins, exact)``, or ``(0.0, 0, False)`` (``bins`` then
+    unspecified) when the map has no estimate or no scale from 2 up fits.
     """
     height, width = disparity.shape
     lows = np.full(height, np.inf)
@@ -133,10 +174,17 @@ def half_pixel_bins(disparity, max_bins, bins):
             if 2.0 * v != np.floor(2.0 * v):
                 halves[y] = False
     low = lows.min()
-    if not np.isfinite(low) or not halves.all() or 2.0 * (highs.max() - low) >= max_bins:
-        return 0.0, 0
+    if not np.isfinite(low):
+        return 0.0, 0, False
+    span = highs.max() - low
+    exact = halves.all()
+    scale = 2.0 if exact else FINEST_BUCKETS
+    while scale > 2.0 and scale * span >= max_bins:
+        scale *= 0.5
+    if scale * span >= max_bins:
+        return 0.0, 0, False
     for y in nb.prange(height):
         for x in range(width):
             v = np.float64(disparity[y, x])
-            bins[y, x] = np.int32(2.0 * (v - low)) if np.isfinite(v) else -1
-    return low, int(2.0 * (highs.max() - low)) + 1
+            bins[y, x] = np.int32(np.floor(scale * (v - low))) if np.isfinite(v) else -1
+    return low, int(np.floor(scale * span)) + 1, exact

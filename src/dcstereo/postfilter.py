@@ -58,14 +58,15 @@ def median_filter(result: DisparityResult, size: int = 5) -> DisparityResult:
     moved = np.isfinite(d) & ((result.flags & FLAG_FEATURE) == 0)
     out = d.copy()
     bins = np.empty(d.shape, dtype=np.int32)
-    low, nbins = _postfilter_kernels.half_pixel_bins(d, MAX_BINS, bins)
-    if nbins:  # whole and half pixels only: a histogram slid along the rows
-        _postfilter_kernels.median_rows_binned(bins, moved, size // 2, nbins, low, out)
-    else:  # sub-pixel values: each window sorted
+    low, nbins, exact = _postfilter_kernels.value_buckets(d, MAX_BINS, bins)
+    if nbins:  # a histogram of value buckets slid along the rows
+        _postfilter_kernels.median_rows_binned(d, bins, moved, size // 2, nbins, low, exact, out)
+    else:  # a span too wide for the histogram: each window sorted
         _postfilter_kernels.median_rows(d, moved, size // 2, out)
     return replace(result, disparity=out)
 
 
-#: The most histogram bins (half pixels of the map's span) the sliding histogram takes;
-#: a map of whole and half pixels with a wider span has each window sorted instead.
+#: The most histogram buckets the sliding histogram takes (a map of whole and half pixels
+#: spanning 8192 pixels of disparity, a sub-pixel map 8192 at half-pixel buckets, 128 at the
+#: finest); a map with a wider span has each window sorted instead.
 MAX_BINS = 1 << 14
