@@ -411,10 +411,22 @@ def calib_pairs(tmp_path):
     return root
 
 
+def pair_disparity(pair: Pair, **kwargs) -> np.ndarray:
+    """What ``match`` gives for the pair: the disparity every expected output is made from."""
+    return match(io.read_image(pair.left), io.read_image(pair.right), **kwargs).disparity
+
+
 def expected_depth(pair: Pair, calibration: Calibration, **kwargs) -> np.ndarray:
-    result = match(io.read_image(pair.left), io.read_image(pair.right), **kwargs)
     # what the PFM holds: float32, inf where there is no depth
-    return np.nan_to_num(depth(result.disparity, calibration), nan=np.inf)
+    return np.nan_to_num(depth(pair_disparity(pair, **kwargs), calibration), nan=np.inf)
+
+
+def batch_with_one_calibration(calib_pairs, tmp_path, out, *options):
+    """``batch`` from the command line with CALIB_B for every pair; ``(result, calib)``."""
+    (tmp_path / "all.txt").write_text(CALIB_B)
+    args = ["batch", str(calib_pairs), "-o", str(out), "--max-disparity", "8", "-q", "--calib",
+            str(tmp_path / "all.txt"), *options]  # fmt: skip
+    return CliRunner().invoke(main, args), Calibration.from_middlebury(tmp_path / "all.txt")
 
 
 def test_batch_depth_from_each_pair_folders_calib(calib_pairs, tmp_path):
@@ -499,11 +511,9 @@ def test_batch_depth_options_are_checked_first(calib_pairs, tmp_path, options, e
 
 def test_cli_batch_depth(calib_pairs, tmp_path):
     out = tmp_path / "out"
-    (tmp_path / "all.txt").write_text(CALIB_B)
     args = ["batch", str(calib_pairs), "-o", str(out), "--max-disparity", "8", "-q"]
-    result = CliRunner().invoke(main, [*args, "--depth", "--calib", str(tmp_path / "all.txt")])
+    result, calib = batch_with_one_calibration(calib_pairs, tmp_path, out, "--depth")
     assert result.exit_code == 0, result.output
-    calib = Calibration.from_middlebury(tmp_path / "all.txt")
     for pair in find_pairs(calib_pairs):
         np.testing.assert_array_equal(
             io.read_pfm(out / "depth" / f"{pair.name}.pfm"),
@@ -529,8 +539,8 @@ def test_cli_batch_depth(calib_pairs, tmp_path):
 
 def expected_depth_png(pair, calibration, folder, scale, **kwargs) -> bytes:
     """The bytes of the 16-bit depth PNG ``run --depth-out z.png`` would write."""
-    result = match(io.read_image(pair.left), io.read_image(pair.right), **kwargs)
-    io.write_depth(folder / "expected.png", depth(result.disparity, calibration), scale=scale)
+    z = depth(pair_disparity(pair, **kwargs), calibration)
+    io.write_depth(folder / "expected.png", z, scale=scale)
     return (folder / "expected.png").read_bytes()
 
 
@@ -580,14 +590,13 @@ def test_batch_depth_format_options_are_checked_first(calib_pairs, tmp_path, opt
 
 
 def test_cli_batch_depth_png(calib_pairs, tmp_path):
-    (tmp_path / "all.txt").write_text(CALIB_B)
-    calib = Calibration.from_middlebury(tmp_path / "all.txt")
+    out = tmp_path / "out"
+    result, calib = batch_with_one_calibration(
+        calib_pairs, tmp_path, out, "--depth", "--depth-format", "png", "--depth-scale", "10"
+    )
+    assert result.exit_code == 0, result.output
     args = ["batch", str(calib_pairs), "--max-disparity", "8", "-q", "--calib",
             str(tmp_path / "all.txt")]  # fmt: skip
-    out = tmp_path / "out"
-    result = CliRunner().invoke(main, [*args, "-o", str(out), "--depth", "--depth-format", "png",
-                                       "--depth-scale", "10"])  # fmt: skip
-    assert result.exit_code == 0, result.output
     for pair in find_pairs(calib_pairs):
         assert (out / "depth" / f"{pair.name}.png").read_bytes() == expected_depth_png(
             pair, calib, tmp_path, 10.0, max_disparity=8
@@ -606,9 +615,7 @@ def test_cli_batch_depth_png(calib_pairs, tmp_path):
 
 def expected_cloud(pair: Pair, calibration: Calibration, folder: Path, **kwargs) -> bytes:
     """The bytes of the PLY file ``run`` would write for the pair."""
-    left = io.read_image(pair.left)
-    result = match(left, io.read_image(pair.right), **kwargs)
-    cloud = point_cloud(result.disparity, calibration, left)
+    cloud = point_cloud(pair_disparity(pair, **kwargs), calibration, io.read_image(pair.left))
     io.write_ply(folder / f"{pair.name}-expected.ply", cloud.points, cloud.colors)
     return (folder / f"{pair.name}-expected.ply").read_bytes()
 
@@ -657,11 +664,9 @@ def test_batch_ply_and_depth_on_dask_equal_serial(calib_pairs, tmp_path, dask_cl
 
 def test_cli_batch_ply(calib_pairs, tmp_path):
     out = tmp_path / "out"
-    (tmp_path / "all.txt").write_text(CALIB_B)
     args = ["batch", str(calib_pairs), "-o", str(out), "--max-disparity", "8", "-q"]
-    result = CliRunner().invoke(main, [*args, "--ply", "--calib", str(tmp_path / "all.txt")])
+    result, calib = batch_with_one_calibration(calib_pairs, tmp_path, out, "--ply")
     assert result.exit_code == 0, result.output
-    calib = Calibration.from_middlebury(tmp_path / "all.txt")
     for pair in find_pairs(calib_pairs):
         assert (out / "cloud" / f"{pair.name}.ply").read_bytes() == expected_cloud(
             pair, calib, tmp_path, max_disparity=8

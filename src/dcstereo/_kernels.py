@@ -82,7 +82,21 @@ def row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, out, incremental):
                 lv = left_p[y + t, x + radius]
                 for k in range(k_lo, k_hi + 1):
                     vcol[x, k] += abs(lv - right_p[y + t, base - k])
-    # horizontal sums: running over x, every k at once; rescale the truncated windows
+    _window_sums(vcol, out, width, dmin, ndisp, radius, False)
+
+
+@nb.njit(cache=True, inline="always")
+def _window_sums(vcol, out, width, dmin, ndisp, radius, halve):
+    """Finish a row's window costs from its vertical sums ``vcol`` into ``out[x, k]``.
+
+    The horizontal sums run along ``x`` for every ``k`` at once (the inner loop is over
+    ``k``, contiguous; the cells outside the right image hold 0 in ``vcol``); ``halve``
+    halves them (exact: they are integers) for the doubled Birchfield-Tomasi values, then
+    the cells outside the image get ``inf`` and the truncated windows near the ends of
+    each disparity's range are rescaled to the full window (``* W / columns used``;
+    halving first changes no bit, a power of two commutes with the rounding).
+    """
+    win = 2 * radius + 1
     for k in range(ndisp):
         out[0, k] = 0.0
     for c in range(min(radius, width - 1) + 1):
@@ -103,7 +117,10 @@ def row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, out, incremental):
         else:
             for k in range(ndisp):
                 out[x, k] = out[x - 1, k]
-    # outside the image, and the truncated windows near the ends of each disparity's range
+    if halve:
+        for x in range(width):
+            for k in range(ndisp):
+                out[x, k] *= 0.5
     for k in range(ndisp):
         d = dmin + k
         x0 = max(0, d)
@@ -1426,51 +1443,7 @@ def row_costs_bt(left_p, right_p, y, dmin, ndisp, radius, vcol, out, incremental
                 for k in range(k_lo, k_hi + 1):
                     i = rbase + k
                     vcol[x, k] += _bt_cell2(lv2, lvmin, lvmax, r2[i], r_min[i], r_max[i])
-    # horizontal sums of the doubled values, running over x for every k at once (as
-    # row_costs; the cells outside the right image hold 0), then halved
-    for k in range(ndisp):
-        out[0, k] = 0.0
-    for c in range(min(radius, width - 1) + 1):
-        for k in range(ndisp):
-            out[0, k] += vcol[c, k]
-    for x in range(1, width):
-        add = x + radius
-        sub = x - radius - 1
-        if add < width and sub >= 0:
-            for k in range(ndisp):
-                out[x, k] = out[x - 1, k] + (vcol[add, k] - vcol[sub, k])
-        elif add < width:
-            for k in range(ndisp):
-                out[x, k] = out[x - 1, k] + vcol[add, k]
-        elif sub >= 0:
-            for k in range(ndisp):
-                out[x, k] = out[x - 1, k] - vcol[sub, k]
-        else:
-            for k in range(ndisp):
-                out[x, k] = out[x - 1, k]
-    for x in range(width):
-        for k in range(ndisp):
-            out[x, k] *= 0.5  # exact: the sums are integers
-    # outside the image, and the truncated windows near the ends of each disparity's
-    # range (halving first changes no bit: a power of two commutes with the rounding)
-    for k in range(ndisp):
-        d = dmin + k
-        x0 = max(0, d)
-        x1 = min(width, width + d)  # exclusive; 0 <= x - d < width
-        for x in range(0, min(x0, width)):
-            out[x, k] = np.inf
-        for x in range(max(x1, 0), width):
-            out[x, k] = np.inf
-        lo_end = min(x0 + radius, x1)
-        hi_start = max(x1 - radius, lo_end)
-        for x in range(x0, lo_end):
-            used = min(x + radius, x1 - 1) - max(x - radius, x0) + 1
-            if used != win:
-                out[x, k] = out[x, k] * win / used
-        for x in range(hi_start, x1):
-            used = min(x + radius, x1 - 1) - max(x - radius, x0) + 1
-            if used != win:
-                out[x, k] = out[x, k] * win / used
+    _window_sums(vcol, out, width, dmin, ndisp, radius, True)
 
 
 @nb.njit(cache=True)

@@ -4,6 +4,17 @@ import numba as nb
 import numpy as np
 
 
+@nb.njit(cache=True, inline="always")
+def _insert_sorted(values, n, value):
+    """Insert ``value`` into the sorted ``values[:n]``; return the new count."""
+    j = n
+    while j > 0 and values[j - 1] > value:
+        values[j] = values[j - 1]
+        j -= 1
+    values[j] = value
+    return n + 1
+
+
 @nb.njit(cache=True, parallel=True)
 def median_rows(disparity, moved, radius, out):
     """Write into ``out`` the median of the finite values in each moved pixel's window.
@@ -29,14 +40,8 @@ def median_rows(disparity, moved, radius, out):
             for yy in range(top, bottom):
                 for xx in range(left, right):
                     value = disparity[yy, xx]
-                    if not np.isfinite(value):
-                        continue
-                    j = n
-                    while j > 0 and values[j - 1] > value:
-                        values[j] = values[j - 1]
-                        j -= 1
-                    values[j] = value
-                    n += 1
+                    if np.isfinite(value):
+                        n = _insert_sorted(values, n, value)
             half = n // 2
             if n % 2 == 1:
                 out[y, x] = values[half]
@@ -46,19 +51,13 @@ def median_rows(disparity, moved, radius, out):
 
 
 @nb.njit(cache=True, inline="always")
-def _bucket_values(disparity, bins, top, bottom, left, right, bucket, values, n):
-    """Append to ``values[n:]`` the window's values in ``bucket``, sorted; return the count."""
+def _bucket_values(disparity, bins, top, bottom, left, right, first, last, values):
+    """Put the window's values in buckets ``first..last`` into ``values``, sorted; count them."""
+    n = 0
     for yy in range(top, bottom):
         for xx in range(left, right):
-            if bins[yy, xx] != bucket:
-                continue
-            value = disparity[yy, xx]
-            j = n
-            while j > 0 and values[j - 1] > value:
-                values[j] = values[j - 1]
-                j -= 1
-            values[j] = value
-            n += 1
+            if first <= bins[yy, xx] <= last:
+                n = _insert_sorted(values, n, disparity[yy, xx])
     return n
 
 
@@ -134,9 +133,8 @@ def median_rows_binned(disparity, bins, moved, radius, nbins, low, exact, out):
             else:
                 left = max(0, x - radius)
                 right = min(width, x + radius + 1)
-                n = _bucket_values(disparity, bins, top, bottom, left, right, first, values, 0)
-                if second != first:
-                    n = _bucket_values(disparity, bins, top, bottom, left, right, second, values, n)
+                # the buckets between the two middle ones hold no value: one scan for both
+                _bucket_values(disparity, bins, top, bottom, left, right, first, second, values)
                 rank = k - below  # of the lower middle value among the gathered ones
                 if count % 2 == 1:
                     middle = np.float64(values[rank])

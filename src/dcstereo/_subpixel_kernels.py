@@ -9,6 +9,15 @@ FIT_PARABOLA = 1
 
 
 @nb.njit(cache=True, inline="always")
+def _column_sad(left_p, right_p, y, xp, e, win):
+    """One column of eq. 4's window: rows ``y .. y + win - 1`` of padded column ``xp``."""
+    total = 0
+    for t in range(win):
+        total += abs(left_p[y + t, xp] - right_p[y + t, xp - e])
+    return total
+
+
+@nb.njit(cache=True, inline="always")
 def _window_sad(left_p, right_p, y, x, d, radius, width):
     """Eq. 4 at ``(y, x)`` and integer disparity ``d`` on the padded signals.
 
@@ -16,6 +25,7 @@ def _window_sad(left_p, right_p, y, x, d, radius, width):
     or right pixel leaves its image skipped and the sum rescaled to the full window; inf
     when no column is left.
     """
+    win = 2 * radius + 1
     total = 0
     used = 0
     for s in range(-radius, radius + 1):
@@ -24,23 +34,12 @@ def _window_sad(left_p, right_p, y, x, d, radius, width):
         if xl < 0 or xl >= width or xr < 0 or xr >= width:
             continue
         used += 1
-        for t in range(2 * radius + 1):
-            total += abs(left_p[y + t, xl + radius] - right_p[y + t, xr + radius])
-    win = 2 * radius + 1
+        total += _column_sad(left_p, right_p, y, xl + radius, d, win)
     if used == 0:
         return np.inf
     if used == win:
         return float(total)
     return total * win / used
-
-
-@nb.njit(cache=True, inline="always")
-def _column_sad(left_p, right_p, y, xp, e, win):
-    """One column of eq. 4's window: rows ``y .. y + win - 1`` of padded column ``xp``."""
-    total = 0
-    for t in range(win):
-        total += abs(left_p[y + t, xp] - right_p[y + t, xp - e])
-    return total
 
 
 @nb.njit(cache=True, parallel=True)

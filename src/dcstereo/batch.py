@@ -569,10 +569,8 @@ def write_companions(
     depth's format is its path's suffix (``depth_scale``: a PNG's value per unit). Before
     the disparity itself: its file is what says the pair or frame is done.
     """
-    if camera is not None and depth_to is not None:
-        png = Path(depth_to).suffix.lower() == ".png"
-        scale = (1.0 if depth_scale is None else depth_scale) if png else None
-        io.write_depth(depth_to, geometry.depth(disparity, camera), scale=scale)
+    if camera is not None and depth_to is not None:  # a scale only for a PNG (checked)
+        io.write_depth(depth_to, geometry.depth(disparity, camera), scale=depth_scale)
     if sure is not None:
         io.write_pfm(confidence_to, sure)
     if cloud is not None:
