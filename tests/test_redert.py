@@ -210,6 +210,28 @@ def test_sheared_costs_match_naive_windows(radius, steps, slopes):
         np.testing.assert_allclose(seg, want_seg, rtol=1e-12)
 
 
+@pytest.mark.parametrize(("radius", "steps", "dmin"), [(0, 4, -1), (2, 8, 0), (3, 16, 2)])
+def test_sliding_column_sums_equal_fresh_ones(radius, steps, dmin):
+    # the driver moves the vertical sums down a row (one row added, one taken away);
+    # every row must hold the sums sample_columns makes afresh, the -1 cells included
+    rng = np.random.default_rng(78)
+    height, width, ndisp, omax = 9, 23, 5, steps // 2
+    left = rng.integers(0, 4096, size=(height, width)).astype(np.int32)
+    right = rng.integers(0, 4096, size=(height, width)).astype(np.int32)
+    pad = ((radius, radius), (radius, radius))
+    left_p, right_p = np.pad(left, pad, mode="edge"), np.pad(right, pad, mode="edge")
+    e_lo = steps * dmin - radius * omax
+    shape = (width, steps * (ndisp - 1) + 2 * radius * omax + 1)
+    sliding = np.empty(shape, dtype=np.int64)
+    fresh = np.empty(shape, dtype=np.int64)
+    _redert_kernels.sample_columns(left_p, right_p, 0, radius, steps, e_lo, sliding)
+    assert (sliding == -1).any() and (sliding > 0).any()
+    for y in range(1, height):
+        _redert_kernels.slide_columns(left_p, right_p, y, radius, steps, e_lo, sliding)
+        _redert_kernels.sample_columns(left_p, right_p, y, radius, steps, e_lo, fresh)
+        np.testing.assert_array_equal(sliding, fresh)
+
+
 def test_oracle_interpolates_between_right_pixels():
     # left pixel 4 (value 12) lies at right position 2.5, halfway between 16 and 8
     right = np.array([[0, 8, 16, 8, 0, 8, 16, 8]], dtype=np.int32)

@@ -40,6 +40,43 @@ CODE_NONE = 0
 
 
 @nb.njit(cache=True)
+def _right_samples(right_p, t, radius, steps, out):
+    """Right row ``t`` (padded) at every ``1 / steps`` position: ``out[qq]``, ``qq = 0..top``.
+
+    ``out[steps q0 + f] = (steps - f) R[t, q0] + f R[t, q0 + 1]``, the interpolation that
+    :func:`sample_columns` compares with ``steps * L``.
+    """
+    width = right_p.shape[1] - 2 * radius
+    for q0 in range(width):
+        here = right_p[t, q0 + radius]
+        out[steps * q0] = steps * here
+        if q0 + 1 < width:
+            after = right_p[t, q0 + 1 + radius]
+            for f in range(1, steps):
+                out[steps * q0 + f] = (steps - f) * here + f * after
+
+
+@nb.njit(cache=True)
+def _add_window_row(left_p, right_p, t, radius, steps, e_lo, sign, samples, out):
+    """Add ``sign`` times window row ``t``'s absolute differences to the valid ``out`` cells."""
+    width = left_p.shape[1] - 2 * radius
+    ne = out.shape[1]
+    top = steps * (width - 1)
+    _right_samples(right_p, t, radius, steps, samples)
+    for c in range(width):
+        a = steps * left_p[t, c + radius]
+        base = steps * c - e_lo  # the right position of cell m is base - m
+        m_lo = max(0, base - top)
+        m_hi = min(ne, base + 1)
+        if sign > 0:
+            for m in range(m_lo, m_hi):
+                out[c, m] += abs(a - samples[base - m])
+        else:
+            for m in range(m_lo, m_hi):
+                out[c, m] -= abs(a - samples[base - m])
+
+
+@nb.njit(cache=True)
 def sample_columns(left_p, right_p, y, radius, steps, e_lo, out):
     """Vertical window sums of the interpolated absolute difference, for row ``y``.
 
@@ -50,27 +87,29 @@ def sample_columns(left_p, right_p, y, radius, steps, e_lo, out):
     ``left_p``/``right_p`` are the signals padded by ``radius`` (edge replicated).
     """
     width = left_p.shape[1] - 2 * radius
-    win = 2 * radius + 1
     ne = out.shape[1]
     top = steps * (width - 1)
+    samples = np.empty(top + 1, dtype=np.int64)
     for c in range(width):
+        base = steps * c - e_lo
         for m in range(ne):
-            qq = steps * c - (e_lo + m)  # right position in 1/steps pixel
-            if qq < 0 or qq > top:
-                out[c, m] = -1
-                continue
-            q0 = qq // steps
-            f = qq - steps * q0
-            s = 0
-            if f == 0:
-                for t in range(win):
-                    s += abs(steps * (left_p[y + t, c + radius] - right_p[y + t, q0 + radius]))
-            else:
-                for t in range(win):
-                    r = (steps - f) * right_p[y + t, q0 + radius]
-                    r += f * right_p[y + t, q0 + 1 + radius]
-                    s += abs(steps * left_p[y + t, c + radius] - r)
-            out[c, m] = s
+            qq = base - m
+            out[c, m] = 0 if 0 <= qq <= top else -1
+    for t in range(y, y + 2 * radius + 1):
+        _add_window_row(left_p, right_p, t, radius, steps, e_lo, 1, samples, out)
+
+
+@nb.njit(cache=True)
+def slide_columns(left_p, right_p, y, radius, steps, e_lo, out):
+    """Move :func:`sample_columns`' sums from row ``y - 1`` (in ``out``) to row ``y``.
+
+    The window row that enters is added and the one that leaves subtracted: two rows of
+    absolute differences instead of ``2 * radius + 1``, the same integers.
+    """
+    width = left_p.shape[1] - 2 * radius
+    samples = np.empty(steps * (width - 1) + 1, dtype=np.int64)
+    _add_window_row(left_p, right_p, y + 2 * radius, radius, steps, e_lo, 1, samples, out)
+    _add_window_row(left_p, right_p, y - 1, radius, steps, e_lo, -1, samples, out)
 
 
 @nb.njit(cache=True)
@@ -117,30 +156,11 @@ def segment_shape(q, steps):
 
 
 @nb.njit(cache=True)
-def segment_sum(columns, e_lo, x0, e0, q, length, radius):
-    """Sum of the pixel costs of segment pixels ``x0 + 1 .. x0 + length``, or -1.
-
-    Pixel ``p`` of the segment sits at disparity ``(e0 + q (p - x0)) / steps`` with its
-    window sheared by the same slope, so window column ``c`` of every pixel samples the
-    same right position ``c - (e0 + q (c - x0)) / steps``: the segment cost is a weighted
-    sum of one column value per ``c`` (weight: the number of the segment's windows that
-    contain ``c``), ``length + 2 radius`` values instead of ``length (2 radius + 1)``.
-    Returns -1 when a window would be truncated (a column outside either image); the
-    caller then sums :func:`pixel_cost` pixel by pixel.
-    """
-    width = columns.shape[0]
-    x = x0 + length
-    lo = x0 + 1 - radius
-    hi = x + radius
-    if lo < 0 or hi >= width:
-        return -1
-    total = 0
-    for c in range(lo, hi + 1):
-        v = columns[c, e0 + q * (c - x0) - e_lo]
-        if v < 0:
-            return -1
-        total += v * (min(x, c + radius) - max(x0 + 1, c - radius) + 1)
-    return total
+def _line_value(ring, mask, c, m):
+    """Return a line prefix at column ``c``, cell ``m``: 0 before column 0 or outside the cells."""
+    if c < 0 or m < 0 or m >= ring.shape[1]:
+        return 0
+    return ring[c & mask, m]
 
 
 @nb.njit(cache=True)
@@ -153,21 +173,83 @@ def sheared_costs(columns, e_lo, steps, dmin, oq, radius, node, seg):
     sum over its pixels ``p = x - L + 1 .. x`` of the pixel costs at the interpolated
     disparity ``d - delta + slope * (p - x + L)``; ``inf`` when the segment's start node
     ``(x - L, d - delta)`` is not a node of the band inside both images.
+
+    Pixel ``p`` of a segment sits at disparity ``(e0 + q (p - x0)) / steps`` with its
+    window sheared by the same slope, so every column value it reads lies on one line
+    of ``columns``, cell ``m`` at column ``c`` followed by cell ``m + q`` at ``c + 1``.
+    Along each line the kernel keeps two running sums, ``P`` of the column values and
+    ``Q`` of ``P``: a window is a difference of two ``P`` and a segment (the sum of its
+    pixels' windows) one of four ``Q``, whatever its length; both are exact integers.
+    The sums live in a ring of the last columns (enough for the longest segment and its
+    windows). Where a window is truncated (a column outside either image; the right
+    position only grows along a line, so its two end columns tell) the pixels are summed
+    one by one with :func:`pixel_cost`.
     """
     width, ndisp, norient = node.shape
-    for x in range(width):
-        for k in range(ndisp):
-            d = dmin + k
-            inside = 0 <= x - d < width
-            for o in range(norient):
-                q = oq[o]
-                if not inside:
+    ne = columns.shape[1]
+    longest = 1
+    for o in range(norient):
+        longest = max(longest, segment_shape(oq[o], steps)[0])
+    span = longest + 2 * radius + 2  # the columns x - L - r - 1 .. x + r
+    size = 1
+    while size < min(span, width):
+        size *= 2
+    mask = size - 1
+    ring_p = np.empty((size, ne), dtype=np.int64)
+    ring_q = np.empty((size, ne), dtype=np.int64)
+    # flat views and unsigned offsets: numba checks a signed index for wraparound,
+    # which keeps LLVM from vectorizing the running sums
+    flat_c = columns.reshape(-1)
+    flat_p = ring_p.reshape(-1)
+    flat_q = ring_q.reshape(-1)
+    for o in range(norient):
+        q = oq[o]
+        length, delta = segment_shape(q, steps)
+        # cells whose line comes from a cell of the previous column
+        m_from = np.uint64(max(0, q))
+        m_to = np.uint64(min(ne, ne + q))
+        for c in range(width + radius):
+            if c < width:
+                o_c = np.uint64(c * ne)
+                o_row = np.uint64((c & mask) * ne)
+                if c == 0:
+                    m_from_c = m_to  # no previous column: every line starts here
+                else:
+                    m_from_c = m_from
+                for i in range(np.uint64(0), m_from_c):
+                    flat_p[o_row + i] = flat_c[o_c + i]
+                    flat_q[o_row + i] = flat_c[o_c + i]
+                if c > 0:
+                    o_prev = np.uint64(((c - 1) & mask) * ne) - np.uint64(q)
+                    for i in range(m_from, m_to):
+                        v = flat_c[o_c + i] + flat_p[o_prev + i]
+                        flat_p[o_row + i] = v
+                        flat_q[o_row + i] = v + flat_q[o_prev + i]
+                for i in range(m_to, np.uint64(ne)):
+                    flat_p[o_row + i] = flat_c[o_c + i]
+                    flat_q[o_row + i] = flat_c[o_c + i]
+            x = c - radius
+            if x < 0:
+                continue
+            whole = x - radius >= 0 and x + radius < width
+            for k in range(ndisp):
+                d = dmin + k
+                if not 0 <= x - d < width:
                     node[x, k, o] = np.inf
                     seg[x, k, o] = np.inf
                     continue
-                here = pixel_cost(columns, e_lo, x, steps * d, q, radius)
+                mx = steps * d - e_lo  # the node's cell at column x
+                if (
+                    whole
+                    and columns[x - radius, mx - q * radius] >= 0
+                    and columns[x + radius, mx + q * radius] >= 0
+                ):
+                    inner = ring_p[(x + radius) & mask, mx + q * radius]
+                    inner -= _line_value(ring_p, mask, x - radius - 1, mx - q * (radius + 1))
+                    here = float(inner)
+                else:
+                    here = pixel_cost(columns, e_lo, x, steps * d, q, radius)
                 node[x, k, o] = here
-                length, delta = segment_shape(q, steps)
                 x0 = x - length
                 k0 = k - delta
                 if x0 < 0 or k0 < 0 or k0 >= ndisp or x0 - (d - delta) < 0:
@@ -176,15 +258,27 @@ def sheared_costs(columns, e_lo, steps, dmin, oq, radius, node, seg):
                 if length == 1:
                     seg[x, k, o] = here
                     continue
-                e0 = steps * (d - delta)
-                fast = segment_sum(columns, e_lo, x0, e0, q, length, radius)
-                if fast >= 0:
-                    seg[x, k, o] = float(fast)
+                lo = x0 + 1 - radius
+                if (
+                    lo >= 0
+                    and x + radius < width
+                    and columns[lo, mx - q * (x - lo)] >= 0
+                    and columns[x + radius, mx + q * radius] >= 0
+                ):
+                    # sum over p of P(p + r) - P(p - r - 1), p = x0 + 1 .. x
+                    total = ring_q[(x + radius) & mask, mx + q * radius]
+                    total -= _line_value(ring_q, mask, x0 + radius, mx - q * (length - radius))
+                    total -= _line_value(ring_q, mask, x - radius - 1, mx - q * (radius + 1))
+                    total += _line_value(
+                        ring_q, mask, x0 - radius - 1, mx - q * (length + radius + 1)
+                    )
+                    seg[x, k, o] = float(total)
                     continue
-                total = here
+                e0 = steps * (d - delta)
+                total_f = here
                 for p in range(x0 + 1, x):
-                    total += pixel_cost(columns, e_lo, p, e0 + q * (p - x0), q, radius)
-                seg[x, k, o] = total
+                    total_f += pixel_cost(columns, e_lo, p, e0 + q * (p - x0), q, radius)
+                seg[x, k, o] = total_f
 
 
 # --------------------------------------------------------------------------- DP
@@ -249,11 +343,26 @@ def scanline_dp(
     start_code = nstates + 1
     border_runs = run_cap > 1 and discount > 0.0
     inf = np.inf
+    lengths = np.empty(norient, dtype=np.int64)
+    deltas = np.empty(norient, dtype=np.int64)
+    for o in range(norient):
+        lengths[o], deltas[o] = segment_shape(oq[o], steps)
+    # per node, over its matched states: the least cost (first state that has it), and
+    # the least cost plus the orientation change (first state that has that): what a
+    # segment into a later node and the first pixel of an occlusion run read
+    least = np.empty((width, ndisp), dtype=np.float64)
+    least_code = np.empty((width, ndisp), dtype=np.int64)
+    turn = np.empty((width, ndisp), dtype=np.float64)
+    turn_code = np.empty((width, ndisp), dtype=np.int64)
     for x in range(width):
         for k in range(ndisp):
             for st in range(nstates):
                 table[x, k, st] = inf
                 back[x, k, st] = CODE_NONE
+            least[x, k] = inf
+            least_code[x, k] = CODE_NONE
+            turn[x, k] = inf
+            turn_code[x, k] = CODE_NONE
         k_hi = min(ndisp - 1, x - dmin)
         k_lo = max(0, x - (width - 1) - dmin)
         for k in range(k_hi, k_lo - 1, -1):
@@ -277,24 +386,39 @@ def scanline_dp(
                     code = diag_code
                 here = seg[x, k, o2]
                 if here < inf:
-                    length, delta = segment_shape(oq[o2], steps)
+                    delta = deltas[o2]
                     if delta != 0:
                         here += slant
-                    px = x - length
+                    px = x - lengths[o2]
                     pk = k - delta
                     # cheapest matched predecessor, a change of orientation charged
                     v = table[px, pk, o2]
                     c = 1 + o2
-                    for o1 in range(norient):
-                        w = table[px, pk, o1] + orient
-                        if w < v:
-                            v = w
-                            c = 1 + o1
+                    if turn[px, pk] < v:
+                        v = turn[px, pk]
+                        c = turn_code[px, pk]
                     if v + here < best:
                         best = v + here
                         code = c
                 table[x, k, o2] = best
                 back[x, k, o2] = code
+            low = inf
+            low_code = CODE_NONE
+            for o in range(norient):
+                if table[x, k, o] < low:
+                    low = table[x, k, o]
+                    low_code = 1 + o
+            least[x, k] = low
+            least_code[x, k] = low_code
+            low = inf
+            low_code = CODE_NONE
+            for o in range(norient):
+                w = table[x, k, o] + orient
+                if w < low:
+                    low = w
+                    low_code = 1 + o
+            turn[x, k] = low
+            turn_code[x, k] = low_code
             # left pixel x occluded, from (x - 1, k - 1); right pixel j occluded, from
             # (x, k + 1): the same rules
             for side in range(2):
@@ -330,11 +454,13 @@ def scanline_dp(
                     if count == 1:
                         # the first pixel of a run, after a match (run_cap 1: every
                         # occluded pixel, from any state, as in dsi3)
-                        last = norient + 2 if run_cap == 1 else norient
-                        for st in range(last):
-                            if table[px, pk, st] < best:
-                                best = table[px, pk, st]
-                                code = 1 + st
+                        best = least[px, pk]
+                        code = least_code[px, pk]
+                        if run_cap == 1:
+                            for st in range(norient, norient + 2):
+                                if table[px, pk, st] < best:
+                                    best = table[px, pk, st]
+                                    code = 1 + st
                         best += occ
                     else:
                         # the run goes on: a discounted pixel, the count-th of the run
@@ -483,7 +609,10 @@ def match_redert_rows(
         path_k = np.empty(2 * width + 2, dtype=np.int64)
         path_st = np.empty(2 * width + 2, dtype=np.int64)
         for y in range(y0, y1):
-            sample_columns(left_p, right_p, y, radius, steps, e_lo, columns)
+            if y == y0:
+                sample_columns(left_p, right_p, y, radius, steps, e_lo, columns)
+            else:
+                slide_columns(left_p, right_p, y, radius, steps, e_lo, columns)
             sheared_costs(columns, e_lo, steps, dmin, oq, radius, node, seg)
             for x in range(width):
                 disp[y, x] = np.nan
