@@ -177,21 +177,25 @@ def test_a_run_from_the_start_gets_no_discount():
 
 
 @pytest.mark.parametrize(
-    ("radius", "steps", "slopes"),
+    ("radius", "steps", "slopes", "ndisp"),
     [
-        (0, 4, (-4, -2, -1, 0, 1, 2, 4)),
-        (1, 4, (-4, -2, -1, 0, 1, 2, 4)),
-        (2, 4, (-4, -2, -1, 0, 1, 2, 4)),
-        (1, 8, (-8, -4, -1, 0, 1, 2, 8)),
-        (2, 8, (-4, -2, -1, 0, 1, 2, 4)),
-        (2, 16, (-2, -1, 0, 1, 4)),
+        (0, 4, (-4, -2, -1, 0, 1, 2, 4), 4),
+        (1, 4, (-4, -2, -1, 0, 1, 2, 4), 4),
+        (2, 4, (-4, -2, -1, 0, 1, 2, 4), 4),
+        (1, 8, (-8, -4, -1, 0, 1, 2, 8), 4),
+        (2, 8, (-4, -2, -1, 0, 1, 2, 4), 4),
+        (2, 16, (-2, -1, 0, 1, 4), 4),
+        # one disparity, a one-pixel window: a single cell per column, which every slope
+        # steps over (no line goes on to the next column)
+        (0, 4, (-4, -2, -1, 0, 1, 2, 4), 1),
+        (0, 8, (-8, -1, 0, 1, 8), 1),
     ],
 )
-def test_sheared_costs_match_naive_windows(radius, steps, slopes):
+def test_sheared_costs_match_naive_windows(radius, steps, slopes, ndisp):
     # wide enough for whole 8- and 16-pixel segments away from the edges (the kernel's
     # weighted-column sum) and near them (the pixel-by-pixel sum of truncated windows)
     rng = np.random.default_rng(77)
-    height, width, dmin, ndisp = 4, 12 if steps == 4 else 26, -1, 4
+    height, width, dmin = 4, 12 if steps == 4 else 26, -1
     oq = np.array(slopes, dtype=np.int64)
     omax = int(np.abs(oq).max())
     left = rng.integers(0, 4096, size=(height, width)).astype(np.int32)

@@ -303,7 +303,7 @@ def scanline_dp(
         # pass 2: the b steps, down the column (k descending: (x, d+1) -> (x, d))
         # (a branch, not min(): b steps are rare, so the branch is predicted and the
         # chain of dependent additions that min() would make is speculated away)
-        above = row[k_hi + 2]
+        above = row[k_hi + 2] if k_hi >= k_lo else inf  # no cell of the band: no read
         for k in range(k_hi, k_lo - 1, -1):
             cell = row[k + 1]
             if k == k_start:

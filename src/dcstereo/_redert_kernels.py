@@ -205,9 +205,10 @@ def sheared_costs(columns, e_lo, steps, dmin, oq, radius, node, seg):
     for o in range(norient):
         q = oq[o]
         length, delta = segment_shape(q, steps)
-        # cells whose line comes from a cell of the previous column
-        m_from = np.uint64(max(0, q))
-        m_to = np.uint64(min(ne, ne + q))
+        # cells whose line comes from a cell of the previous column (none when the slope
+        # steps over every cell: |q| >= ne)
+        m_from = np.uint64(min(ne, max(0, q)))
+        m_to = np.uint64(max(min(ne, max(0, q)), min(ne, ne + q)))
         for c in range(width + radius):
             if c < width:
                 o_c = np.uint64(c * ne)
