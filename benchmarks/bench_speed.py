@@ -199,11 +199,11 @@ def make_call(method, left, right, min_disparity, max_disparity):
             )
 
         return call, opencv_num_disparities(min_disparity, max_disparity)
-    import dcstereo
+    from dcstereo.evaluation import run_method
 
-    def call():
-        return dcstereo.match(
-            left, right, max_disparity=max_disparity, min_disparity=min_disparity, method=method
+    def call():  # a name ending in +bt: that method with the Birchfield-Tomasi cost
+        return run_method(
+            method, left, right, max_disparity=max_disparity, min_disparity=min_disparity
         )
 
     return call, max_disparity - min_disparity + 1
@@ -719,7 +719,8 @@ def parse_args(argv):
     parser.add_argument(
         "--methods",
         default=",".join(DEFAULT_METHODS),
-        help="comma-separated methods: dcstereo methods, opencv-bm, opencv-sgbm "
+        help="comma-separated methods: dcstereo methods (a name ending in +bt: with the "
+        "Birchfield-Tomasi cost), opencv-bm, opencv-sgbm "
         "(default: %(default)s)",
     )
     parser.add_argument(
@@ -798,6 +799,7 @@ def main(argv=None):
 
     import dcstereo
     from dcstereo.datasets import list_middlebury, middlebury_dir
+    from dcstereo.evaluation import BT_SUFFIX
 
     try:
         import cv2
@@ -809,7 +811,8 @@ def main(argv=None):
         if error:
             return fail(error)
     methods = comma_list(args.methods)
-    known = list(dcstereo.METHODS) + list(OPENCV_METHODS)
+    bt_methods = [m + BT_SUFFIX for m in dcstereo.METHODS if m != "redert"]
+    known = list(dcstereo.METHODS) + bt_methods + list(OPENCV_METHODS)
     unknown = [m for m in methods if m not in known]
     if unknown or not methods:
         named = f"unknown method(s) {', '.join(unknown)}" if unknown else "no method given"

@@ -45,7 +45,7 @@ def scores(scene, disparity):
 def table(scenes):
     """Print the markdown table of the README subsection and the means."""
     methods = ("dsi3", "dsi3-gcp", "redert", "dsi5", "dc")
-    print("| scene | method | cost | nonocc | all | disc | GCPs/row | time |")
+    print("| scene | method | cost | nonocc | all | disc | GCPs/row | time (ms) |")
     print("| --- | --- | --- | ---: | ---: | ---: | ---: | ---: |")
     means = {}
     for scene in scenes:
@@ -62,7 +62,7 @@ def table(scenes):
                 print(
                     f"| {scene.name} | {method} | {cost} | "
                     + " | ".join(f"{v:.2f}" for v in row)
-                    + f" | {per_row} | {seconds:.2f} s |",
+                    + f" | {per_row} | {seconds * 1000:.0f} |",
                     flush=True,
                 )
     for (method, cost), rows in means.items():
@@ -70,7 +70,7 @@ def table(scenes):
         print(
             f"| mean | {method} | {cost} | "
             + " | ".join(f"{v:.2f}" for v in mean[:3])
-            + f" | | {mean[3]:.2f} s |"
+            + f" | | {mean[3] * 1000:.0f} |"
         )
 
 

@@ -37,11 +37,11 @@ def outputs(height, width):
     )
 
 
-def per_row(left, right, dmin, ndisp, radius, occ2, five, slant2):
-    """``match_dsi_rows`` (SAD): the reference."""
+def per_row(left, right, dmin, ndisp, radius, occ2, five, slant2, bt=False):
+    """``match_dsi_rows`` (SAD, or Birchfield-Tomasi with ``bt``): the reference."""
     disp, flags, total = outputs(*left.shape)
     _kernels.match_dsi_rows(
-        padded(left, radius), padded(right, radius), dmin, ndisp, radius, False, occ2, five,
+        padded(left, radius), padded(right, radius), dmin, ndisp, radius, bt, occ2, five,
         slant2, 3, disp, flags, total,
     )  # fmt: skip
     return disp, flags, total
@@ -51,9 +51,10 @@ def per_row(left, right, dmin, ndisp, radius, occ2, five, slant2):
 PIN_TESTS = (0.0, 0.0, False, 0.0, False, 0.0, 0, 1)
 
 
-def banded(left, right, dmin, ndisp, radius, occ2, five, slant2, partner=None, nchunks=2):
+def banded(left, right, dmin, ndisp, radius, occ2, five, slant2, partner=None, nchunks=2, bt=False):
     """``match_band_rows`` without pins (as ``dsi3``/``dsi5`` call it: ``tests`` None) or
-    through the pins of ``partner`` (``pin_mode`` 1)."""
+    through the pins of ``partner`` (``pin_mode`` 1); the Birchfield-Tomasi cost with
+    ``bt``."""
     disp, flags, total = outputs(*left.shape)
     anchored = partner is not None
     if partner is None:
@@ -61,14 +62,16 @@ def banded(left, right, dmin, ndisp, radius, occ2, five, slant2, partner=None, n
     _band_kernels.match_band_rows(
         padded(left, radius), padded(right, radius), dmin, ndisp, radius, occ2, five, slant2,
         int(anchored), partner, PIN_TESTS if anchored else None, nchunks, disp, flags, total,
-        np.empty((0, 0, 4), dtype=np.float32), np.empty(0, dtype=np.int64),
+        np.empty((0, 0, 4), dtype=np.float32), np.empty(0, dtype=np.int64), None,
+        True if bt else None,
     )  # fmt: skip
     return disp, flags, total
 
 
-def segmented(left, right, dmin, ndisp, radius, occ2, five, slant2, partner):
+def segmented(left, right, dmin, ndisp, radius, occ2, five, slant2, partner, bt=False):
     """Per row, ``scanline_dp`` segment by segment through the pins, exactly as ``gcp_row``
-    runs it (free start -> first pin -> ... -> last pin -> free end), five or three steps."""
+    runs it (free start -> first pin -> ... -> last pin -> free end), five or three steps;
+    the Birchfield-Tomasi cost with ``bt``."""
     height, width = left.shape
     disp, flags, total = outputs(height, width)
     left_p, right_p = padded(left, radius), padded(right, radius)
@@ -79,7 +82,8 @@ def segmented(left, right, dmin, ndisp, radius, occ2, five, slant2, partner):
     path_k = np.empty(2 * width + 2, dtype=np.int64)
     path_s = np.empty(2 * width + 2, dtype=np.uint8)
     for y in range(height):
-        _kernels.row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, False)
+        costs = _kernels.row_costs_bt if bt else _kernels.row_costs
+        costs(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, False)
         disp[y] = np.nan
         flags[y] = _kernels.FLAG_BORDER
         row_total = 0.0
@@ -650,10 +654,14 @@ def test_band_kernels_run_as_plain_python():
                           t.banded(left, right, -1, 4, 1, 900.0, five, 300.0))
             t.assert_same(t.segmented(left, right, -1, 4, 1, 900.0, five, 300.0, partner),
                           t.banded(left, right, -1, 4, 1, 900.0, five, 300.0, partner))
+            t.assert_same(t.per_row(left, right, -1, 4, 1, 900.0, five, 300.0, bt=True),
+                          t.banded(left, right, -1, 4, 1, 900.0, five, 300.0, bt=True))
         texture = rng.integers(0, 256, (9, 24)).astype(np.uint8)
         left, right = texture[:, :-2], texture[:, 2:]
         t.assert_same_dc(t.dc_by_rows(left, right, max_disparity=4, window=3),
                          t.dcstereo.match(left, right, max_disparity=4, window=3))
+        t.assert_same_dc(t.dc_by_rows(left, right, max_disparity=4, window=3, cost="bt"),
+                         t.dcstereo.match(left, right, max_disparity=4, window=3, cost="bt"))
         t.assert_same(t.block_per_row(left.astype(np.int32), right.astype(np.int32), -1, 4, 1),
                       t.block_banded(left.astype(np.int32), right.astype(np.int32), -1, 4, 1))
         placed = t._band_kernels._placed(17, np.float64, 3)
@@ -1374,6 +1382,155 @@ def test_dc_keeps_the_band_cost_array_while_it_fits_the_caches():
     assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=255), 3000) == 3
     assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=255, lr_check=True), 3000) == 0
     assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=63, lr_check=True), 450) == 2
-    for options in ({"cost": "bt"}, {"max_candidates": 5}, {"uniqueness": 0.0},
-                    {"method": "dc-linear"}):  # fmt: skip
+    for options in ({"max_candidates": 5}, {"uniqueness": 0.0}, {"method": "dc-linear"}):
         assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=63, **options), 450) == 0
+    # the Birchfield-Tomasi cost needs the band's cost array: row by row past it
+    bt = dcstereo.MatchParams(max_disparity=63, cost="bt")
+    assert api._dc_band_mode(bt, 1900) == 2
+    assert api._dc_band_mode(bt, 2100) == 0
+
+
+# --------------------------------------------------------------------------- Birchfield-Tomasi
+
+
+def test_band_lane_costs_bt_equal_row_costs_bt():
+    # band_lane_costs_bt afresh, then moved down row by row (lane r on rows r * run + t),
+    # gives row_costs_bt bit for bit: halved doubled sums, inf outside the right image and
+    # in the padding cells, truncated windows rescaled; widths from 1, windows wider than
+    # the image, every disparity outside it, the extreme signal values
+    rng = np.random.default_rng(31)
+    nr = _band_kernels.BAND_ROWS
+    for dmin, ndisp, radius, width, height in (
+        (-3, 7, 2, 13, 19), (4, 6, 1, 9, 8), (0, 12, 3, 5, 3), (-9, 4, 0, 6, 17),
+        (2, 5, 1, 1, 9), (0, 30, 2, 40, 30), (20, 3, 1, 10, 9),
+    ):  # fmt: skip
+        for low, high in ((0, 4081), (0, 2), (4079, 4081)):
+            left = rng.integers(low, high, (height, width)).astype(np.int32)
+            right = rng.integers(low, high, (height, width)).astype(np.int32)
+            left_p, right_p = padded(left, radius), padded(right, radius)
+            win = 2 * radius + 1
+            width_p = width + 2 * radius
+            left_t = np.empty(max(win, 2) * width_p * nr, dtype=np.int32)
+            right_t = np.empty_like(left_t)
+            rows = np.empty(max(win, 2) * nr, dtype=np.int64)
+            bounds = np.empty((12, width_p * nr), dtype=np.int32)
+            spread = np.empty(3 * ndisp * nr, dtype=np.int32)
+            vs = np.empty(width * ndisp * nr, dtype=np.int32)
+            hsum = np.empty(ndisp * nr, dtype=np.int32)
+            out = np.empty(width * (ndisp + 2) * nr)
+            expected = np.empty((width, ndisp))
+            vcol = np.empty((width, ndisp), dtype=np.int32)
+            run = -(-height // nr)
+            for t in range(run):
+                load_band_signals(left_p, right_p, t, run, height, radius, rows, left_t, right_t)
+                _band_kernels.band_lane_costs_bt(left_t, right_t, width, dmin, ndisp, radius,
+                                                 bounds, spread, vs, t > 0, hsum, out)  # fmt: skip
+                band = out.reshape(width, ndisp + 2, nr)
+                assert np.isinf(band[:, 0]).all() and np.isinf(band[:, -1]).all()
+                for r in range(nr):
+                    if r * run + t >= height:
+                        continue
+                    _kernels.row_costs_bt(left_p, right_p, r * run + t, dmin, ndisp, radius,
+                                          vcol, expected, False)  # fmt: skip
+                    assert band[:, 1:-1, r].tobytes() == expected.tobytes()
+
+
+@pytest.mark.parametrize("five", [False, True], ids=["dsi3", "dsi5"])
+@pytest.mark.parametrize("seed", range(20))
+def test_band_bt_equals_per_row_bt_on_random_inputs(five, seed):
+    rng = np.random.default_rng(9100 + seed)
+    left, right, dmin, ndisp, radius, occ2, slant2 = random_case(rng)
+    expected = per_row(left, right, dmin, ndisp, radius, occ2, five, slant2, bt=True)
+    for nchunks in (1, 3):
+        got = banded(left, right, dmin, ndisp, radius, occ2, five, slant2, nchunks=nchunks,
+                     bt=True)  # fmt: skip
+        assert_same(expected, got)
+
+
+@pytest.mark.parametrize("five", [False, True], ids=["dsi3", "dsi5"])
+@pytest.mark.parametrize("seed", range(12))
+def test_band_bt_with_pins_equals_the_segmented_bt_dp(five, seed):
+    rng = np.random.default_rng(9200 + seed)
+    left, right, dmin, ndisp, radius, occ2, slant2 = random_case(rng)
+    height, width = left.shape
+    partner = random_pins(rng, height, width, dmin, ndisp, float(rng.choice([0.1, 0.5])))
+    expected = segmented(left, right, dmin, ndisp, radius, occ2, five, slant2, partner, bt=True)
+    got = banded(left, right, dmin, ndisp, radius, occ2, five, slant2, partner, bt=True)
+    assert_same(expected, got)
+
+
+def test_band_bt_refuses_the_mode_without_a_cost_array():
+    left = np.zeros((4, 6), dtype=np.int32)
+    disp, flags, total = outputs(4, 6)
+    with pytest.raises(ValueError, match="Birchfield-Tomasi cost needs the band's cost array"):
+        _band_kernels.match_band_rows(
+            padded(left, 1), padded(left, 1), 0, 3, 1, 100.0, True, 50.0, 3,
+            np.empty((0, 0), dtype=np.int64), PIN_TESTS, 1, disp, flags, total,
+            np.empty((4, 6, 4), dtype=np.float32), np.empty(4, dtype=np.int64), None, True,
+        )  # fmt: skip
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_dc_bt_on_bands_equals_the_row_kernel(seed):
+    # dc with the Birchfield-Tomasi cost on bands (mode 2: its half-integer costs are
+    # never keyed) gives the pairs, disparities and flags of the row-by-row path
+    rng = np.random.default_rng(960 + seed)
+    accepted = 0
+    for options in DC_OPTIONS:
+        height = int(rng.integers(5, 30))
+        width = int(rng.integers(14, 60))
+        shift = int(rng.integers(0, 6))
+        texture = rng.integers(0, 256, (height, width + 16)).astype(np.uint8)
+        left = texture[:, 8 : 8 + width]
+        noise = rng.integers(-6, 7, (height, width))
+        right = texture[:, 8 + shift : 8 + shift + width].astype(int) + noise
+        right = np.clip(right, 0, 255).astype(np.uint8)
+        kw = dict(
+            max_disparity=int(rng.integers(shift, shift + 8)),
+            min_disparity=int(rng.integers(-3, 1)),
+            window=int(rng.choice([1, 3, 5])),
+            cost="bt",
+            **options,
+        )
+        expected = dc_by_rows(left, right, **kw)
+        got = dc_in_mode(2, left, right, **kw)
+        assert_same_dc(expected, got)
+        with mock.patch.object(api, "_band_chunks", lambda height: 1):
+            assert_same_dc(expected, dc_in_mode(2, left, right, **kw))
+        accepted += len(got.features)
+    assert accepted > 0
+
+
+def test_bt_runs_on_bands_while_the_cost_array_fits():
+    # dsi3/dsi5 with BT make the band's cost array: 1900 x 66 x 64 bytes (7.7 MiB) fit,
+    # 2100 x 66 x 64 (8.5 MiB) run row by row; both give the same map
+    params = dcstereo.MatchParams(max_disparity=63, cost="bt")
+    assert api._bt_band_fits(params, 1900)
+    assert not api._bt_band_fits(params, 2100)
+    rng = np.random.default_rng(5)
+    left = rng.integers(0, 256, (12, 40)).astype(np.uint8)
+    right = np.roll(left, 3, axis=1)
+    for method in ("dsi3", "dsi5"):
+        band = dcstereo.match(left, right, max_disparity=7, method=method, cost="bt")
+        with mock.patch.object(api, "BT_BAND_BYTES", 0):
+            rows = dcstereo.match(left, right, max_disparity=7, method=method, cost="bt")
+        assert band.disparity.tobytes() == rows.disparity.tobytes()
+        np.testing.assert_array_equal(band.flags, rows.flags)
+        np.testing.assert_array_equal(band.path_cost, rows.path_cost)
+
+
+@pytest.mark.dataset
+@pytest.mark.slow
+@pytest.mark.parametrize("scene", ["tsukuba", "venus", "teddy", "cones"])
+def test_bt_on_bands_equals_the_row_kernels_on_middlebury(middlebury_root, scene):
+    data = load_middlebury(scene, root=middlebury_root.parent)
+    left, right = matching_signal(data.left), matching_signal(data.right)
+    ndisp = data.max_disparity + 1
+    for five in (False, True):
+        expected = per_row(left, right, 0, ndisp, 2, 8000.0, five, 4000.0, bt=True)
+        assert_same(expected, banded(left, right, 0, ndisp, 2, 8000.0, five, 4000.0, bt=True))
+    kw = dict(max_disparity=data.max_disparity, cost="bt")
+    expected = dc_by_rows(data.left, data.right, **kw)
+    got = dcstereo.match(data.left, data.right, **kw)
+    assert len(got.features) > 1000
+    assert_same_dc(expected, got)

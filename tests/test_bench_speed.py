@@ -301,3 +301,17 @@ def test_bad_outputs_and_options_fail_before_measuring(bench, tmp_path, capsys):
     assert bench.main(base + ["--compile-methods", "nosuch"]) == 2
     assert "--compile-methods" in capsys.readouterr().err
     assert plain.read_text() == "x" and sorted(tmp_path.iterdir()) == [plain]
+
+
+def test_bt_methods_run_with_the_birchfield_tomasi_cost(bench, tmp_path):
+    # "dsi5+bt" times dsi5 with cost="bt": its call gives that result, not the SAD one
+    import dcstereo
+
+    left, right, _ = bench.synthetic_pair(60, 40, 8, seed=3)
+    call, disparities = bench.make_call("dsi5+bt", left, right, 0, 7)
+    assert disparities == 8
+    got = call()
+    assert got.params.cost == "bt"
+    expected = dcstereo.match(left, right, max_disparity=7, method="dsi5", cost="bt")
+    assert got.disparity.tobytes() == expected.disparity.tobytes()
+    assert bench.main(["--methods", "redert+bt", "--skip-large"]) == 2

@@ -744,6 +744,48 @@ def _moved_column(
     return True
 
 
+@nb.njit(cache=True, inline="always")
+def _finish_band_costs(out, width, dmin, ndisp, radius):
+    """Finish a band cost array: inf in the padding cells and outside the right image.
+
+    Also rescales the truncated windows near the ends of each disparity's range to the
+    full window (``* W / columns used``: the float64 operations of ``row_costs``).
+    """
+    nr = BAND_ROWS
+    win = 2 * radius + 1
+    nk = (ndisp + 2) * nr
+    inf = np.inf
+    for x in range(width):
+        for r in range(nr):
+            out[x * nk + r] = inf
+            out[x * nk + nk - nr + r] = inf
+    for k in range(ndisp):
+        d = dmin + k
+        base = (k + 1) * nr
+        x0 = max(0, d)
+        x1 = min(width, width + d)  # exclusive; 0 <= x - d < width
+        for x in range(0, min(x0, width)):
+            for r in range(nr):
+                out[x * nk + base + r] = inf
+        for x in range(max(x1, 0), width):
+            for r in range(nr):
+                out[x * nk + base + r] = inf
+        lo_end = min(x0 + radius, x1)
+        hi_start = max(x1 - radius, lo_end)
+        for x in range(x0, lo_end):
+            used = min(x + radius, x1 - 1) - max(x - radius, x0) + 1
+            if used != win:
+                for r in range(nr):
+                    i = x * nk + base + r
+                    out[i] = out[i] * win / used
+        for x in range(hi_start, x1):
+            used = min(x + radius, x1 - 1) - max(x - radius, x0) + 1
+            if used != win:
+                for r in range(nr):
+                    i = x * nk + base + r
+                    out[i] = out[i] * win / used
+
+
 @nb.njit(cache=True)
 def band_lane_costs(
     left_t, right_t, width, dmin, ndisp, radius, spread, vs, incremental, hsum, out, match=None
@@ -783,11 +825,9 @@ def band_lane_costs(
     ``_integer_columns``.
     """
     nr = BAND_ROWS
-    win = 2 * radius + 1
     width_p = width + 2 * radius
     nkc = np.uint64(ndisp * nr)
     nk = (ndisp + 2) * nr
-    inf = np.inf
     for i in range(nkc):
         hsum[i] = 0
     if match is not None:
@@ -840,35 +880,152 @@ def band_lane_costs(
                 hsum[i] -= vs[o_sub + i]
         for i in range(nkc):
             out[o_out + i] = hsum[i]
-    for x in range(width):
+    _finish_band_costs(out, width, dmin, ndisp, radius)
+
+
+# --------------------------------------------------------------------------- Birchfield-Tomasi
+
+
+@nb.njit(cache=True, inline="always")
+def _bt_cell2(l2, l_min, l_max, r2, r_min, r_max):
+    """Twice the Birchfield-Tomasi dissimilarity (``_kernels._bt_cell2``, the same integers).
+
+    In int32 throughout (numba would widen each difference to int64, halving the lanes of
+    the vector loop; the doubled signals and their differences fit 32 bits).
+    """
+    zero = np.int32(0)
+    d_lr = max(zero, max(np.int32(l2 - r_max), np.int32(r_min - l2)))
+    d_rl = max(zero, max(np.int32(r2 - l_max), np.int32(l_min - r2)))
+    return min(d_lr, d_rl)
+
+
+@nb.njit(cache=True, inline="always")
+def _bt_lane_bounds(sig_t, slot, width, radius, reverse, bounds, o_bounds):
+    """Doubled values and half-pixel bounds of window row ``slot`` of every lane.
+
+    ``sig_t`` as ``band_lane_signals`` lays a view out (``reverse``: the right view, stored
+    right to left). ``bounds[o_bounds + 0/1/2]``, each ``width_p * R`` at the same places
+    as the row's pixels: the doubled value and the least and largest of it and its two
+    doubled half-pixel interpolations (``_kernels._bt_row_bounds``; a neighbour outside the
+    image is the pixel itself), for the image's columns.
+    """
+    nr = BAND_ROWS
+    width_p = width + 2 * radius
+    lo = radius
+    hi = radius + width - 1
+    base = slot * width_p * nr
+    v2 = bounds[o_bounds]
+    v_min = bounds[o_bounds + 1]
+    v_max = bounds[o_bounds + 2]
+    for xp in range(lo, hi + 1):
+        p = xp
+        pm = max(xp - 1, lo)
+        pp = min(xp + 1, hi)
+        if reverse:
+            p = width_p - 1 - p
+            pm = width_p - 1 - pm
+            pp = width_p - 1 - pp
+        o = base + p * nr
+        o_m = base + pm * nr
+        o_p = base + pp * nr
         for r in range(nr):
-            out[x * nk + r] = inf
-            out[x * nk + nk - nr + r] = inf
-    for k in range(ndisp):
-        d = dmin + k
-        base = (k + 1) * nr
-        x0 = max(0, d)
-        x1 = min(width, width + d)  # exclusive; 0 <= x - d < width
-        for x in range(0, min(x0, width)):
-            for r in range(nr):
-                out[x * nk + base + r] = inf
-        for x in range(max(x1, 0), width):
-            for r in range(nr):
-                out[x * nk + base + r] = inf
-        lo_end = min(x0 + radius, x1)
-        hi_start = max(x1 - radius, lo_end)
-        for x in range(x0, lo_end):
-            used = min(x + radius, x1 - 1) - max(x - radius, x0) + 1
-            if used != win:
-                for r in range(nr):
-                    i = x * nk + base + r
-                    out[i] = out[i] * win / used
-        for x in range(hi_start, x1):
-            used = min(x + radius, x1 - 1) - max(x - radius, x0) + 1
-            if used != win:
-                for r in range(nr):
-                    i = x * nk + base + r
-                    out[i] = out[i] * win / used
+            v = sig_t[o + r]
+            twice = 2 * v
+            minus = v + sig_t[o_m + r]
+            plus = v + sig_t[o_p + r]
+            v2[p * nr + r] = twice
+            v_min[p * nr + r] = min(twice, min(minus, plus))
+            v_max[p * nr + r] = max(twice, max(minus, plus))
+
+
+@nb.njit(cache=True, inline="always")
+def _bt_vertical_row(bounds, o_bounds, c, width, dmin, ndisp, radius, spread, vs, sign):
+    """Add (``sign`` 1) or subtract (-1) one window row's doubled BT values to column ``c``.
+
+    ``bounds[o_bounds:o_bounds + 3]`` the left view's, ``bounds[o_bounds + 3:o_bounds + 6]``
+    the right view's (``_bt_lane_bounds``); ``vs[c * ndisp * R + k * R + r]``, only the
+    disparities whose right pixel is inside the image. ``spread`` (``3 * ndisp * R``):
+    the left pixel's values repeated along the disparities (see ``_spread``).
+    """
+    nr = BAND_ROWS
+    width_p = width + 2 * radius
+    k_lo = max(0, c - dmin - (width - 1))
+    k_hi = min(ndisp - 1, c - dmin)
+    if k_lo > k_hi:
+        return
+    n = np.uint64((k_hi - k_lo + 1) * nr)
+    o_vs = np.uint64((c * ndisp + k_lo) * nr)
+    o_left = np.uint64((c + radius) * nr)
+    o_right = np.uint64((width_p - 1 - (c - dmin - k_lo + radius)) * nr)
+    _spread(bounds[o_bounds], o_left, spread, np.uint64(0), n)
+    _spread(bounds[o_bounds + 1], o_left, spread, n, n)
+    _spread(bounds[o_bounds + 2], o_left, spread, n + n, n)
+    r2 = bounds[o_bounds + 3]
+    r_min = bounds[o_bounds + 4]
+    r_max = bounds[o_bounds + 5]
+    for i in range(n):
+        j = o_right + i
+        value = _bt_cell2(spread[i], spread[n + i], spread[n + n + i], r2[j], r_min[j], r_max[j])
+        vs[o_vs + i] = np.int32(vs[o_vs + i] + (value if sign > 0 else -value))
+
+
+@nb.njit(cache=True)
+def band_lane_costs_bt(
+    left_t, right_t, width, dmin, ndisp, radius, bounds, spread, vs, incremental, hsum, out
+):
+    """Windowed Birchfield-Tomasi dissimilarity of a band, the layout of ``band_lane_costs``.
+
+    The values of ``_kernels.row_costs_bt``, bit for bit: the doubled dissimilarities
+    summed over the window (exact integers, int32 as there), halved, then inf where the
+    right pixel is outside the image and the truncated windows rescaled
+    (``_finish_band_costs``). ``incremental`` as in ``band_lane_costs`` (no
+    ``SUMS_READY``): False, ``left_t``/``right_t`` hold each lane's ``2 radius + 1`` window
+    rows and ``vs`` is made afresh; True, the leaving and the entering row, and ``vs``
+    moves down a row. ``bounds`` (``12 x width_p * R``, int32) and ``spread``
+    (``3 * ndisp * R``) are scratch; ``vs`` and ``hsum`` as in ``band_lane_costs``.
+    """
+    nr = BAND_ROWS
+    win = 2 * radius + 1
+    nkc = np.uint64(ndisp * nr)
+    nk = (ndisp + 2) * nr
+    if incremental:
+        _bt_lane_bounds(left_t, 0, width, radius, False, bounds, 0)
+        _bt_lane_bounds(right_t, 0, width, radius, True, bounds, 3)
+        _bt_lane_bounds(left_t, 1, width, radius, False, bounds, 6)
+        _bt_lane_bounds(right_t, 1, width, radius, True, bounds, 9)
+        for c in range(width):
+            _bt_vertical_row(bounds, 6, c, width, dmin, ndisp, radius, spread, vs, 1)
+            _bt_vertical_row(bounds, 0, c, width, dmin, ndisp, radius, spread, vs, -1)
+    else:
+        for i in range(np.uint64(width) * nkc):
+            vs[i] = 0
+        for t in range(win):
+            _bt_lane_bounds(left_t, t, width, radius, False, bounds, 0)
+            _bt_lane_bounds(right_t, t, width, radius, True, bounds, 3)
+            for c in range(width):
+                _bt_vertical_row(bounds, 0, c, width, dmin, ndisp, radius, spread, vs, 1)
+    for i in range(nkc):
+        hsum[i] = 0
+    for c in range(min(radius, width - 1) + 1):
+        o_c = np.uint64(c) * nkc
+        for i in range(nkc):
+            hsum[i] += vs[o_c + i]
+    for x in range(width):
+        if x > 0:
+            add = x + radius
+            sub = x - radius - 1
+            if add < width:
+                o_add = np.uint64(add) * nkc
+                for i in range(nkc):
+                    hsum[i] += vs[o_add + i]
+            if sub >= 0:
+                o_sub = np.uint64(sub) * nkc
+                for i in range(nkc):
+                    hsum[i] -= vs[o_sub + i]
+        o_out = np.uint64(x * nk + nr)
+        for i in range(nkc):
+            out[o_out + i] = hsum[i] * 0.5
+    _finish_band_costs(out, width, dmin, ndisp, radius)
 
 
 @nb.njit(cache=True, inline="always")
@@ -2726,8 +2883,9 @@ def match_band_rows(
     pairs,
     counts,
     clock=None,
+    bt=None,
 ):
-    """Run the whole-scanline DP of every row (SAD cost), ``BAND_ROWS`` rows at a time.
+    """Run the whole-scanline DP of every row, ``BAND_ROWS`` rows at a time.
 
     The results of ``_kernels.match_dsi_rows`` with ``bt=False``, bit for bit. The only
     parallel loop is over ``nchunks`` runs of consecutive rows (the ``ceil(height / R)``
@@ -2764,13 +2922,25 @@ def match_band_rows(
     ``clock`` None: not timed. Otherwise int64, ``(nchunks, len(CLOCK_STAGES))``: each
     chunk adds the cycle counts of its stages (``CLOCK_STAGES``) to its row (for
     ``benchmarks/bench_stages.py``; None compiles to the function without the counter).
+
+    ``bt`` None: the SAD cost of eq. 4. Otherwise (``True``) the Birchfield-Tomasi cost
+    (``band_lane_costs_bt``, the values of ``_kernels.row_costs_bt``), with ``pin_mode``
+    0 to 2: the band's cost array is made first, and the search and the DP read it; its
+    half-integer costs are never keyed (``band_block_match``'s generic pass). The results
+    are those of ``_kernels.match_dsi_rows`` and ``match_dc_rows`` with ``bt=True`` (or
+    ``gcp_row``'s DP through the pins), bit for bit. None compiles to the function
+    without the BT code.
     """
+    if bt is not None and pin_mode == 3:
+        raise ValueError("the Birchfield-Tomasi cost needs the band's cost array (pin_mode 0-2)")
     height, width = disp.shape
     height_p, width_p = left_p.shape
     nr = BAND_ROWS
     nk = (ndisp + 2) * nr
     # the columns band_block_match's keyed search may take
     x_int_lo, x_int_hi = _integer_columns(width, dmin, ndisp, radius)
+    if bt is not None:  # half-integer costs: no column is keyed
+        x_int_hi = x_int_lo
     # dc: the pass that makes the costs (with the band's cost array, the cost pass; without,
     # the block match) block-matches these columns as it makes them (those it moves down a
     # row), where the 32-bit keys hold every cost
@@ -2788,6 +2958,10 @@ def match_band_rows(
         anchored = pin_mode > 0
         search = pin_mode >= 2
         made = pin_mode != 1 and pin_mode != 2  # no band cost array
+        if bt is not None:
+            made = False
+            bt_bounds = _placed(12 * width_p * nr, np.int32, 28).reshape((12, width_p * nr))
+            bt_spread = _placed(3 * ndisp * nr, np.int32, 29)
         # free mode and mode 3 make each column's costs inside the passes: two columns
         cost = _placed((2 if made else width) * nk, np.float64, 6)
         step_bits = _placed(width * (ndisp + 2), np.uint32, 7)
@@ -2825,7 +2999,15 @@ def match_band_rows(
             nt = _lane_rows(t, y_a, run, n, radius, height_p, rows)
             band_lane_signals(left_p, right_p, rows, nt, left_t, right_t)
             mark = _clock_add(clock, ch, _CLOCK_SIGNALS, mark)
-            if tests is not None and not made:  # the search and pins read them before the DP
+            if bt is not None:
+                band_lane_costs_bt(
+                    left_t, right_t, width, dmin, ndisp, radius, bt_bounds, bt_spread, vs,
+                    t > 0, hsum, cost,
+                )  # fmt: skip
+                for x in range(width):
+                    done[x] = 0  # the block match takes every column
+                mark = _clock_add(clock, ch, _CLOCK_COSTS, mark)
+            elif tests is not None and not made:  # the search and pins read them before the DP
                 band_lane_costs(
                     left_t, right_t, width, dmin, ndisp, radius, spread, vs, int(t > 0), hsum,
                     cost, (x_int_lo, fused_hi, key_shift, wta_k, wta_ratio, done),
@@ -2902,7 +3084,12 @@ def match_band_rows(
             # two call sites: the forward pass with the band's costs, and the one that
             # makes them (a None or a tuple argument: two compiled versions); after the
             # block match of mode 3 the band's vertical sums are ready
-            if tests is not None and not made:
+            if bt is not None:
+                band_forward(
+                    cost, width, dmin, ndisp, occ2, five, slant2, anchored, pins, pinned,
+                    anchor_total, anchor_steps, ring, step_bits, ends, None,
+                )  # fmt: skip
+            elif tests is not None and not made:
                 band_forward(
                     cost, width, dmin, ndisp, occ2, five, slant2, True, pins, pinned,
                     anchor_total, anchor_steps, ring, step_bits, ends, None,

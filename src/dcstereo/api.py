@@ -167,10 +167,13 @@ def _match_block(left, right, params: MatchParams) -> DisparityResult:
 def _match_dsi(left, right, params: MatchParams, clock=None) -> DisparityResult:
     """``dsi3`` / ``dsi5``: the whole-scanline DP of every row.
 
-    The SAD cost runs ``_band_kernels.BAND_ROWS`` rows in lockstep (vectorized across
-    rows; the same results, bit for bit, as the per-row kernel); the Birchfield-Tomasi
-    cost runs row by row (``_kernels.match_dsi_rows``). ``clock``: the band kernel's stage
-    counters (``match_band_rows``; ``benchmarks/bench_stages.py``), the band path only.
+    Both costs run ``_band_kernels.BAND_ROWS`` rows in lockstep (vectorized across rows;
+    the same results, bit for bit, as the per-row kernel ``_kernels.match_dsi_rows``).
+    The SAD cost makes each column's costs inside the DP pass; the Birchfield-Tomasi cost
+    makes the band's cost array first, so where that array would exceed ``BT_BAND_BYTES``
+    (wide images and disparity ranges) it runs row by row instead. ``clock``: the band
+    kernel's stage counters (``match_band_rows``; ``benchmarks/bench_stages.py``), the band
+    path only.
     """
     radius = params.window // 2
     left_p, right_p = _padded_signals(left, right, radius)
@@ -179,7 +182,8 @@ def _match_dsi(left, right, params: MatchParams, clock=None) -> DisparityResult:
     occ2 = _doubled(params.occlusion_cost, scale)
     slant2 = _doubled(params.effective_slant_cost, scale)
     five = params.method == "dsi5"
-    if params.cost == "bt":
+    bt = params.cost == "bt"
+    if bt and not _bt_band_fits(params, left.shape[1]):
         _kernels.match_dsi_rows(
             left_p,
             right_p,
@@ -215,8 +219,23 @@ def _match_dsi(left, right, params: MatchParams, clock=None) -> DisparityResult:
             np.empty((0, 0, 4), dtype=np.float32),
             np.empty(0, dtype=np.int64),
             clock,
+            True if bt else None,  # None: the SAD version compiles without the BT code
         )
     return DisparityResult(disparity, flags, params, total / (2.0 * scale))
+
+
+#: Largest band cost array (bytes) that the Birchfield-Tomasi cost makes on the band
+#: kernels (``match_band_rows``' ``bt``: the array is made, then read by the DP); beyond
+#: it the rows run one at a time (``_kernels.match_dsi_rows``, a ``(W, D)`` array each).
+#: The bound of ``dc``'s kept array (``DC_BAND_BYTES``), for the same reason: past it the
+#: array leaves the caches.
+BT_BAND_BYTES = 8 * 2**20
+
+
+def _bt_band_fits(params: MatchParams, width: int) -> bool:
+    """Whether the Birchfield-Tomasi cost of ``dsi3``/``dsi5`` runs on the band kernels."""
+    band_bytes = width * (params.num_disparities + 2) * _band_kernels.BAND_ROWS * 8
+    return band_bytes <= BT_BAND_BYTES
 
 
 def _band_chunks(height: int) -> int:
@@ -234,13 +253,13 @@ def _band_chunks(height: int) -> int:
 def _match_dc(left, right, params: MatchParams, clock=None) -> DisparityResult:
     """``dc`` / ``dc-linear``: reliable feature pairs pin the path; the DP fills between.
 
-    ``dc`` with the SAD cost, the uniqueness test on and no limit on the tries (the
-    defaults) runs on the band kernels: the feature search of each row on its band's
-    costs, then the band DP through the pairs (``_band_kernels.match_band_rows``; the
-    band's cost array is kept while it fits ``DC_BAND_BYTES``, else the costs are made
-    twice, see ``_dc_band_mode``). The other settings, and the left-right check on images
-    too wide for the array, run row by row (``_kernels.match_dc_rows``), which fills each
-    interval between pairs separately.
+    ``dc`` with the uniqueness test on and no limit on the tries (the defaults) runs on
+    the band kernels: the feature search of each row on its band's costs, then the band DP
+    through the pairs (``_band_kernels.match_band_rows``; the band's cost array is kept
+    while it fits ``DC_BAND_BYTES``, else the SAD costs are made twice, see
+    ``_dc_band_mode``). The other settings, the left-right check on images too wide for
+    the array, and the Birchfield-Tomasi cost on them, run row by row
+    (``_kernels.match_dc_rows``), which fills each interval between pairs separately.
     Both give the same pairs and maps; the band path's ``path_cost`` is that of the whole
     path through the pairs (the row-by-row one leaves
     out intervals with no left pixel inside). ``clock``: as ``_match_dsi``'s.
@@ -284,6 +303,7 @@ def _match_dc(left, right, params: MatchParams, clock=None) -> DisparityResult:
             pairs,
             counts,
             clock,
+            True if params.cost == "bt" else None,  # None: compiled without the BT code
         )
         features = _kernels.collect_pairs(pairs, counts, FLAG_FEATURE, flags)
         return DisparityResult(disparity, flags, params, total / (2.0 * scale), features)
@@ -348,17 +368,13 @@ DC_BAND_BYTES = 8 * 2**20
 
 def _dc_band_mode(params: MatchParams, width: int) -> int:
     """How ``dc`` runs: 0 row by row, else the ``pin_mode`` of ``match_band_rows`` (2, 3)."""
-    if not (
-        params.method == "dc"
-        and params.cost == "sad"
-        and params.uniqueness > 0
-        and params.max_candidates == 0
-    ):
+    if not (params.method == "dc" and params.uniqueness > 0 and params.max_candidates == 0):
         return 0
     band_bytes = width * (params.num_disparities + 2) * _band_kernels.BAND_ROWS * 8
     if band_bytes <= DC_BAND_BYTES:
         return 2
-    return 0 if params.lr_check else 3
+    # mode 3 makes the SAD costs inside its passes; the BT cost needs the array
+    return 0 if params.lr_check or params.cost == "bt" else 3
 
 
 def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
