@@ -21,7 +21,7 @@ from numba.extending import intrinsic
 import dcstereo
 from dcstereo import _band_kernels, _kernels, api
 from dcstereo.datasets import load_middlebury
-from dcstereo.params import MAX_WINDOW
+from dcstereo.params import MAX_BT_WINDOW, MAX_WINDOW
 from dcstereo.signal import matching_signal
 
 
@@ -619,6 +619,34 @@ def test_largest_window_sums_fit_the_int32_buffers():
         _band_kernels.band_lane_signals(left_p, right_p, rows, rows.size // nr, left_t, right_t)
         _band_kernels.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread, vs,
                                       incremental, hsum, out)  # fmt: skip
+        band = out.reshape(width, ndisp + 2, nr)[:, 1:-1]
+        finite = band[np.isfinite(band)]
+        assert finite.size == (2 * width - 1) * nr  # d = 1 has no match at x = 0
+        assert (finite == 4080.0 * win * win).all()
+
+
+def test_largest_bt_window_sums_fit_the_int32_buffers():
+    # MAX_BT_WINDOW with the largest dissimilarity everywhere (a white left view and a black
+    # right one: doubled BT 8160), afresh and moved down a row: every cost is
+    # 4080 * MAX_BT_WINDOW**2 (the doubled sum 8160 * W**2 just under 2**31), none wraps
+    win = MAX_BT_WINDOW
+    radius, width, ndisp, dmin = win // 2, win, 2, 0
+    nr = _band_kernels.BAND_ROWS
+    assert 8160 * win**2 < 2**31 <= 8160 * (win + 2) ** 2
+    left_p = np.full((win + 1, width + 2 * radius), 4080, dtype=np.int32)
+    right_p = np.zeros_like(left_p)
+    left_t = np.empty(win * (width + 2 * radius) * nr, dtype=np.int32)
+    right_t = np.empty_like(left_t)
+    bounds = np.empty((12, (width + 2 * radius) * nr), dtype=np.int32)
+    spread = np.empty(3 * ndisp * nr, dtype=np.int32)
+    vs = np.empty(width * ndisp * nr, dtype=np.int32)
+    hsum = np.empty(ndisp * nr, dtype=np.int32)
+    out = np.empty(width * (ndisp + 2) * nr)
+    for incremental in (False, True):
+        rows = np.repeat(np.arange(win) + incremental, nr)[: (2 if incremental else win) * nr]
+        _band_kernels.band_lane_signals(left_p, right_p, rows, rows.size // nr, left_t, right_t)
+        _band_kernels.band_lane_costs_bt(left_t, right_t, width, dmin, ndisp, radius, bounds,
+                                         spread, vs, incremental, hsum, out)  # fmt: skip
         band = out.reshape(width, ndisp + 2, nr)[:, 1:-1]
         finite = band[np.isfinite(band)]
         assert finite.size == (2 * width - 1) * nr  # d = 1 has no match at x = 0

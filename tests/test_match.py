@@ -289,6 +289,7 @@ def test_bad_images(change, error, message):
         ({"max_disparity": 4, "window": 11}, ValueError, "window=11 is larger than the image"),
         ({"max_disparity": 4, "window": 4}, ValueError, "positive odd"),
         ({"max_disparity": 4, "window": 727}, ValueError, "larger than 725"),
+        ({"max_disparity": 4, "window": 515, "cost": "bt"}, ValueError, "larger than 513"),
         ({"max_disparity": 4, "method": "sgm"}, ValueError, "unknown method 'sgm'"),
         ({"max_disparity": 4, "occlusion_cost": 0}, ValueError, "occlusion_cost must be"),
         ({"max_disparity": 4, "occlusion_cost": float("nan")}, ValueError, "finite"),

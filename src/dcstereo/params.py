@@ -32,6 +32,10 @@ DEFAULT_GCP_VARIANCE_FLOOR = 100.0
 #: 255 gray levels in 1/16 steps, 4080) in 32-bit integers, and 4080 * 725**2 < 2**31.
 MAX_WINDOW = 725
 
+#: Largest window with ``cost="bt"``: the kernels sum doubled Birchfield-Tomasi
+#: dissimilarities (each at most 2 * 4080) in 32-bit integers, and 8160 * 513**2 < 2**31.
+MAX_BT_WINDOW = 513
+
 #: Matching costs: the paper's windowed SAD (eq. 4) and Birchfield-Tomasi's
 #: sampling-insensitive dissimilarity summed over the same window.
 COSTS = ("sad", "bt")
@@ -82,7 +86,8 @@ class MatchParams:
     method : str
         One of :data:`METHODS`.
     window : int
-        Odd side ``W`` of the square SAD window of eq. 4, at most :data:`MAX_WINDOW` (725).
+        Odd side ``W`` of the square SAD window of eq. 4, at most :data:`MAX_WINDOW` (725;
+        :data:`MAX_BT_WINDOW`, 513, with ``cost="bt"``).
     occlusion_cost : float
         ``C_occ`` of eq. 5 per occluded pixel, in the units of the per-pixel absolute
         difference on the 0..255 intensity scale (the window cost is the *mean* absolute
@@ -264,6 +269,11 @@ class MatchParams:
                 f"subpixel must be None or one of {', '.join(SUBPIXEL_FITS)}, got {self.subpixel!r}"
             )
         object.__setattr__(self, "median", check_median(self.median))
+        if self.cost == "bt" and self.window > MAX_BT_WINDOW:
+            raise ValueError(
+                f"window={self.window} is larger than {MAX_BT_WINDOW}, the largest whose "
+                "Birchfield-Tomasi window sums fit the kernels' 32-bit integers"
+            )
         if self.cost == "bt" and self.method == "redert":
             raise ValueError("cost='bt' is not supported by redert (its window is sheared)")
         for name in (
