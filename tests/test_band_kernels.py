@@ -165,21 +165,21 @@ def test_band_equals_per_row_on_random_inputs(five, seed):
         assert_same(expected, got)
 
 
-def block_per_row(left, right, dmin, ndisp, radius):
-    """``match_block_rows`` (SAD): the per-row kernel."""
+def block_per_row(left, right, dmin, ndisp, radius, bt=False):
+    """``match_block_rows`` (SAD, or Birchfield-Tomasi with ``bt``): the per-row kernel."""
     disp, flags, total = outputs(*left.shape)
     _kernels.match_block_rows(
-        padded(left, radius), padded(right, radius), dmin, ndisp, radius, False, 3, disp, flags,
+        padded(left, radius), padded(right, radius), dmin, ndisp, radius, bt, 3, disp, flags,
         total,
     )  # fmt: skip
     return disp, flags, total
 
 
-def block_banded(left, right, dmin, ndisp, radius, nchunks=2):
+def block_banded(left, right, dmin, ndisp, radius, nchunks=2, bt=False):
     disp, flags, total = outputs(*left.shape)
     _band_kernels.match_block_bands(
         padded(left, radius), padded(right, radius), dmin, ndisp, radius, nchunks, disp, flags,
-        total,
+        total, True if bt else None,
     )  # fmt: skip
     return disp, flags, total
 
@@ -692,6 +692,9 @@ def test_band_kernels_run_as_plain_python():
                          t.dcstereo.match(left, right, max_disparity=4, window=3, cost="bt"))
         t.assert_same(t.block_per_row(left.astype(np.int32), right.astype(np.int32), -1, 4, 1),
                       t.block_banded(left.astype(np.int32), right.astype(np.int32), -1, 4, 1))
+        t.assert_same(
+            t.block_per_row(left.astype(np.int32), right.astype(np.int32), -1, 4, 1, bt=True),
+            t.block_banded(left.astype(np.int32), right.astype(np.int32), -1, 4, 1, bt=True))
         placed = t._band_kernels._placed(17, np.float64, 3)
         assert placed.shape == (17,) and placed.ctypes.data % 4096 == 3 * 448 % 4096
         print("ok")
@@ -1487,6 +1490,16 @@ def test_band_bt_with_pins_equals_the_segmented_bt_dp(five, seed):
     assert_same(expected, got)
 
 
+@pytest.mark.parametrize("seed", range(20))
+def test_band_block_bt_equals_per_row_bt_on_random_inputs(seed):
+    rng = np.random.default_rng(9300 + seed)
+    left, right, dmin, ndisp, radius, _, _ = random_case(rng)
+    expected = block_per_row(left, right, dmin, ndisp, radius, bt=True)
+    for nchunks in (1, 3):
+        got = block_banded(left, right, dmin, ndisp, radius, nchunks=nchunks, bt=True)
+        assert_same(expected, got)
+
+
 def test_band_bt_refuses_the_mode_without_a_cost_array():
     left = np.zeros((4, 6), dtype=np.int32)
     disp, flags, total = outputs(4, 6)
@@ -1530,7 +1543,7 @@ def test_dc_bt_on_bands_equals_the_row_kernel(seed):
 
 
 def test_bt_runs_on_bands_while_the_cost_array_fits():
-    # dsi3/dsi5 with BT make the band's cost array: 1900 x 66 x 64 bytes (7.7 MiB) fit,
+    # block/dsi3/dsi5 with BT make the band's cost array: 1900 x 66 x 64 bytes (7.7 MiB) fit,
     # 2100 x 66 x 64 (8.5 MiB) run row by row; both give the same map
     params = dcstereo.MatchParams(max_disparity=63, cost="bt")
     assert api._bt_band_fits(params, 1900)
@@ -1538,7 +1551,7 @@ def test_bt_runs_on_bands_while_the_cost_array_fits():
     rng = np.random.default_rng(5)
     left = rng.integers(0, 256, (12, 40)).astype(np.uint8)
     right = np.roll(left, 3, axis=1)
-    for method in ("dsi3", "dsi5"):
+    for method in ("block", "dsi3", "dsi5"):
         band = dcstereo.match(left, right, max_disparity=7, method=method, cost="bt")
         with mock.patch.object(api, "BT_BAND_BYTES", 0):
             rows = dcstereo.match(left, right, max_disparity=7, method=method, cost="bt")
@@ -1557,6 +1570,10 @@ def test_bt_on_bands_equals_the_row_kernels_on_middlebury(middlebury_root, scene
     for five in (False, True):
         expected = per_row(left, right, 0, ndisp, 2, 8000.0, five, 4000.0, bt=True)
         assert_same(expected, banded(left, right, 0, ndisp, 2, 8000.0, five, 4000.0, bt=True))
+    assert_same(
+        block_per_row(left, right, 0, ndisp, 2, bt=True),
+        block_banded(left, right, 0, ndisp, 2, bt=True),
+    )
     kw = dict(max_disparity=data.max_disparity, cost="bt")
     expected = dc_by_rows(data.left, data.right, **kw)
     got = dcstereo.match(data.left, data.right, **kw)

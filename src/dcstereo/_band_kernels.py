@@ -3139,21 +3139,26 @@ def match_band_rows(
 
 
 @nb.njit(parallel=True, cache=True)
-def match_block_bands(left_p, right_p, dmin, ndisp, radius, nchunks, disp, flags, total):
-    """Winner-take-all SAD block matching, ``BAND_ROWS`` rows at a time.
+def match_block_bands(left_p, right_p, dmin, ndisp, radius, nchunks, disp, flags, total, bt=None):
+    """Winner-take-all block matching, ``BAND_ROWS`` rows at a time.
 
-    The results of ``_kernels.match_block_rows`` with ``bt=False``, bit for bit: per pixel
-    the first disparity of least window cost (NaN and ``FLAG_BORDER`` where every cell is
-    inf), and per row the sum of the least costs in ``x`` order. The chunks and lanes are
-    those of ``match_band_rows``; each column's costs are made as in its free mode
-    (``_cost_column``) and matched at once (``_column_wta``, the prefix minima of
-    ``band_block_match``), so no band cost array is kept.
+    The results of ``_kernels.match_block_rows``, bit for bit: per pixel the first
+    disparity of least window cost (NaN and ``FLAG_BORDER`` where every cell is inf), and
+    per row the sum of the least costs in ``x`` order. The chunks and lanes are those of
+    ``match_band_rows``. SAD (``bt`` None): each column's costs are made as in its free
+    mode (``_cost_column``) and matched at once (``_column_wta``, the prefix minima of
+    ``band_block_match``), so no band cost array is kept. Birchfield-Tomasi (``bt``
+    True): the band's cost array is made first (``band_lane_costs_bt``) and its columns
+    matched, never keyed (half-integer costs).
     """
     height, width = disp.shape
     height_p = left_p.shape[0]
+    width_p = width + 2 * radius
     nr = BAND_ROWS
     nk = (ndisp + 2) * nr
     x_int_lo, x_int_hi = _integer_columns(width, dmin, ndisp, radius)  # keyed columns
+    if bt is not None:
+        x_int_hi = x_int_lo
     for ch in nb.prange(nchunks):
         y_a, n, run = _chunk_lanes(height, nchunks, ch)
         left_t, right_t, rows, spread, vs, hsum = _cost_scratch(width, ndisp, radius)
@@ -3164,18 +3169,33 @@ def match_block_bands(left_p, right_p, dmin, ndisp, radius, nchunks, disp, flags
         low = _placed(nr, np.float64, 9)
         first = _placed(nr, np.int64, 10)
         sums = _placed(nr, np.float64, 11)
+        if bt is not None:
+            band_cost = _placed(width * nk, np.float64, 12)
+            bt_bounds = _placed(12 * width_p * nr, np.int32, 13).reshape((12, width_p * nr))
+            bt_spread = _placed(3 * ndisp * nr, np.int32, 14)
         for t in range(run):
             nt = _lane_rows(t, y_a, run, n, radius, height_p, rows)
             band_lane_signals(left_p, right_p, rows, nt, left_t, right_t)
+            if bt is not None:
+                band_lane_costs_bt(
+                    left_t, right_t, width, dmin, ndisp, radius, bt_bounds, bt_spread, vs,
+                    t > 0, hsum, band_cost,
+                )  # fmt: skip
             for r in range(nr):
                 sums[r] = 0.0
             for x in range(width):
-                _cost_column(
-                    left_t, right_t, x, width, dmin, ndisp, radius, spread, vs, int(t > 0), hsum,
-                    cost, np.uint64(0),
-                )  # fmt: skip
                 keyed = x_int_lo <= x < x_int_hi
-                _column_wta(cost, ndisp, keyed, scale, blocks, pre, low, first)
+                if bt is not None:
+                    _column_wta(
+                        band_cost[x * nk : (x + 1) * nk], ndisp, keyed, scale, blocks, pre, low,
+                        first,
+                    )  # fmt: skip
+                else:
+                    _cost_column(
+                        left_t, right_t, x, width, dmin, ndisp, radius, spread, vs, int(t > 0),
+                        hsum, cost, np.uint64(0),
+                    )  # fmt: skip
+                    _column_wta(cost, ndisp, keyed, scale, blocks, pre, low, first)
                 for r in range(nr):
                     if r * run + t >= n:
                         continue

@@ -130,13 +130,15 @@ def _features(partner, flags, ser=None, vs=None):
 def _match_block(left, right, params: MatchParams) -> DisparityResult:
     """``block``: the least window cost per pixel.
 
-    The SAD cost runs ``_band_kernels.BAND_ROWS`` rows in lockstep (the same results, bit
-    for bit, as the per-row kernel); the Birchfield-Tomasi cost runs row by row.
+    Runs ``_band_kernels.BAND_ROWS`` rows in lockstep (the same results, bit for bit, as
+    the per-row kernel); the Birchfield-Tomasi cost makes the band's cost array first, so
+    where that array would pass ``BT_BAND_BYTES`` it runs row by row instead.
     """
     radius = params.window // 2
     left_p, right_p = _padded_signals(left, right, radius)
     disparity, flags, total, nchunks = _outputs(left.shape)
-    if params.cost == "bt":
+    bt = params.cost == "bt"
+    if bt and not _bt_band_fits(params, left.shape[1]):
         _kernels.match_block_rows(
             left_p,
             right_p,
@@ -160,6 +162,7 @@ def _match_block(left, right, params: MatchParams) -> DisparityResult:
             disparity,
             flags,
             total,
+            True if bt else None,  # None: the SAD version compiles without the BT code
         )
     return DisparityResult(disparity, flags, params, total / cost_scale(params.window))
 
@@ -225,15 +228,15 @@ def _match_dsi(left, right, params: MatchParams, clock=None) -> DisparityResult:
 
 
 #: Largest band cost array (bytes) that the Birchfield-Tomasi cost makes on the band
-#: kernels (``match_band_rows``' ``bt``: the array is made, then read by the DP); beyond
-#: it the rows run one at a time (``_kernels.match_dsi_rows``, a ``(W, D)`` array each).
+#: kernels (``match_band_rows``' and ``match_block_bands``' ``bt``: the array is made,
+#: then read); beyond it the rows run one at a time (a ``(W, D)`` array each).
 #: The bound of ``dc``'s kept array (``DC_BAND_BYTES``), for the same reason: past it the
 #: array leaves the caches.
 BT_BAND_BYTES = 8 * 2**20
 
 
 def _bt_band_fits(params: MatchParams, width: int) -> bool:
-    """Whether the Birchfield-Tomasi cost of ``dsi3``/``dsi5`` runs on the band kernels."""
+    """Whether the Birchfield-Tomasi cost of ``block``/``dsi3``/``dsi5`` runs on bands."""
     band_bytes = width * (params.num_disparities + 2) * _band_kernels.BAND_ROWS * 8
     return band_bytes <= BT_BAND_BYTES
 
