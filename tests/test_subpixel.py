@@ -10,16 +10,18 @@ from dcstereo import FLAG_FILLED, io, match
 from dcstereo.signal import matching_signal
 from dcstereo.subpixel import refine_subpixel
 from naive import window_sad
+from naive_gcp_bt import window_bt
 from test_cli import invoke
 
 
-def cost(ls, rs, y, x, e, radius):
-    """Eq. 4 at disparity ``e``; inf when no column of the window has both pixels."""
+def cost(ls, rs, y, x, e, radius, bt=False):
+    """Eq. 4 (or BT) at disparity ``e``; inf when no column of the window has both pixels."""
     width = ls.shape[1]
     inside = [
         s for s in range(-radius, radius + 1) if 0 <= x + s < width and 0 <= x - e + s < width
     ]
-    return window_sad(ls, rs, y, x, x - e, radius) if inside else np.inf
+    window = window_bt if bt else window_sad
+    return window(ls, rs, y, x, x - e, radius) if inside else np.inf
 
 
 def twin(result, left, right, fit):
@@ -36,7 +38,8 @@ def twin(result, left, right, fit):
         k = int(v)
         if k - 1 < dmin or k + 1 > dmax:
             continue
-        c0, c1, c2 = (cost(ls, rs, y, x, e, radius) for e in (k - 1, k, k + 1))
+        bt = p.cost == "bt"
+        c0, c1, c2 = (cost(ls, rs, y, x, e, radius, bt) for e in (k - 1, k, k + 1))
         if not (c1 <= c0 and c1 <= c2) or np.inf in (c0, c2):
             continue
         slope = max(c0 - c1, c2 - c1) if fit == "equiangular" else c0 - 2.0 * c1 + c2
@@ -45,16 +48,19 @@ def twin(result, left, right, fit):
     return out
 
 
+@pytest.mark.parametrize("cost_name", ["sad", "bt"])
 @pytest.mark.parametrize("fit", ["equiangular", "parabola"])
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_kernel_equals_its_twin(fit, seed):
+def test_kernel_equals_its_twin(fit, seed, cost_name):
     rng = np.random.default_rng(seed)
     h, w = 9, 23
     left = rng.integers(0, 256, (h, w, 3), dtype=np.uint8)
     right = np.roll(left, -3, axis=1)
     right[:, -3:] = rng.integers(0, 256, (h, 3, 3))
     right = np.clip(right.astype(int) + rng.integers(-9, 10, right.shape), 0, 255).astype(np.uint8)
-    result = match(left, right, max_disparity=6, min_disparity=1, window=3, method="dsi3")
+    result = match(
+        left, right, max_disparity=6, min_disparity=1, window=3, method="dsi3", cost=cost_name
+    )
     # every kind of pixel: random integer disparities, half pixels, none, filled
     d = rng.integers(0, 8, (h, w)).astype(np.float32)
     d[rng.random((h, w)) < 0.1] += 0.5
@@ -68,9 +74,10 @@ def test_kernel_equals_its_twin(fit, seed):
     assert np.all(np.abs(refined - d)[np.isfinite(d)] <= 0.5)
 
 
+@pytest.mark.parametrize("cost_name", ["sad", "bt"])
 @pytest.mark.parametrize("fit", ["equiangular", "parabola"])
 @pytest.mark.parametrize("window, dmin", [(3, 1), (5, -4), (7, 0)])
-def test_kernel_equals_its_twin_on_runs_of_one_disparity(fit, window, dmin):
+def test_kernel_equals_its_twin_on_runs_of_one_disparity(fit, window, dmin, cost_name):
     # runs of equal d, broken by skipped pixels and changes: the kernel slides its sums
     # along a run and sums anew after a break; the image edges take the edge rules
     rng = np.random.default_rng(window)
@@ -80,6 +87,7 @@ def test_kernel_equals_its_twin_on_runs_of_one_disparity(fit, window, dmin):
     right = np.clip(right.astype(int) + rng.integers(-20, 21, right.shape), 0, 255)
     right = right.astype(np.uint8)
     kwargs = {"max_disparity": dmin + 9, "min_disparity": dmin, "window": window}
+    kwargs["cost"] = cost_name
     result = match(left, right, method="dsi3", **kwargs)
     d = np.repeat(rng.integers(dmin, dmin + 10, (h, 6)), 7, axis=1)[:, :w].astype(np.float32)
     d[:, 1::9] += 0.5  # skipped: a half pixel breaks the run

@@ -1,4 +1,9 @@
-"""Compiled kernel of ``subpixel.py``: three window costs and a fit at every pixel."""
+"""Compiled kernel of ``subpixel.py``: three window costs and a fit at every pixel.
+
+The costs are the run's: eq. 4's SAD, or the Birchfield-Tomasi dissimilarity summed over
+the same window (``bt``; the values of ``_kernels.row_costs_bt``: doubled integers summed,
+halved, then the truncated windows rescaled).
+"""
 
 import numba as nb
 import numpy as np
@@ -18,12 +23,52 @@ def _column_sad(left_p, right_p, y, xp, e, win):
 
 
 @nb.njit(cache=True, inline="always")
-def _window_sad(left_p, right_p, y, x, d, radius, width):
-    """Eq. 4 at ``(y, x)`` and integer disparity ``d`` on the padded signals.
+def _bounds2(img_p, r, xp, lo, hi):
+    """Return a padded pixel's doubled value and its doubled interpolation bounds.
 
-    As ``_kernels.row_costs``: rows edge-replicated (the padding), the columns whose left
-    or right pixel leaves its image skipped and the sum rescaled to the full window; inf
-    when no column is left.
+    The least and largest of the doubled value and its two doubled half-pixel
+    interpolations (a neighbour outside the image columns ``lo..hi`` is the pixel itself),
+    as ``_kernels._bt_row_bounds``.
+    """
+    v = img_p[r, xp]
+    twice = 2 * v
+    minus = v + img_p[r, max(xp - 1, lo)]
+    plus = v + img_p[r, min(xp + 1, hi)]
+    return twice, min(twice, min(minus, plus)), max(twice, max(minus, plus))
+
+
+@nb.njit(cache=True, inline="always")
+def _column_bt2(left_p, right_p, y, xp, e, win, lo, hi):
+    """Sum one column of the BT window, doubled.
+
+    Rows ``y .. y + win - 1`` of padded column ``xp`` against ``xp - e``, each
+    ``min(d_LR, d_RL)`` of ``_kernels._bt_cell2``.
+    """
+    total = 0
+    for t in range(win):
+        l2, l_min, l_max = _bounds2(left_p, y + t, xp, lo, hi)
+        r2, r_min, r_max = _bounds2(right_p, y + t, xp - e, lo, hi)
+        d_lr = max(0, max(l2 - r_max, r_min - l2))
+        d_rl = max(0, max(r2 - l_max, l_min - r2))
+        total += min(d_lr, d_rl)
+    return total
+
+
+@nb.njit(cache=True, inline="always")
+def _column_cost(left_p, right_p, y, xp, e, win, bt, lo, hi):
+    """One window column: SAD, or doubled BT with ``bt``."""
+    if bt:
+        return _column_bt2(left_p, right_p, y, xp, e, win, lo, hi)
+    return _column_sad(left_p, right_p, y, xp, e, win)
+
+
+@nb.njit(cache=True, inline="always")
+def _window_cost(left_p, right_p, y, x, d, radius, width, bt=False):
+    """Eq. 4 (or BT with ``bt``) at ``(y, x)`` and integer disparity ``d``, padded signals.
+
+    As ``_kernels.row_costs`` (``row_costs_bt``): rows edge-replicated (the padding), the
+    columns whose left or right pixel leaves its image skipped and the sum rescaled to the
+    full window (BT: halved first); inf when no column is left.
     """
     win = 2 * radius + 1
     total = 0
@@ -34,16 +79,19 @@ def _window_sad(left_p, right_p, y, x, d, radius, width):
         if xl < 0 or xl >= width or xr < 0 or xr >= width:
             continue
         used += 1
-        total += _column_sad(left_p, right_p, y, xl + radius, d, win)
+        total += _column_cost(
+            left_p, right_p, y, xl + radius, d, win, bt, radius, radius + width - 1
+        )
     if used == 0:
         return np.inf
+    value = total * 0.5 if bt else float(total)
     if used == win:
-        return float(total)
-    return total * win / used
+        return value
+    return value * win / used
 
 
 @nb.njit(cache=True, parallel=True)
-def refine_rows(left_p, right_p, disparity, wanted, dmin, dmax, radius, fit, out):
+def refine_rows(left_p, right_p, disparity, wanted, dmin, dmax, radius, fit, out, bt=False):
     """Write into ``out`` each wanted pixel's disparity moved by its fitted offset.
 
     ``out`` starts as a copy of ``disparity``. A wanted pixel has an integer disparity
@@ -57,11 +105,14 @@ def refine_rows(left_p, right_p, disparity, wanted, dmin, dmax, radius, fit, out
     Inside the images (every column of the three windows in both) the window sums are
     kept as integers per row: a pixel after one of the same ``d`` slides them by a column
     (the column leaving subtracted, the one entering added), others sum their window
-    anew; near an edge :func:`_window_sad` applies its rules. The sums are exact either
-    way, so the results do not depend on the order.
+    anew; near an edge :func:`_window_cost` applies its rules. The sums are exact either
+    way, so the results do not depend on the order. ``bt``: the Birchfield-Tomasi cost
+    (doubled integers in the sums, halved at the fit).
     """
     height, width = disparity.shape
     win = 2 * radius + 1
+    lo = radius  # the image's columns, padded
+    hi = radius + width - 1
     for y in nb.prange(height):
         run_x = -2  # the last pixel whose inside sums s0, s1, s2 are kept, and its d
         run_d = 0
@@ -79,31 +130,32 @@ def refine_rows(left_p, right_p, disparity, wanted, dmin, dmax, radius, fit, out
             if inside and run_x == x - 1 and run_d == d:
                 gone = x - 1  # padded column of the column x - 1 - radius
                 new = x + 2 * radius  # padded column of x + radius
-                s0 += _column_sad(left_p, right_p, y, new, d - 1, win)
-                s0 -= _column_sad(left_p, right_p, y, gone, d - 1, win)
-                s1 += _column_sad(left_p, right_p, y, new, d, win)
-                s1 -= _column_sad(left_p, right_p, y, gone, d, win)
-                s2 += _column_sad(left_p, right_p, y, new, d + 1, win)
-                s2 -= _column_sad(left_p, right_p, y, gone, d + 1, win)
+                s0 += _column_cost(left_p, right_p, y, new, d - 1, win, bt, lo, hi)
+                s0 -= _column_cost(left_p, right_p, y, gone, d - 1, win, bt, lo, hi)
+                s1 += _column_cost(left_p, right_p, y, new, d, win, bt, lo, hi)
+                s1 -= _column_cost(left_p, right_p, y, gone, d, win, bt, lo, hi)
+                s2 += _column_cost(left_p, right_p, y, new, d + 1, win, bt, lo, hi)
+                s2 -= _column_cost(left_p, right_p, y, gone, d + 1, win, bt, lo, hi)
             elif inside:
                 s0 = 0
                 s1 = 0
                 s2 = 0
                 for xp in range(x, x + win):
-                    s0 += _column_sad(left_p, right_p, y, xp, d - 1, win)
-                    s1 += _column_sad(left_p, right_p, y, xp, d, win)
-                    s2 += _column_sad(left_p, right_p, y, xp, d + 1, win)
+                    s0 += _column_cost(left_p, right_p, y, xp, d - 1, win, bt, lo, hi)
+                    s1 += _column_cost(left_p, right_p, y, xp, d, win, bt, lo, hi)
+                    s2 += _column_cost(left_p, right_p, y, xp, d + 1, win, bt, lo, hi)
             if inside:
                 run_x = x
                 run_d = d
-                c0 = float(s0)
-                c1 = float(s1)
-                c2 = float(s2)
-            else:  # a window's column leaves an image: the edge rules of _window_sad
+                half = 0.5 if bt else 1.0  # exact: BT sums are doubled integers
+                c0 = s0 * half
+                c1 = s1 * half
+                c2 = s2 * half
+            else:  # a window's column leaves an image: the edge rules of _window_cost
                 run_x = -2
-                c0 = _window_sad(left_p, right_p, y, x, d - 1, radius, width)
-                c1 = _window_sad(left_p, right_p, y, x, d, radius, width)
-                c2 = _window_sad(left_p, right_p, y, x, d + 1, radius, width)
+                c0 = _window_cost(left_p, right_p, y, x, d - 1, radius, width, bt)
+                c1 = _window_cost(left_p, right_p, y, x, d, radius, width, bt)
+                c2 = _window_cost(left_p, right_p, y, x, d + 1, radius, width, bt)
             if not (c1 <= c0 and c1 <= c2) or c2 == np.inf or c0 == np.inf:
                 continue
             if fit == FIT_EQUIANGULAR:

@@ -10,8 +10,9 @@ through the window costs at ``d - 1``, ``d`` and ``d + 1`` is least:
   parabola's pull toward whole pixels;
 * ``"parabola"``: the three-point parabola, as OpenCV's block matchers use.
 
-The cost is eq. 4's windowed SAD of the matching signal with the run's window, whatever
-the run's ``cost``. Pixels keep their value where there is nothing to fit: no estimate,
+The cost is the run's, with the run's window: eq. 4's windowed SAD of the matching
+signal, or the Birchfield-Tomasi dissimilarity summed over the window (``cost="bt"``;
+the values the matcher used). Pixels keep their value where there is nothing to fit: no estimate,
 filled, a half-pixel value, ``d`` at an end of the searched range, or a ``d`` whose cost
 is not the least of the three (the DP's smoothness chose it over its neighbours).
 
@@ -66,5 +67,6 @@ def refine_subpixel(
         radius,
         FITS.index(fit),
         out,
+        params.cost == "bt",
     )
     return replace(result, disparity=out)
