@@ -598,41 +598,17 @@ def test_block_match_of_the_wanted_columns_only(guard):
     assert left_out > 0
 
 
-def test_largest_window_sums_fit_the_int32_buffers():
-    # MAX_WINDOW with the largest absolute difference everywhere (4080, a white left view
-    # and a black right one), in match_band_rows' int32 buffers, moved down a row too: every
-    # cost is 4080 * MAX_WINDOW**2, just under 2**31, and none wraps around
-    win = MAX_WINDOW
+@pytest.mark.parametrize("bt", [False, True], ids=["sad", "bt"])
+def test_largest_window_sums_fit_the_int32_buffers(bt):
+    # the largest window with the largest per-pixel cost everywhere (a white left view and
+    # a black right one: SAD 4080 up to MAX_WINDOW, doubled BT 8160 up to MAX_BT_WINDOW),
+    # in match_band_rows' int32 buffers, moved down a row too: every cost is
+    # 4080 * window**2 (the summed integers just under 2**31) and none wraps around
+    win = MAX_BT_WINDOW if bt else MAX_WINDOW
+    most = 8160 if bt else 4080  # the largest summed integer of a pixel
+    assert most * win**2 < 2**31 <= most * (win + 2) ** 2
     radius, width, ndisp, dmin = win // 2, win, 2, 0
     nr = _band_kernels.BAND_ROWS
-    assert 4080 * win**2 < 2**31 <= 4080 * (win + 2) ** 2
-    left_p = np.full((win + 1, width + 2 * radius), 4080, dtype=np.int32)
-    right_p = np.zeros_like(left_p)
-    left_t = np.empty(win * (width + 2 * radius) * nr, dtype=np.int32)
-    right_t = np.empty_like(left_t)
-    spread = np.empty(2 * ndisp * nr, dtype=np.int32)
-    vs = np.empty(width * ndisp * nr, dtype=np.int32)
-    hsum = np.empty(ndisp * nr, dtype=np.int32)
-    out = np.empty(width * (ndisp + 2) * nr)
-    for incremental in (False, True):
-        rows = np.repeat(np.arange(win) + incremental, nr)[: (2 if incremental else win) * nr]
-        _band_kernels.band_lane_signals(left_p, right_p, rows, rows.size // nr, left_t, right_t)
-        _band_kernels.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread, vs,
-                                      incremental, hsum, out)  # fmt: skip
-        band = out.reshape(width, ndisp + 2, nr)[:, 1:-1]
-        finite = band[np.isfinite(band)]
-        assert finite.size == (2 * width - 1) * nr  # d = 1 has no match at x = 0
-        assert (finite == 4080.0 * win * win).all()
-
-
-def test_largest_bt_window_sums_fit_the_int32_buffers():
-    # MAX_BT_WINDOW with the largest dissimilarity everywhere (a white left view and a black
-    # right one: doubled BT 8160), afresh and moved down a row: every cost is
-    # 4080 * MAX_BT_WINDOW**2 (the doubled sum 8160 * W**2 just under 2**31), none wraps
-    win = MAX_BT_WINDOW
-    radius, width, ndisp, dmin = win // 2, win, 2, 0
-    nr = _band_kernels.BAND_ROWS
-    assert 8160 * win**2 < 2**31 <= 8160 * (win + 2) ** 2
     left_p = np.full((win + 1, width + 2 * radius), 4080, dtype=np.int32)
     right_p = np.zeros_like(left_p)
     left_t = np.empty(win * (width + 2 * radius) * nr, dtype=np.int32)
@@ -645,8 +621,13 @@ def test_largest_bt_window_sums_fit_the_int32_buffers():
     for incremental in (False, True):
         rows = np.repeat(np.arange(win) + incremental, nr)[: (2 if incremental else win) * nr]
         _band_kernels.band_lane_signals(left_p, right_p, rows, rows.size // nr, left_t, right_t)
-        _band_kernels.band_lane_costs_bt(left_t, right_t, width, dmin, ndisp, radius, bounds,
-                                         spread, vs, incremental, hsum, out)  # fmt: skip
+        if bt:
+            _band_kernels.band_lane_costs_bt(left_t, right_t, width, dmin, ndisp, radius, bounds,
+                                             spread, vs, incremental, hsum, out)  # fmt: skip
+        else:
+            _band_kernels.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius,
+                                          spread[: 2 * ndisp * nr], vs, incremental, hsum,
+                                          out)  # fmt: skip
         band = out.reshape(width, ndisp + 2, nr)[:, 1:-1]
         finite = band[np.isfinite(band)]
         assert finite.size == (2 * width - 1) * nr  # d = 1 has no match at x = 0
@@ -1267,12 +1248,16 @@ DC_OPTIONS = [
 ]
 
 
-@pytest.mark.parametrize("seed", range(8))
-def test_dc_on_bands_equals_the_row_kernel(seed):
+@pytest.mark.parametrize(
+    ("cost", "seed"), [("sad", seed) for seed in range(8)] + [("bt", seed) for seed in range(4)]
+)
+def test_dc_on_bands_equals_the_row_kernel(cost, seed):
     # the band path (features on the band's costs, then the pinned band DP) gives the
     # pairs, disparities and flags of the row-by-row path, which fills each interval, with
-    # the band's cost array (mode 2) and without it (mode 3: no left-right check)
+    # the band's cost array (mode 2) and without it (mode 3: no left-right check; SAD only,
+    # the Birchfield-Tomasi cost needs the array; its half-integer costs are never keyed)
     rng = np.random.default_rng(700 + seed)
+    modes = (2, 3) if cost == "sad" else (2,)
     accepted = 0
     for options in DC_OPTIONS:
         height = int(rng.integers(5, 30))
@@ -1287,17 +1272,18 @@ def test_dc_on_bands_equals_the_row_kernel(seed):
             max_disparity=int(rng.integers(shift, shift + 8)),
             min_disparity=int(rng.integers(-3, 1)),
             window=int(rng.choice([1, 3, 5])),
+            cost=cost,
             **options,
         )
         expected = dc_by_rows(left, right, **kw)
-        for mode in (2,) if options.get("lr_check") else (2, 3):
+        for mode in (2,) if options.get("lr_check") else modes:
             got = dc_in_mode(mode, left, right, **kw)
             assert_same_dc(expected, got)
         # one chunk: its bands after the first move the sums down a row, and the pass that
         # makes the costs (mode 2: the cost pass; mode 3: the block match) block-matches
         # the columns it moves (with 8 chunks these rows are one band each)
         with mock.patch.object(api, "_band_chunks", lambda height: 1):
-            for mode in (2,) if options.get("lr_check") else (2, 3):
+            for mode in (2,) if options.get("lr_check") else modes:
                 assert_same_dc(expected, dc_in_mode(mode, left, right, **kw))
         accepted += len(got.features)
     assert accepted > 0
@@ -1509,37 +1495,6 @@ def test_band_bt_refuses_the_mode_without_a_cost_array():
             np.empty((0, 0), dtype=np.int64), PIN_TESTS, 1, disp, flags, total,
             np.empty((4, 6, 4), dtype=np.float32), np.empty(4, dtype=np.int64), None, True,
         )  # fmt: skip
-
-
-@pytest.mark.parametrize("seed", range(4))
-def test_dc_bt_on_bands_equals_the_row_kernel(seed):
-    # dc with the Birchfield-Tomasi cost on bands (mode 2: its half-integer costs are
-    # never keyed) gives the pairs, disparities and flags of the row-by-row path
-    rng = np.random.default_rng(960 + seed)
-    accepted = 0
-    for options in DC_OPTIONS:
-        height = int(rng.integers(5, 30))
-        width = int(rng.integers(14, 60))
-        shift = int(rng.integers(0, 6))
-        texture = rng.integers(0, 256, (height, width + 16)).astype(np.uint8)
-        left = texture[:, 8 : 8 + width]
-        noise = rng.integers(-6, 7, (height, width))
-        right = texture[:, 8 + shift : 8 + shift + width].astype(int) + noise
-        right = np.clip(right, 0, 255).astype(np.uint8)
-        kw = dict(
-            max_disparity=int(rng.integers(shift, shift + 8)),
-            min_disparity=int(rng.integers(-3, 1)),
-            window=int(rng.choice([1, 3, 5])),
-            cost="bt",
-            **options,
-        )
-        expected = dc_by_rows(left, right, **kw)
-        got = dc_in_mode(2, left, right, **kw)
-        assert_same_dc(expected, got)
-        with mock.patch.object(api, "_band_chunks", lambda height: 1):
-            assert_same_dc(expected, dc_in_mode(2, left, right, **kw))
-        accepted += len(got.features)
-    assert accepted > 0
 
 
 def test_bt_runs_on_bands_while_the_cost_array_fits():
