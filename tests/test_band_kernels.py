@@ -292,6 +292,37 @@ def test_pins_of_the_ground_control_points_give_gcp_row(tmp_path):
     assert_same(expected, banded(left, right, 0, ndisp, radius, 3000.0, False, 0.0, partner))
 
 
+@pytest.mark.parametrize("cost", ["sad", "bt"])
+@pytest.mark.parametrize("seed", range(6))
+def test_gcp_on_bands_equals_the_row_kernel(cost, seed):
+    # dsi3-gcp: the points chosen row by row (select_gcp_rows), then the band DP through
+    # them, gives match_gcp_rows' maps, flags, path costs and points, bit for bit
+    rng = np.random.default_rng(640 + seed)
+    height, width = int(rng.integers(3, 30)), int(rng.integers(30, 70))
+    shift = int(rng.integers(0, 6))
+    texture = rng.integers(0, 256, (height, width + 16)).astype(np.uint8)
+    left = texture[:, 8 : 8 + width]
+    right = np.clip(texture[:, 8 + shift : 8 + shift + width] + rng.integers(-5, 6, left.shape),
+                    0, 255).astype(np.uint8)  # fmt: skip
+    kw = dict(
+        max_disparity=int(rng.integers(shift, shift + 8)),
+        min_disparity=int(rng.integers(-3, 1)),
+        window=int(rng.choice([w for w in (1, 3, 5) if w <= min(height, width)])),
+        method="dsi3-gcp",
+        cost=cost,
+        gcp_uniqueness=float(rng.choice([1.2, 3.0])),
+        gcp_variance_floor=float(rng.choice([0.0, 50.0])),
+    )
+    got = dcstereo.match(left, right, **kw)
+    with mock.patch.object(api, "BAND_ARRAY_BYTES", 0):
+        expected = dcstereo.match(left, right, **kw)
+    assert got.disparity.tobytes() == expected.disparity.tobytes()
+    np.testing.assert_array_equal(got.flags, expected.flags)
+    np.testing.assert_array_equal(got.path_cost, expected.path_cost)
+    np.testing.assert_array_equal(got.features, expected.features)
+    assert len(got.features) > 0  # the DP goes through points
+
+
 @st.composite
 def problems(draw):
     height = draw(st.integers(1, 19))
@@ -1501,14 +1532,14 @@ def test_bt_runs_on_bands_while_the_cost_array_fits():
     # block/dsi3/dsi5 with BT make the band's cost array: 1900 x 66 x 64 bytes (7.7 MiB) fit,
     # 2100 x 66 x 64 (8.5 MiB) run row by row; both give the same map
     params = dcstereo.MatchParams(max_disparity=63, cost="bt")
-    assert api._bt_band_fits(params, 1900)
-    assert not api._bt_band_fits(params, 2100)
+    assert api._band_array_fits(params, 1900)
+    assert not api._band_array_fits(params, 2100)
     rng = np.random.default_rng(5)
     left = rng.integers(0, 256, (12, 40)).astype(np.uint8)
     right = np.roll(left, 3, axis=1)
     for method in ("block", "dsi3", "dsi5"):
         band = dcstereo.match(left, right, max_disparity=7, method=method, cost="bt")
-        with mock.patch.object(api, "BT_BAND_BYTES", 0):
+        with mock.patch.object(api, "BAND_ARRAY_BYTES", 0):
             rows = dcstereo.match(left, right, max_disparity=7, method=method, cost="bt")
         assert band.disparity.tobytes() == rows.disparity.tobytes()
         np.testing.assert_array_equal(band.flags, rows.flags)
@@ -1534,3 +1565,11 @@ def test_bt_on_bands_equals_the_row_kernels_on_middlebury(middlebury_root, scene
     got = dcstereo.match(data.left, data.right, **kw)
     assert len(got.features) > 1000
     assert_same_dc(expected, got)
+    for cost in ("sad", "bt"):  # dsi3-gcp: its DP on the bands, as row by row
+        kw = dict(max_disparity=data.max_disparity, method="dsi3-gcp", cost=cost)
+        got = dcstereo.match(data.left, data.right, **kw)
+        with mock.patch.object(api, "BAND_ARRAY_BYTES", 0):
+            expected = dcstereo.match(data.left, data.right, **kw)
+        assert len(got.features) > 1000
+        assert_same_dc(expected, got)
+        np.testing.assert_array_equal(got.path_cost, expected.path_cost)

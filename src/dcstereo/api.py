@@ -132,13 +132,13 @@ def _match_block(left, right, params: MatchParams) -> DisparityResult:
 
     Runs ``_band_kernels.BAND_ROWS`` rows in lockstep (the same results, bit for bit, as
     the per-row kernel); the Birchfield-Tomasi cost makes the band's cost array first, so
-    where that array would pass ``BT_BAND_BYTES`` it runs row by row instead.
+    where that array would pass ``BAND_ARRAY_BYTES`` it runs row by row instead.
     """
     radius = params.window // 2
     left_p, right_p = _padded_signals(left, right, radius)
     disparity, flags, total, nchunks = _outputs(left.shape)
     bt = params.cost == "bt"
-    if bt and not _bt_band_fits(params, left.shape[1]):
+    if bt and not _band_array_fits(params, left.shape[1]):
         _kernels.match_block_rows(
             left_p,
             right_p,
@@ -173,7 +173,7 @@ def _match_dsi(left, right, params: MatchParams, clock=None) -> DisparityResult:
     Both costs run ``_band_kernels.BAND_ROWS`` rows in lockstep (vectorized across rows;
     the same results, bit for bit, as the per-row kernel ``_kernels.match_dsi_rows``).
     The SAD cost makes each column's costs inside the DP pass; the Birchfield-Tomasi cost
-    makes the band's cost array first, so where that array would exceed ``BT_BAND_BYTES``
+    makes the band's cost array first, so where that array would exceed ``BAND_ARRAY_BYTES``
     (wide images and disparity ranges) it runs row by row instead. ``clock``: the band
     kernel's stage counters (``match_band_rows``; ``benchmarks/bench_stages.py``), the band
     path only.
@@ -186,7 +186,7 @@ def _match_dsi(left, right, params: MatchParams, clock=None) -> DisparityResult:
     slant2 = _doubled(params.effective_slant_cost, scale)
     five = params.method == "dsi5"
     bt = params.cost == "bt"
-    if bt and not _bt_band_fits(params, left.shape[1]):
+    if bt and not _band_array_fits(params, left.shape[1]):
         _kernels.match_dsi_rows(
             left_p,
             right_p,
@@ -227,18 +227,18 @@ def _match_dsi(left, right, params: MatchParams, clock=None) -> DisparityResult:
     return DisparityResult(disparity, flags, params, total / (2.0 * scale))
 
 
-#: Largest band cost array (bytes) that the Birchfield-Tomasi cost makes on the band
-#: kernels (``match_band_rows``' and ``match_block_bands``' ``bt``: the array is made,
-#: then read); beyond it the rows run one at a time (a ``(W, D)`` array each).
-#: The bound of ``dc``'s kept array (``DC_BAND_BYTES``), for the same reason: past it the
-#: array leaves the caches.
-BT_BAND_BYTES = 8 * 2**20
+#: Largest band cost array (bytes) that the band kernels make before their DP for the
+#: Birchfield-Tomasi cost (``match_band_rows``' and ``match_block_bands``' ``bt``) and for
+#: ``dsi3-gcp``'s pinned DP (``pin_mode`` 1); beyond it the rows run one at a time (a
+#: ``(W, D)`` array each). The bound of ``dc``'s kept array (``DC_BAND_BYTES``), for the
+#: same reason: past it the array leaves the caches.
+BAND_ARRAY_BYTES = 8 * 2**20
 
 
-def _bt_band_fits(params: MatchParams, width: int) -> bool:
-    """Whether the Birchfield-Tomasi cost of ``block``/``dsi3``/``dsi5`` runs on bands."""
+def _band_array_fits(params: MatchParams, width: int) -> bool:
+    """Whether the band cost array fits ``BAND_ARRAY_BYTES`` (BT, ``dsi3-gcp``: bands)."""
     band_bytes = width * (params.num_disparities + 2) * _band_kernels.BAND_ROWS * 8
-    return band_bytes <= BT_BAND_BYTES
+    return band_bytes <= BAND_ARRAY_BYTES
 
 
 def _band_chunks(height: int) -> int:
@@ -388,7 +388,10 @@ def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
     least ``gcp_variance_floor`` whose whole-band match passes the ``gcp_uniqueness``
     ratio test and the exact left-right check, then the longest subset increasing in both
     ``x_left`` and ``x_right``. They come back as ``features`` (SER and VS NaN) and carry
-    ``FLAG_FEATURE``.
+    ``FLAG_FEATURE``. The points are chosen row by row (``_kernels.select_gcp_rows``), then
+    the DP through them runs on the band kernels (``match_band_rows``' ``pin_mode`` 1; bit
+    for bit ``_kernels.gcp_row``'s segment-by-segment DP) while the band cost array fits
+    ``BAND_ARRAY_BYTES``, else row by row (``_kernels.match_gcp_rows``).
     """
     radius = params.window // 2
     left_p, right_p = _padded_signals(left, right, radius)
@@ -396,25 +399,67 @@ def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
     partner = np.empty(disparity.shape, dtype=np.int64)
     scale = cost_scale(params.window)
     occ2 = _doubled(params.occlusion_cost, scale)
-    _kernels.match_gcp_rows(
-        left_p,
-        right_p,
-        params.min_disparity,
-        params.num_disparities,
-        radius,
-        params.cost == "bt",
-        occ2,
-        float(params.gcp_uniqueness),
-        float(params.gcp_variance_floor),
-        SIGNAL_STEPS,
-        nchunks,
-        disparity,
-        flags,
-        total,
-        partner,
-    )
+    bt = params.cost == "bt"
+    if not _band_array_fits(params, left.shape[1]):
+        _kernels.match_gcp_rows(
+            left_p,
+            right_p,
+            params.min_disparity,
+            params.num_disparities,
+            radius,
+            bt,
+            occ2,
+            float(params.gcp_uniqueness),
+            float(params.gcp_variance_floor),
+            SIGNAL_STEPS,
+            nchunks,
+            disparity,
+            flags,
+            total,
+            partner,
+        )
+    else:
+        _kernels.select_gcp_rows(
+            left_p,
+            right_p,
+            params.min_disparity,
+            params.num_disparities,
+            radius,
+            bt,
+            float(params.gcp_uniqueness),
+            float(params.gcp_variance_floor),
+            SIGNAL_STEPS,
+            nchunks,
+            partner,
+        )
+        _band_kernels.match_band_rows(
+            left_p,
+            right_p,
+            params.min_disparity,
+            params.num_disparities,
+            radius,
+            occ2,
+            False,  # three steps
+            0.0,
+            1,  # through the pins of partner
+            partner,
+            _PIN_TESTS,
+            _band_chunks(left.shape[0]),
+            disparity,
+            flags,
+            total,
+            np.empty((0, 0, 4), dtype=np.float32),
+            np.empty(0, dtype=np.int64),
+            None,
+            True if bt else None,
+        )
     features = _features(partner, flags)
     return DisparityResult(disparity, flags, params, total / (2.0 * scale), features)
+
+
+#: ``tests`` of ``match_band_rows`` with pins given from outside (``pin_mode`` 1: no
+#: search reads them; the types of ``dc``'s tuple).
+_PIN_TESTS = (0.0, 0.0, False, 0.0, False, 0.0, 0, 1)
 
 
 _METHODS: dict[str, Callable[[np.ndarray, np.ndarray, MatchParams], DisparityResult]] = {
