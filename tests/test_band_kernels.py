@@ -295,7 +295,7 @@ def test_pins_of_the_ground_control_points_give_gcp_row(tmp_path):
 @pytest.mark.parametrize("cost", ["sad", "bt"])
 @pytest.mark.parametrize("seed", range(6))
 def test_gcp_on_bands_equals_the_row_kernel(cost, seed):
-    # dsi3-gcp: the points chosen row by row (select_gcp_rows), then the band DP through
+    # dsi3-gcp: the points chosen row by row (match_gcp_rows, dp False), then the band DP through
     # them, gives match_gcp_rows' maps, flags, path costs and points, bit for bit
     rng = np.random.default_rng(640 + seed)
     height, width = int(rng.integers(3, 30)), int(rng.integers(30, 70))

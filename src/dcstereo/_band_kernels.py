@@ -752,7 +752,6 @@ def _finish_band_costs(out, width, dmin, ndisp, radius):
     full window (``* W / columns used``: the float64 operations of ``row_costs``).
     """
     nr = BAND_ROWS
-    win = 2 * radius + 1
     nk = (ndisp + 2) * nr
     inf = np.inf
     for x in range(width):
@@ -770,20 +769,27 @@ def _finish_band_costs(out, width, dmin, ndisp, radius):
         for x in range(max(x1, 0), width):
             for r in range(nr):
                 out[x * nk + base + r] = inf
+        # only the first and last ``radius`` columns of the range have truncated windows
         lo_end = min(x0 + radius, x1)
-        hi_start = max(x1 - radius, lo_end)
-        for x in range(x0, lo_end):
-            used = min(x + radius, x1 - 1) - max(x - radius, x0) + 1
-            if used != win:
-                for r in range(nr):
-                    i = x * nk + base + r
-                    out[i] = out[i] * win / used
-        for x in range(hi_start, x1):
-            used = min(x + radius, x1 - 1) - max(x - radius, x0) + 1
-            if used != win:
-                for r in range(nr):
-                    i = x * nk + base + r
-                    out[i] = out[i] * win / used
+        _rescale_truncated(out, x0, lo_end, x0, x1, radius, base, nk)
+        _rescale_truncated(out, max(x1 - radius, lo_end), x1, x0, x1, radius, base, nk)
+
+
+@nb.njit(cache=True, inline="always")
+def _rescale_truncated(out, x_from, x_to, x0, x1, radius, base, nk):
+    """Rescale the cells at ``base`` of columns ``x_from .. x_to - 1`` to the full window.
+
+    A column ``x`` of the disparity's range ``x0 .. x1 - 1`` uses the window columns inside
+    that range; its cost times ``W / columns used``, the float64 operations of ``row_costs``.
+    """
+    nr = BAND_ROWS
+    win = 2 * radius + 1
+    for x in range(x_from, x_to):
+        used = min(x + radius, x1 - 1) - max(x - radius, x0) + 1
+        if used != win:
+            for r in range(nr):
+                i = x * nk + base + r
+                out[i] = out[i] * win / used
 
 
 @nb.njit(cache=True)
@@ -3004,8 +3010,9 @@ def match_band_rows(
                     left_t, right_t, width, dmin, ndisp, radius, bt_bounds, bt_spread, vs,
                     t > 0, hsum, cost,
                 )  # fmt: skip
-                for x in range(width):
-                    done[x] = 0  # the block match takes every column
+                if search:
+                    for x in range(width):
+                        done[x] = 0  # the block match takes every column
                 mark = _clock_add(clock, ch, _CLOCK_COSTS, mark)
             elif tests is not None and not made:  # the search and pins read them before the DP
                 band_lane_costs(

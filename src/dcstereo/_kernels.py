@@ -1646,46 +1646,6 @@ def gcp_row(
 
 
 @nb.njit(parallel=True, cache=True)
-def select_gcp_rows(
-    left_p,
-    right_p,
-    dmin,
-    ndisp,
-    radius,
-    bt,
-    uniqueness,
-    var_floor,
-    signal_steps,
-    nchunks,
-    partner,
-):
-    """Find the ground control points of every row (``select_gcps``), rows in parallel.
-
-    ``partner[y, x] = j`` for each point ``(y, x) <-> (y, j)``, -1 elsewhere: the pins
-    ``match_gcp_rows`` goes through, for the band DP (``pin_mode`` 1).
-    """
-    height, width = partner.shape
-    wp = left_p.shape[1]
-    for ch in nb.prange(nchunks):
-        y0, y1 = _chunk_bounds(height, nchunks, ch)
-        cost = np.empty((width, ndisp), dtype=np.float64)
-        vcol = np.empty((width, ndisp), dtype=np.int32)
-        colsum = np.empty(wp, dtype=np.int64)
-        colsq = np.empty(wp, dtype=np.int64)
-        var_l = np.empty(width, dtype=np.float64)
-        gcp_x = np.empty(width, dtype=np.int64)
-        gcp_j = np.empty(width, dtype=np.int64)
-        for y in range(y0, y1):
-            _row_costs_any(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, y > y0, bt)
-            window_variance_row(left_p, y, radius, signal_steps, colsum, colsq, var_l, y > y0)
-            for x in range(width):
-                partner[y, x] = -1
-            n = select_gcps(cost, var_l, dmin, radius, uniqueness, var_floor, gcp_x, gcp_j)
-            for i in range(n):
-                partner[y, gcp_x[i]] = gcp_j[i]
-
-
-@nb.njit(parallel=True, cache=True)
 def match_gcp_rows(
     left_p,
     right_p,
@@ -1702,10 +1662,13 @@ def match_gcp_rows(
     flags,
     total,
     partner,
+    dp=True,
 ):
     """``dsi3`` through ground control points on every row (``gcp_row``); rows in parallel.
 
     ``partner[y, x] = j`` for each control point ``(y, x) <-> (y, j)``, -1 elsewhere.
+    ``dp`` False: the points only (``select_gcps``), into ``partner``; ``disp``, ``flags``
+    and ``total`` are left for the band DP through them (``pin_mode`` 1).
     """
     height, width = disp.shape
     wp = left_p.shape[1]
@@ -1726,9 +1689,15 @@ def match_gcp_rows(
             _row_costs_any(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, y > y0, bt)
             window_variance_row(left_p, y, radius, signal_steps, colsum, colsq, var_l, y > y0)
             for x in range(width):
+                partner[y, x] = -1
+            if not dp:
+                n = select_gcps(cost, var_l, dmin, radius, uniqueness, var_floor, gcp_x, gcp_j)
+                for i in range(n):
+                    partner[y, gcp_x[i]] = gcp_j[i]
+                continue
+            for x in range(width):
                 disp[y, x] = np.nan
                 flags[y, x] = FLAG_BORDER
-                partner[y, x] = -1
             total[y] = gcp_row(
                 cost,
                 var_l,

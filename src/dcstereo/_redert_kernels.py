@@ -348,12 +348,12 @@ def scanline_dp(
     deltas = np.empty(norient, dtype=np.int64)
     for o in range(norient):
         lengths[o], deltas[o] = segment_shape(oq[o], steps)
-    # per node, over its matched states: the least cost (first state that has it), and
-    # the least cost plus the orientation change (first state that has that): what a
-    # segment into a later node and the first pixel of an occlusion run read
+    # per node, over its matched states: the least cost and the first state that has it,
+    # and the first state of least cost plus the orientation change (its value is
+    # least + orient: adding a constant keeps the order, rounded too, but can tie two
+    # states): what a segment into a later node and the first pixel of an occlusion run read
     least = np.empty((width, ndisp), dtype=np.float64)
     least_code = np.empty((width, ndisp), dtype=np.int64)
-    turn = np.empty((width, ndisp), dtype=np.float64)
     turn_code = np.empty((width, ndisp), dtype=np.int64)
     for x in range(width):
         for k in range(ndisp):
@@ -362,7 +362,6 @@ def scanline_dp(
                 back[x, k, st] = CODE_NONE
             least[x, k] = inf
             least_code[x, k] = CODE_NONE
-            turn[x, k] = inf
             turn_code[x, k] = CODE_NONE
         k_hi = min(ndisp - 1, x - dmin)
         k_lo = max(0, x - (width - 1) - dmin)
@@ -395,8 +394,9 @@ def scanline_dp(
                     # cheapest matched predecessor, a change of orientation charged
                     v = table[px, pk, o2]
                     c = 1 + o2
-                    if turn[px, pk] < v:
-                        v = turn[px, pk]
+                    turn = least[px, pk] + orient
+                    if turn < v:
+                        v = turn
                         c = turn_code[px, pk]
                     if v + here < best:
                         best = v + here
@@ -404,22 +404,15 @@ def scanline_dp(
                 table[x, k, o2] = best
                 back[x, k, o2] = code
             low = inf
-            low_code = CODE_NONE
+            low_turn = inf
             for o in range(norient):
                 if table[x, k, o] < low:
                     low = table[x, k, o]
-                    low_code = 1 + o
+                    least_code[x, k] = 1 + o
+                if table[x, k, o] + orient < low_turn:
+                    low_turn = table[x, k, o] + orient
+                    turn_code[x, k] = 1 + o
             least[x, k] = low
-            least_code[x, k] = low_code
-            low = inf
-            low_code = CODE_NONE
-            for o in range(norient):
-                w = table[x, k, o] + orient
-                if w < low:
-                    low = w
-                    low_code = 1 + o
-            turn[x, k] = low
-            turn_code[x, k] = low_code
             # left pixel x occluded, from (x - 1, k - 1); right pixel j occluded, from
             # (x, k + 1): the same rules
             for side in range(2):

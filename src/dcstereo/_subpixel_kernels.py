@@ -38,20 +38,49 @@ def _bounds2(img_p, r, xp, lo, hi):
 
 
 @nb.njit(cache=True, inline="always")
-def _column_bt2(left_p, right_p, y, xp, e, win, lo, hi):
-    """Sum one column of the BT window, doubled.
+def _bt2(l2, l_min, l_max, right_p, r, xr, lo, hi):
+    """Twice the BT dissimilarity of a left pixel (its ``_bounds2``) and right pixel ``xr``.
 
-    Rows ``y .. y + win - 1`` of padded column ``xp`` against ``xp - e``, each
     ``min(d_LR, d_RL)`` of ``_kernels._bt_cell2``.
     """
+    r2, r_min, r_max = _bounds2(right_p, r, xr, lo, hi)
+    d_lr = max(0, max(l2 - r_max, r_min - l2))
+    d_rl = max(0, max(r2 - l_max, l_min - r2))
+    return min(d_lr, d_rl)
+
+
+@nb.njit(cache=True, inline="always")
+def _column_bt2(left_p, right_p, y, xp, e, win, lo, hi):
+    """Sum one column of the BT window, doubled: rows ``y .. y + win - 1``, ``xp - e``."""
     total = 0
     for t in range(win):
         l2, l_min, l_max = _bounds2(left_p, y + t, xp, lo, hi)
-        r2, r_min, r_max = _bounds2(right_p, y + t, xp - e, lo, hi)
-        d_lr = max(0, max(l2 - r_max, r_min - l2))
-        d_rl = max(0, max(r2 - l_max, l_min - r2))
-        total += min(d_lr, d_rl)
+        total += _bt2(l2, l_min, l_max, right_p, y + t, xp - e, lo, hi)
     return total
+
+
+@nb.njit(cache=True, inline="always")
+def _three_columns(left_p, right_p, y, xp, d, win, bt, lo, hi):
+    """One window column at disparities ``d - 1, d, d + 1``: SAD, or doubled BT with ``bt``.
+
+    Each left pixel (and its BT bounds) is read once for the three.
+    """
+    c0 = 0
+    c1 = 0
+    c2 = 0
+    for t in range(win):
+        r = y + t
+        if bt:
+            l2, l_min, l_max = _bounds2(left_p, r, xp, lo, hi)
+            c0 += _bt2(l2, l_min, l_max, right_p, r, xp - d + 1, lo, hi)
+            c1 += _bt2(l2, l_min, l_max, right_p, r, xp - d, lo, hi)
+            c2 += _bt2(l2, l_min, l_max, right_p, r, xp - d - 1, lo, hi)
+        else:
+            v = left_p[r, xp]
+            c0 += abs(v - right_p[r, xp - d + 1])
+            c1 += abs(v - right_p[r, xp - d])
+            c2 += abs(v - right_p[r, xp - d - 1])
+    return c0, c1, c2
 
 
 @nb.njit(cache=True, inline="always")
@@ -130,20 +159,20 @@ def refine_rows(left_p, right_p, disparity, wanted, dmin, dmax, radius, fit, out
             if inside and run_x == x - 1 and run_d == d:
                 gone = x - 1  # padded column of the column x - 1 - radius
                 new = x + 2 * radius  # padded column of x + radius
-                s0 += _column_cost(left_p, right_p, y, new, d - 1, win, bt, lo, hi)
-                s0 -= _column_cost(left_p, right_p, y, gone, d - 1, win, bt, lo, hi)
-                s1 += _column_cost(left_p, right_p, y, new, d, win, bt, lo, hi)
-                s1 -= _column_cost(left_p, right_p, y, gone, d, win, bt, lo, hi)
-                s2 += _column_cost(left_p, right_p, y, new, d + 1, win, bt, lo, hi)
-                s2 -= _column_cost(left_p, right_p, y, gone, d + 1, win, bt, lo, hi)
+                a0, a1, a2 = _three_columns(left_p, right_p, y, new, d, win, bt, lo, hi)
+                b0, b1, b2 = _three_columns(left_p, right_p, y, gone, d, win, bt, lo, hi)
+                s0 += a0 - b0
+                s1 += a1 - b1
+                s2 += a2 - b2
             elif inside:
                 s0 = 0
                 s1 = 0
                 s2 = 0
                 for xp in range(x, x + win):
-                    s0 += _column_cost(left_p, right_p, y, xp, d - 1, win, bt, lo, hi)
-                    s1 += _column_cost(left_p, right_p, y, xp, d, win, bt, lo, hi)
-                    s2 += _column_cost(left_p, right_p, y, xp, d + 1, win, bt, lo, hi)
+                    a0, a1, a2 = _three_columns(left_p, right_p, y, xp, d, win, bt, lo, hi)
+                    s0 += a0
+                    s1 += a1
+                    s2 += a2
             if inside:
                 run_x = x
                 run_d = d

@@ -203,28 +203,58 @@ def _match_dsi(left, right, params: MatchParams, clock=None) -> DisparityResult:
             total,
         )
     else:
-        _band_kernels.match_band_rows(
-            left_p,
-            right_p,
-            params.min_disparity,
-            params.num_disparities,
-            radius,
-            occ2,
-            five,
-            slant2,
-            0,
-            np.empty((0, 0), dtype=np.int64),
-            None,  # no search: the free-mode version compiles without it
-            _band_chunks(left.shape[0]),
-            disparity,
-            flags,
-            total,
-            np.empty((0, 0, 4), dtype=np.float32),
-            np.empty(0, dtype=np.int64),
-            clock,
-            True if bt else None,  # None: the SAD version compiles without the BT code
-        )
+        _band_rows(left_p, right_p, params, occ2, five, slant2, (disparity, flags, total), clock)
     return DisparityResult(disparity, flags, params, total / (2.0 * scale))
+
+
+def _band_rows(
+    left_p,
+    right_p,
+    params,
+    occ2,
+    five,
+    slant2,
+    outputs,
+    clock=None,
+    pin_mode=0,
+    partner=None,
+    tests=None,
+    pairs=None,
+    counts=None,
+):
+    """Call ``_band_kernels.match_band_rows`` with ``params``' range, window and cost.
+
+    ``outputs`` is ``(disparity, flags, total)``; the arrays a mode does not read are
+    passed empty. ``tests`` None (no pins): the free-mode version compiles without the
+    search; the SAD cost passes ``bt`` None, so its version compiles without the BT code.
+    """
+    disparity, flags, total = outputs
+    if partner is None:
+        partner = np.empty((0, 0), dtype=np.int64)
+    if pairs is None:
+        pairs = np.empty((0, 0, 4), dtype=np.float32)
+        counts = np.empty(0, dtype=np.int64)
+    _band_kernels.match_band_rows(
+        left_p,
+        right_p,
+        params.min_disparity,
+        params.num_disparities,
+        params.window // 2,
+        occ2,
+        five,
+        slant2,
+        pin_mode,
+        partner,
+        tests,
+        _band_chunks(disparity.shape[0]),
+        disparity,
+        flags,
+        total,
+        pairs,
+        counts,
+        clock,
+        True if params.cost == "bt" else None,
+    )
 
 
 #: Largest band cost array (bytes) that the band kernels make before their DP for the
@@ -235,10 +265,10 @@ def _match_dsi(left, right, params: MatchParams, clock=None) -> DisparityResult:
 BAND_ARRAY_BYTES = 8 * 2**20
 
 
-def _band_array_fits(params: MatchParams, width: int) -> bool:
-    """Whether the band cost array fits ``BAND_ARRAY_BYTES`` (BT, ``dsi3-gcp``: bands)."""
+def _band_array_fits(params: MatchParams, width: int, limit: int | None = None) -> bool:
+    """Whether a band's float64 cost array fits ``limit`` (default ``BAND_ARRAY_BYTES``)."""
     band_bytes = width * (params.num_disparities + 2) * _band_kernels.BAND_ROWS * 8
-    return band_bytes <= BAND_ARRAY_BYTES
+    return band_bytes <= (BAND_ARRAY_BYTES if limit is None else limit)
 
 
 def _band_chunks(height: int) -> int:
@@ -287,26 +317,19 @@ def _match_dc(left, right, params: MatchParams, clock=None) -> DisparityResult:
             _edge_guard(params, left.shape[1]),
             int(SIGNAL_STEPS),
         )
-        _band_kernels.match_band_rows(
+        _band_rows(
             left_p,
             right_p,
-            params.min_disparity,
-            params.num_disparities,
-            radius,
+            params,
             occ2,
             True,
             _doubled(params.effective_slant_cost, scale),
-            band_mode,
-            np.empty((0, 0), dtype=np.int64),
-            tests,
-            _band_chunks(left.shape[0]),
-            disparity,
-            flags,
-            total,
-            pairs,
-            counts,
+            (disparity, flags, total),
             clock,
-            True if params.cost == "bt" else None,  # None: compiled without the BT code
+            pin_mode=band_mode,
+            tests=tests,
+            pairs=pairs,
+            counts=counts,
         )
         features = _kernels.collect_pairs(pairs, counts, FLAG_FEATURE, flags)
         return DisparityResult(disparity, flags, params, total / (2.0 * scale), features)
@@ -373,8 +396,7 @@ def _dc_band_mode(params: MatchParams, width: int) -> int:
     """How ``dc`` runs: 0 row by row, else the ``pin_mode`` of ``match_band_rows`` (2, 3)."""
     if not (params.method == "dc" and params.uniqueness > 0 and params.max_candidates == 0):
         return 0
-    band_bytes = width * (params.num_disparities + 2) * _band_kernels.BAND_ROWS * 8
-    if band_bytes <= DC_BAND_BYTES:
+    if _band_array_fits(params, width, DC_BAND_BYTES):
         return 2
     # mode 3 makes the SAD costs inside its passes; the BT cost needs the array
     return 0 if params.lr_check or params.cost == "bt" else 3
@@ -388,7 +410,7 @@ def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
     least ``gcp_variance_floor`` whose whole-band match passes the ``gcp_uniqueness``
     ratio test and the exact left-right check, then the longest subset increasing in both
     ``x_left`` and ``x_right``. They come back as ``features`` (SER and VS NaN) and carry
-    ``FLAG_FEATURE``. The points are chosen row by row (``_kernels.select_gcp_rows``), then
+    ``FLAG_FEATURE``. The points are chosen row by row (``_kernels.match_gcp_rows``), then
     the DP through them runs on the band kernels (``match_band_rows``' ``pin_mode`` 1; bit
     for bit ``_kernels.gcp_row``'s segment-by-segment DP) while the band cost array fits
     ``BAND_ARRAY_BYTES``, else row by row (``_kernels.match_gcp_rows``).
@@ -399,60 +421,28 @@ def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
     partner = np.empty(disparity.shape, dtype=np.int64)
     scale = cost_scale(params.window)
     occ2 = _doubled(params.occlusion_cost, scale)
-    bt = params.cost == "bt"
-    if not _band_array_fits(params, left.shape[1]):
-        _kernels.match_gcp_rows(
-            left_p,
-            right_p,
-            params.min_disparity,
-            params.num_disparities,
-            radius,
-            bt,
-            occ2,
-            float(params.gcp_uniqueness),
-            float(params.gcp_variance_floor),
-            SIGNAL_STEPS,
-            nchunks,
-            disparity,
-            flags,
-            total,
-            partner,
-        )
-    else:
-        _kernels.select_gcp_rows(
-            left_p,
-            right_p,
-            params.min_disparity,
-            params.num_disparities,
-            radius,
-            bt,
-            float(params.gcp_uniqueness),
-            float(params.gcp_variance_floor),
-            SIGNAL_STEPS,
-            nchunks,
-            partner,
-        )
-        _band_kernels.match_band_rows(
-            left_p,
-            right_p,
-            params.min_disparity,
-            params.num_disparities,
-            radius,
-            occ2,
-            False,  # three steps
-            0.0,
-            1,  # through the pins of partner
-            partner,
-            _PIN_TESTS,
-            _band_chunks(left.shape[0]),
-            disparity,
-            flags,
-            total,
-            np.empty((0, 0, 4), dtype=np.float32),
-            np.empty(0, dtype=np.int64),
-            None,
-            True if bt else None,
-        )
+    on_bands = _band_array_fits(params, left.shape[1])
+    _kernels.match_gcp_rows(
+        left_p,
+        right_p,
+        params.min_disparity,
+        params.num_disparities,
+        radius,
+        params.cost == "bt",
+        occ2,
+        float(params.gcp_uniqueness),
+        float(params.gcp_variance_floor),
+        SIGNAL_STEPS,
+        nchunks,
+        disparity,
+        flags,
+        total,
+        partner,
+        not on_bands,  # on bands: the points only, the DP through them below
+    )
+    if on_bands:  # three steps through the pins of partner
+        outputs = (disparity, flags, total)
+        _band_rows(left_p, right_p, params, occ2, False, 0.0, outputs, None, 1, partner, _PIN_TESTS)
     features = _features(partner, flags)
     return DisparityResult(disparity, flags, params, total / (2.0 * scale), features)
 
