@@ -1,5 +1,7 @@
 """What the commands write: never over an input, all outputs or none, only real formats."""
 
+import os
+
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -101,6 +103,33 @@ def test_run_leaves_no_partial_outputs_when_a_later_write_fails(folder, monkeypa
         "part.csv",
     )
     assert_one_line_error(result, 1, "cannot write 'part.csv': disk full")
+    assert snapshot(folder) == before
+
+
+@pytest.mark.parametrize("failing", ["part.pfm", "part.png", "part.csv"])
+@pytest.mark.parametrize("existing", [False, True])
+def test_run_puts_the_outputs_back_when_a_move_fails_partway(
+    folder, monkeypatch, existing, failing
+):
+    # every output is written; moving one onto its name fails (its folder's permissions
+    # changed during the run, say): those moved already are put back
+    if existing:
+        for name in ("part.pfm", "part.png", "part.csv"):
+            (folder / name).write_text("old")
+    real = os.replace
+
+    def replace(src, dst):
+        if os.path.basename(dst) == failing and os.path.basename(src).startswith("."):
+            raise PermissionError(13, "Permission denied")
+        return real(src, dst)
+
+    monkeypatch.setattr(os, "replace", replace)
+    before = snapshot(folder)
+    result = invoke(
+        folder, "run", *PAIR, "-o", "part.pfm", "--preview", "part.png",
+        "--features-out", "part.csv",
+    )  # fmt: skip
+    assert_one_line_error(result, 1, f"cannot write '{failing}': permission denied")
     assert snapshot(folder) == before
 
 

@@ -1,3 +1,4 @@
+import os
 import struct
 
 import numpy as np
@@ -60,6 +61,120 @@ def test_atomic_write_onto_directory(tmp_path):
         with io.atomic_write(tmp_path / "sub"):
             pass
     assert _listing(tmp_path) == ["sub"]
+
+
+# --- atomic_writes: a group of outputs, all or none ---------------------------------
+
+
+def _contents(directory):
+    """Every entry of DIRECTORY (hidden ones included): a file's bytes, a link's target."""
+    return {
+        p.name: ("->", str(p.readlink())) if p.is_symlink() else p.read_bytes()
+        for p in directory.iterdir()
+    }
+
+
+def _refuse_move_onto(monkeypatch, name, error=None):
+    """Make ``os.replace`` of a temporary file onto NAME fail; other moves run as usual."""
+    real = os.replace
+    error = error or PermissionError(13, "Permission denied")
+
+    def replace(src, dst):
+        if os.path.basename(dst) == name and os.path.basename(src).startswith("."):
+            raise error
+        return real(src, dst)
+
+    monkeypatch.setattr(os, "replace", replace)
+
+
+def test_atomic_writes_moves_the_group_at_the_end(tmp_path):
+    (tmp_path / "b.txt").write_bytes(b"old b")
+    with io.atomic_writes() as stage:
+        for name in ("a.txt", "b.txt", "c.txt"):
+            stage(tmp_path / name).write_bytes(b"new " + name.encode())
+        assert _contents(tmp_path)["b.txt"] == b"old b"  # nothing moved yet
+        assert "a.txt" not in _contents(tmp_path)
+    assert _contents(tmp_path) == {"a.txt": b"new a.txt", "b.txt": b"new b.txt",
+                                   "c.txt": b"new c.txt"}  # fmt: skip
+
+
+def test_atomic_writes_failure_in_the_block_leaves_the_old_group(tmp_path):
+    (tmp_path / "b.txt").write_bytes(b"old b")
+    before = _contents(tmp_path)
+    with pytest.raises(RuntimeError, match="boom"):
+        with io.atomic_writes() as stage:
+            stage(tmp_path / "a.txt").write_bytes(b"new a")
+            stage(tmp_path / "b.txt").write_bytes(b"new b")
+            raise RuntimeError("boom")
+    assert _contents(tmp_path) == before
+
+
+@pytest.mark.parametrize("links", [True, False], ids=["hard links", "copies"])
+def test_atomic_writes_a_move_failing_partway_puts_the_moved_ones_back(
+    tmp_path, monkeypatch, links
+):
+    (tmp_path / "b.txt").write_bytes(b"old b")
+    (tmp_path / "c.txt").write_bytes(b"old c")
+    os.symlink("b.txt", tmp_path / "link.txt")
+    before = _contents(tmp_path)
+    if not links:  # a file system without hard links: the earlier files are copied
+
+        def no_link(*args, **kwargs):
+            raise OSError(1, "Operation not permitted")
+
+        monkeypatch.setattr(os, "link", no_link)
+    _refuse_move_onto(monkeypatch, "c.txt")
+    msg = f"^cannot write '{tmp_path / 'c.txt'}': permission denied$"
+    with pytest.raises(ValueError, match=msg):
+        with io.atomic_writes() as stage:
+            # a new file, an existing one, a symbolic link, then the one that fails
+            for name in ("a.txt", "b.txt", "link.txt", "c.txt", "d.txt"):
+                stage(tmp_path / name).write_bytes(b"new " + name.encode())
+    assert _contents(tmp_path) == before
+    assert (tmp_path / "link.txt").is_symlink()
+
+
+def test_atomic_writes_an_interrupted_move_puts_the_moved_ones_back(tmp_path, monkeypatch):
+    (tmp_path / "a.txt").write_bytes(b"old a")
+    before = _contents(tmp_path)
+    _refuse_move_onto(monkeypatch, "b.txt", KeyboardInterrupt())
+    with pytest.raises(KeyboardInterrupt):
+        with io.atomic_writes() as stage:
+            stage(tmp_path / "a.txt").write_bytes(b"new a")
+            stage(tmp_path / "b.txt").write_bytes(b"new b")
+    assert _contents(tmp_path) == before
+
+
+def test_atomic_writes_without_a_second_name_keeps_the_new_file(tmp_path, monkeypatch):
+    # neither a hard link nor a copy can be made: the moved file cannot be put back, and
+    # is kept rather than removed (the old contents are gone either way)
+    (tmp_path / "a.txt").write_bytes(b"old a")
+
+    def refuse(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(os, "link", refuse)
+    monkeypatch.setattr(io.shutil, "copy2", refuse)
+    _refuse_move_onto(monkeypatch, "b.txt")
+    with pytest.raises(ValueError, match="cannot write .*b.txt': permission denied"):
+        with io.atomic_writes() as stage:
+            stage(tmp_path / "a.txt").write_bytes(b"new a")
+            stage(tmp_path / "b.txt").write_bytes(b"new b")
+    assert _contents(tmp_path) == {"a.txt": b"new a"}
+
+
+def test_atomic_writes_makes_no_second_name_for_the_last_move(tmp_path, monkeypatch):
+    (tmp_path / "a.txt").write_bytes(b"old a")
+    made = []
+    real = os.link
+    monkeypatch.setattr(os, "link", lambda src, dst: made.append(src) or real(src, dst))
+    with io.atomic_writes() as stage:
+        stage(tmp_path / "b.txt").write_bytes(b"new b")  # nothing there before
+        stage(tmp_path / "a.txt").write_bytes(b"new a")  # last: never undone
+    with io.atomic_write(tmp_path / "a.txt") as tmp:  # a group of one
+        tmp.write_bytes(b"newer a")
+    assert made == []
+    assert _contents(tmp_path) == {"a.txt": b"newer a", "b.txt": b"new b"}
 
 
 # --- PFM ----------------------------------------------------------------------------

@@ -18,9 +18,10 @@ import glob
 import os
 import re
 import secrets
+import shutil
 import struct
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -58,19 +59,126 @@ def atomic_write(path: str | os.PathLike) -> Iterator[Path]:
     >>> with atomic_write("out.png") as tmp:  # doctest: +SKIP
     ...     Image.fromarray(pixels).save(tmp)
     """
-    check_writable(path)
-    target = Path(path)
-    tmp = _create_temp(target, path)
+    with atomic_writes() as stage:
+        yield stage(path)
+
+
+@contextmanager
+def atomic_writes() -> Iterator[Callable[[str | os.PathLike], Path]]:
+    """Write several files all or none: :func:`atomic_write` for a group of outputs.
+
+    Yields ``stage(path)``, which returns a temporary file next to ``path`` (as
+    :func:`atomic_write` does). When the block ends without an error every temporary
+    file is moved onto its path, in the order staged; if the block raises, all of them
+    are removed. If a move fails partway (a folder's permissions changed, a path became
+    a directory), the files already moved are put back as they were: the earlier
+    contents of each overwritten path, kept by a hard link (a copy where the file system
+    has none; where neither can be made, that path keeps its new file) until the group is
+    in place, and no file where there was none. Otherwise the paths hold the whole new
+    group or the whole old one, and no temporary file is left behind (unless putting a
+    file back fails as well: the hidden second name then stays). The error is a one-line
+    ``ValueError`` naming the path.
+
+    Examples
+    --------
+    >>> with atomic_writes() as stage:  # doctest: +SKIP
+    ...     np.save(stage("a.npy"), a)
+    ...     np.save(stage("b.npy"), b)
+    """
+    staged: list[tuple[Path, Path, str | os.PathLike]] = []
+
+    def stage(path: str | os.PathLike) -> Path:
+        check_writable(path)
+        target = Path(path)
+        staged.append((_create_temp(target, path), target, path))
+        return staged[-1][0]
+
     try:
-        yield tmp
+        yield stage
     except BaseException:
-        tmp.unlink(missing_ok=True)
+        for tmp, _, _ in staged:
+            tmp.unlink(missing_ok=True)
         raise
+    _move_all(staged)
+
+
+def _move_all(staged: list[tuple[Path, Path, str | os.PathLike]]) -> None:
+    """Move each temporary file onto its target; undo the moves made if one fails."""
+    # (target, a second name of what was there or None, whether anything was there)
+    moved: list[tuple[Path, Path | None, bool]] = []
+    i = 0
     try:
-        os.replace(tmp, target)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise ValueError(f"cannot write '{path}': {_reason(exc)}") from None
+        for i, (tmp, target, _) in enumerate(staged):
+            existed = target.is_symlink() or target.exists()
+            # the last move is never undone: no later one can fail
+            backup = _keep_earlier(target) if existed and i < len(staged) - 1 else None
+            try:
+                os.replace(tmp, target)
+            except BaseException:
+                if backup is not None:
+                    backup.unlink(missing_ok=True)
+                raise
+            moved.append((target, backup, existed))
+    except BaseException as exc:
+        for tmp, _, _ in staged:
+            tmp.unlink(missing_ok=True)
+        _put_back(moved)
+        if isinstance(exc, OSError):
+            raise ValueError(f"cannot write '{staged[i][2]}': {_reason(exc)}") from None
+        raise
+    for _, backup, _ in moved:
+        if backup is not None:
+            backup.unlink(missing_ok=True)
+
+
+def _keep_earlier(target: Path) -> Path | None:
+    """Return a hidden second name for what is at ``target`` (a hard link, else a copy).
+
+    None where there is nothing at ``target``, or no second name could be made: that
+    output then cannot be put back if a later move of its group fails.
+    """
+    if not target.is_symlink() and not target.is_file():
+        return None
+    for _ in range(100):
+        backup = _temporary_name(target, secrets.token_hex(4))
+        try:
+            if target.is_symlink():
+                os.symlink(os.readlink(target), backup)
+            else:
+                os.link(target, backup)
+            return backup
+        except FileExistsError:
+            continue
+        except OSError:
+            break
+    if target.is_symlink():
+        return None
+    try:  # no hard links on this file system
+        backup = _create_temp(target, target)
+    except ValueError:
+        return None
+    try:
+        shutil.copy2(target, backup)
+    except OSError:
+        backup.unlink(missing_ok=True)
+        return None
+    return backup
+
+
+def _put_back(moved: list[tuple[Path, Path | None, bool]]) -> None:
+    """Undo the moves of :func:`_move_all` (best effort: an error here is not raised).
+
+    A path that held nothing is emptied again; one whose earlier file has no second name
+    keeps the new file.
+    """
+    for target, backup, existed in reversed(moved):
+        try:
+            if backup is not None:
+                os.replace(backup, target)
+            elif not existed:
+                target.unlink(missing_ok=True)
+        except OSError:
+            pass
 
 
 def check_writable(path: str | os.PathLike, *, make_folders: bool = False) -> None:

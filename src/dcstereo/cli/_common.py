@@ -81,21 +81,21 @@ def check_distinct_paths(inputs, outputs):
 
 @contextlib.contextmanager
 def staged_outputs():
-    """Write a command's outputs to temporary files and rename them only if all succeed.
+    """Write a command's outputs to temporary files and move them only if all succeed.
 
     Yields ``write(writer, path, *args, **kwargs)``, which calls ``writer(temporary,
     *args, **kwargs)`` with a hidden temporary file next to ``path`` (see
-    :func:`dcstereo.io.atomic_write`) and returns what the writer returns. When the block
-    ends without an error, every temporary file is renamed onto its path; on any error all
-    of them are removed, so a failed command leaves no partial set of outputs and
-    pre-existing files untouched.
+    :func:`dcstereo.io.atomic_writes`) and returns what the writer returns. When the block
+    ends without an error, every temporary file is moved onto its path; on any error all
+    of them are removed, and a move that fails partway puts back the files already moved,
+    so a failed command leaves no partial set of outputs and pre-existing files untouched.
     """
     from .. import io
 
-    with contextlib.ExitStack() as stack:
+    with io.atomic_writes() as stage:
 
         def write(writer, path, *args, **kwargs):
-            temporary = stack.enter_context(io.atomic_write(path))
+            temporary = stage(path)
             try:
                 return writer(temporary, *args, **kwargs)
             except (ValueError, TypeError, OSError) as exc:
