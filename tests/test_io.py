@@ -402,6 +402,16 @@ def test_depth_png16_refuses_and_writes_nothing(tmp_path):
     assert _listing(tmp_path) == []
 
 
+@pytest.mark.parametrize("name", ["d.pfm", "d.png"])
+def test_write_disparity_refuses_a_boolean_map_as_viz_and_geometry_do(tmp_path, name):
+    # one check of a map for every module (dcstereo._checks.disparity_array)
+    with pytest.raises(TypeError, match="^disparity must hold real numbers, got dtype bool$"):
+        io.write_disparity(tmp_path / name, np.ones((2, 2), bool))
+    with pytest.raises(ValueError, match=r"^disparity is empty \(shape \(0, 3\)\)$"):
+        io.write_disparity(tmp_path / name, np.ones((0, 3)))
+    assert _listing(tmp_path) == []
+
+
 def test_write_depth_dispatch(tmp_path):
     z = np.array([[1500.25, np.nan], [2.0, 7.75]], dtype=np.float32)
     assert io.write_depth(tmp_path / "z.pfm", z) == 0

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image, UnidentifiedImageError
 
-from ._checks import is_number
+from ._checks import disparity_array, is_number
 
 _PNG16_MAX = 65535
 _PFM_HEADER = re.compile(rb"(P[Ff])\s+(\S+)\s+(\S+)\s+(\S+)(?:\r\n|\s)")
@@ -883,11 +883,9 @@ def _check_not_empty(array: np.ndarray, name: str) -> None:
 
 def _check_map(values: np.ndarray, name: str = "disparity") -> np.ndarray:
     """Return a real, non-empty (H, W) map as float64 (``name`` in the messages)."""
-    v = _as_real_array(values, name)
-    if v.ndim != 2:
-        raise ValueError(f"{name} must be 2-D (H, W), got shape {v.shape}")
+    v = disparity_array(values, name)
     _check_not_empty(v, name)
-    return v.astype(np.float64)
+    return v
 
 
 def _check_scale(scale: float) -> float:
