@@ -295,8 +295,8 @@ def test_pins_of_the_ground_control_points_give_gcp_row(tmp_path):
 @pytest.mark.parametrize("cost", ["sad", "bt"])
 @pytest.mark.parametrize("seed", range(6))
 def test_gcp_on_bands_equals_the_row_kernel(cost, seed):
-    # dsi3-gcp: the points chosen row by row (match_gcp_rows, dp False), then the band DP through
-    # them, gives match_gcp_rows' maps, flags, path costs and points, bit for bit
+    # dsi3-gcp on the band kernels (the points of each row on the band's costs, the DP
+    # through them) gives match_gcp_rows' maps, flags, path costs and points, bit for bit
     rng = np.random.default_rng(640 + seed)
     height, width = int(rng.integers(3, 30)), int(rng.integers(30, 70))
     shift = int(rng.integers(0, 6))
@@ -1565,7 +1565,7 @@ def test_bt_on_bands_equals_the_row_kernels_on_middlebury(middlebury_root, scene
     got = dcstereo.match(data.left, data.right, **kw)
     assert len(got.features) > 1000
     assert_same_dc(expected, got)
-    for cost in ("sad", "bt"):  # dsi3-gcp: its DP on the bands, as row by row
+    for cost in ("sad", "bt"):  # dsi3-gcp: its points and DP on the bands, as row by row
         kw = dict(max_disparity=data.max_disparity, method="dsi3-gcp", cost=cost)
         got = dcstereo.match(data.left, data.right, **kw)
         with mock.patch.object(api, "BAND_ARRAY_BYTES", 0):

@@ -2489,6 +2489,76 @@ def _worth_splitting(a, c, b, e, i_lo, i_hi):
 
 
 @nb.njit(cache=True)
+def band_row_gcps(
+    cost, width, ndisp, r, dmin, radius, wta_k, keep, iwork, pins, pinned, partner_row
+):
+    """Intille and Bobick's ground control points of band row ``r``, as ``_kernels.select_gcps``.
+
+    ``cost`` and ``wta_k`` are the band's (``band_lane_costs``, ``band_block_match``);
+    ``keep`` (``band_feature_mask`` with the points' variance floor and uniqueness, no
+    guard) holds the window, variance, uniqueness and range tests. A survivor ``x`` with
+    match ``j`` is a candidate when it passes the exact left-right check (over the right
+    pixel's band every other left pixel costs strictly more); the points are the longest
+    run of candidates strictly increasing in ``j`` too, the first in lexicographic order
+    of the candidates. Each point ``x <-> j`` goes to ``pins[x * R + r]`` (which must hold
+    -1), ``pinned[x]`` and ``partner_row[x]`` (which must hold -1). Returns their number.
+    Scratch: ``iwork`` (int64, at least (3, width)). The longest-run part is a copy of
+    ``select_gcps``' (each kernel file stands alone: numba's cache does not see edits made
+    in another file).
+    """
+    nr = BAND_ROWS
+    nk = (ndisp + 2) * nr
+    cand_x = iwork[0]
+    cand_j = iwork[1]
+    length = iwork[2]
+    m = 0
+    for x in range(radius, width - radius):
+        if not keep[x * nr + r]:
+            continue
+        k = wta_k[x * nr + r]
+        j = x - dmin - k
+        best = cost[x * nk + (k + 1) * nr + r]
+        back = True
+        for k2 in range(ndisp):
+            x2 = j + dmin + k2
+            if x2 == x or x2 < 0 or x2 >= width:
+                continue
+            if cost[x2 * nk + (k2 + 1) * nr + r] <= best:
+                back = False
+                break
+        if not back:
+            continue
+        cand_x[m] = x
+        cand_j[m] = j
+        m += 1
+    # longest strictly increasing subsequence in j, lexicographically first in the index:
+    # ``length[i]``: the longest one that starts at candidate i
+    longest = 0
+    for i in range(m - 1, -1, -1):
+        best_len = 0
+        for i2 in range(i + 1, m):
+            if cand_j[i2] > cand_j[i] and length[i2] > best_len:
+                best_len = length[i2]
+        length[i] = best_len + 1
+        longest = max(longest, length[i])
+    n = 0
+    need = longest
+    last_j = -1
+    for i in range(m):
+        if need == 0:
+            break
+        if length[i] == need and cand_j[i] > last_j:
+            x = cand_x[i]
+            pins[x * nr + r] = cand_j[i]
+            pinned[x] = True
+            partner_row[x] = cand_j[i]
+            last_j = cand_j[i]
+            n += 1
+            need -= 1
+    return n
+
+
+@nb.njit(cache=True)
 def band_row_features(
     cost,
     width,
@@ -2890,6 +2960,7 @@ def match_band_rows(
     counts,
     clock=None,
     bt=None,
+    gcp=None,
 ):
     """Run the whole-scanline DP of every row, ``BAND_ROWS`` rows at a time.
 
@@ -2936,9 +3007,17 @@ def match_band_rows(
     are those of ``_kernels.match_dsi_rows`` and ``match_dc_rows`` with ``bt=True`` (or
     ``gcp_row``'s DP through the pins), bit for bit. None compiles to the function
     without the BT code.
+
+    ``gcp`` None: as above. Otherwise (``True``, with ``pin_mode`` 2) ``dsi3-gcp``: the pins
+    of each row are its ground control points (``band_row_gcps``, the points of
+    ``_kernels.select_gcps``; ``tests`` with the points' variance floor and uniqueness and
+    no guard), written to ``partner`` (as ``_kernels.match_gcp_rows``; ``pairs`` and
+    ``counts`` are not used), then as 1. None compiles to the function without that search.
     """
     if bt is not None and pin_mode == 3:
         raise ValueError("the Birchfield-Tomasi cost needs the band's cost array (pin_mode 0-2)")
+    if gcp is not None and pin_mode != 2:
+        raise ValueError("the ground control points need the band's cost array (pin_mode 2)")
     height, width = disp.shape
     height_p, width_p = left_p.shape
     nr = BAND_ROWS
@@ -3025,10 +3104,11 @@ def match_band_rows(
                     left_t, width, radius, steps, t > 0, colsum[0], colsq[0], hwork[0], hwork[1],
                     var_band[0],
                 )  # fmt: skip
-                band_lane_variance(
-                    right_t, width, radius, steps, t > 0, colsum[1], colsq[1], hwork[0], hwork[1],
-                    var_band[1],
-                )  # fmt: skip
+                if gcp is None:  # the points need no right-view variance
+                    band_lane_variance(
+                        right_t, width, radius, steps, t > 0, colsum[1], colsq[1], hwork[0],
+                        hwork[1], var_band[1],
+                    )  # fmt: skip
                 mark = _clock_add(clock, ch, _CLOCK_VARIANCES, mark)
                 # the block match only where the feature tests read it
                 band_strong_counts(var_band[0], width, tests[3], strong)
@@ -3055,6 +3135,14 @@ def match_band_rows(
                     if r * run + t >= n:
                         continue
                     y = y_a + r * run + t
+                    if gcp is not None:
+                        for x in range(width):
+                            partner[y, x] = -1
+                        band_row_gcps(
+                            cost, width, ndisp, r, dmin, radius, wta_k, keep, iwork, pins,
+                            pinned, partner[y],
+                        )  # fmt: skip
+                        continue
                     counts[y] = band_row_features(
                         cost,
                         width,
@@ -3119,7 +3207,7 @@ def match_band_rows(
                 # the row's anchor columns: its pairs, or the pins given (a scan without
                 # branches: each column writes the next entry, a pinned one keeps it)
                 nanchors = 0
-                if search:
+                if search and gcp is None:
                     nanchors = counts[y]
                     for i in range(nanchors):
                         anchor_x[i] = np.int64(pairs[y, i, 0])

@@ -1662,13 +1662,10 @@ def match_gcp_rows(
     flags,
     total,
     partner,
-    dp=True,
 ):
     """``dsi3`` through ground control points on every row (``gcp_row``); rows in parallel.
 
     ``partner[y, x] = j`` for each control point ``(y, x) <-> (y, j)``, -1 elsewhere.
-    ``dp`` False: the points only (``select_gcps``), into ``partner``; ``disp``, ``flags``
-    and ``total`` are left for the band DP through them (``pin_mode`` 1).
     """
     height, width = disp.shape
     wp = left_p.shape[1]
@@ -1690,11 +1687,6 @@ def match_gcp_rows(
             window_variance_row(left_p, y, radius, signal_steps, colsum, colsq, var_l, y > y0)
             for x in range(width):
                 partner[y, x] = -1
-            if not dp:
-                n = select_gcps(cost, var_l, dmin, radius, uniqueness, var_floor, gcp_x, gcp_j)
-                for i in range(n):
-                    partner[y, gcp_x[i]] = gcp_j[i]
-                continue
             for x in range(width):
                 disp[y, x] = np.nan
                 flags[y, x] = FLAG_BORDER

@@ -221,12 +221,14 @@ def _band_rows(
     tests=None,
     pairs=None,
     counts=None,
+    gcp=False,
 ):
     """Call ``_band_kernels.match_band_rows`` with ``params``' range, window and cost.
 
     ``outputs`` is ``(disparity, flags, total)``; the arrays a mode does not read are
     passed empty. ``tests`` None (no pins): the free-mode version compiles without the
-    search; the SAD cost passes ``bt`` None, so its version compiles without the BT code.
+    search; the SAD cost passes ``bt`` None, so its version compiles without the BT code,
+    and the search of ``dc`` passes ``gcp`` None (``gcp``: ``dsi3-gcp``'s points instead).
     """
     disparity, flags, total = outputs
     if partner is None:
@@ -254,6 +256,7 @@ def _band_rows(
         counts,
         clock,
         True if params.cost == "bt" else None,
+        True if gcp else None,
     )
 
 
@@ -410,10 +413,10 @@ def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
     least ``gcp_variance_floor`` whose whole-band match passes the ``gcp_uniqueness``
     ratio test and the exact left-right check, then the longest subset increasing in both
     ``x_left`` and ``x_right``. They come back as ``features`` (SER and VS NaN) and carry
-    ``FLAG_FEATURE``. The points are chosen row by row (``_kernels.match_gcp_rows``), then
-    the DP through them runs on the band kernels (``match_band_rows``' ``pin_mode`` 1; bit
-    for bit ``_kernels.gcp_row``'s segment-by-segment DP) while the band cost array fits
-    ``BAND_ARRAY_BYTES``, else row by row (``_kernels.match_gcp_rows``).
+    ``FLAG_FEATURE``. While the band cost array fits ``BAND_ARRAY_BYTES`` everything runs
+    on the band kernels (``match_band_rows``' ``gcp``: the band's costs and block match as
+    for ``dc``, the points of each row on them, the DP through them); else row by row
+    (``_kernels.match_gcp_rows``). Both give the same points and maps, bit for bit.
     """
     radius = params.window // 2
     left_p, right_p = _padded_signals(left, right, radius)
@@ -421,35 +424,33 @@ def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
     partner = np.empty(disparity.shape, dtype=np.int64)
     scale = cost_scale(params.window)
     occ2 = _doubled(params.occlusion_cost, scale)
-    on_bands = _band_array_fits(params, left.shape[1])
-    _kernels.match_gcp_rows(
-        left_p,
-        right_p,
-        params.min_disparity,
-        params.num_disparities,
-        radius,
-        params.cost == "bt",
-        occ2,
-        float(params.gcp_uniqueness),
-        float(params.gcp_variance_floor),
-        SIGNAL_STEPS,
-        nchunks,
-        disparity,
-        flags,
-        total,
-        partner,
-        not on_bands,  # on bands: the points only, the DP through them below
-    )
-    if on_bands:  # three steps through the pins of partner
+    if _band_array_fits(params, left.shape[1]):
+        tests = (0.0, 0.0, False, float(params.gcp_variance_floor), False,
+                 float(params.gcp_uniqueness), 0, SIGNAL_STEPS)  # fmt: skip
         outputs = (disparity, flags, total)
-        _band_rows(left_p, right_p, params, occ2, False, 0.0, outputs, None, 1, partner, _PIN_TESTS)
+        _band_rows(
+            left_p, right_p, params, occ2, False, 0.0, outputs, None, 2, partner, tests, gcp=True
+        )
+    else:
+        _kernels.match_gcp_rows(
+            left_p,
+            right_p,
+            params.min_disparity,
+            params.num_disparities,
+            radius,
+            params.cost == "bt",
+            occ2,
+            float(params.gcp_uniqueness),
+            float(params.gcp_variance_floor),
+            SIGNAL_STEPS,
+            nchunks,
+            disparity,
+            flags,
+            total,
+            partner,
+        )
     features = _features(partner, flags)
     return DisparityResult(disparity, flags, params, total / (2.0 * scale), features)
-
-
-#: ``tests`` of ``match_band_rows`` with pins given from outside (``pin_mode`` 1: no
-#: search reads them; the types of ``dc``'s tuple).
-_PIN_TESTS = (0.0, 0.0, False, 0.0, False, 0.0, 0, 1)
 
 
 _METHODS: dict[str, Callable[[np.ndarray, np.ndarray, MatchParams], DisparityResult]] = {
