@@ -323,6 +323,39 @@ def test_gcp_on_bands_equals_the_row_kernel(cost, seed):
     assert len(got.features) > 0  # the DP goes through points
 
 
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    st.integers(1, 19),  # height
+    st.integers(1, 30),  # width
+    st.integers(0, 2**32 - 1),  # seed
+    st.sampled_from(["sad", "bt"]),
+    st.sampled_from([0.0, 1.2, 3.0]),  # gcp_uniqueness
+    st.sampled_from([0.0, 50.0]),  # gcp_variance_floor
+)
+def test_gcp_on_bands_equals_the_row_kernel_at_any_size(
+    height, width, seed, cost, uniqueness, floor
+):
+    # idle lanes, rows shorter than the window's reach, ranges past either end
+    rng = np.random.default_rng(seed)
+    window = int(rng.choice([w for w in (1, 3, 5) if w <= min(height, width)]))
+    dmin = int(rng.integers(-(width - 1), width))
+    dmax = int(rng.integers(dmin, width))
+    shift = int(rng.integers(0, 4))
+    texture = rng.integers(0, 256, (height, width + 4)).astype(np.uint8)
+    left, right = texture[:, shift : shift + width], texture[:, :width]
+    kw = dict(
+        max_disparity=dmax, min_disparity=dmin, window=window, method="dsi3-gcp", cost=cost,
+        gcp_uniqueness=uniqueness, gcp_variance_floor=floor,
+    )  # fmt: skip
+    got = dcstereo.match(left, right, **kw)
+    with mock.patch.object(api, "BAND_ARRAY_BYTES", 0):
+        expected = dcstereo.match(left, right, **kw)
+    assert got.disparity.tobytes() == expected.disparity.tobytes()
+    np.testing.assert_array_equal(got.flags, expected.flags)
+    np.testing.assert_array_equal(got.path_cost, expected.path_cost)
+    np.testing.assert_array_equal(got.features, expected.features)
+
+
 @st.composite
 def problems(draw):
     height = draw(st.integers(1, 19))
