@@ -425,6 +425,8 @@ def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
     scale = cost_scale(params.window)
     occ2 = _doubled(params.occlusion_cost, scale)
     if _band_array_fits(params, left.shape[1]):
+        # dc's tests tuple, of which the points read the variance floor, the uniqueness
+        # and the signal steps (band_feature_mask, band_lane_variance); no guard (0)
         tests = (0.0, 0.0, False, float(params.gcp_variance_floor), False,
                  float(params.gcp_uniqueness), 0, SIGNAL_STEPS)  # fmt: skip
         outputs = (disparity, flags, total)
