@@ -1,5 +1,7 @@
 """Shared fixtures: where the Middlebury development data lives, a small pair on disk."""
 
+import os
+
 import numpy as np
 import pytest
 from PIL import Image
@@ -29,3 +31,22 @@ def pair(tmp_path):
     Image.fromarray(left).save(tmp_path / "left.png")
     Image.fromarray(right).save(tmp_path / "right.png")
     return tmp_path, truth
+
+
+@pytest.fixture
+def refuse_move(monkeypatch):
+    """``refuse_move(name, error=None)``: make ``os.replace`` of a hidden temporary file onto
+    a path named ``name`` raise ``error`` (a permission error by default); other moves run."""
+    real = os.replace
+
+    def refuse(name, error=None):
+        error = error or PermissionError(13, "Permission denied")
+
+        def replace(src, dst):
+            if os.path.basename(dst) == name and os.path.basename(src).startswith("."):
+                raise error
+            return real(src, dst)
+
+        monkeypatch.setattr(os, "replace", replace)
+
+    return refuse

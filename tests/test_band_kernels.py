@@ -292,6 +292,18 @@ def test_pins_of_the_ground_control_points_give_gcp_row(tmp_path):
     assert_same(expected, banded(left, right, 0, ndisp, radius, 3000.0, False, 0.0, partner))
 
 
+def gcp_bands_equal_rows(left, right, kw):
+    """Assert that ``dsi3-gcp`` on the bands gives ``match_gcp_rows``' result; return it."""
+    got = dcstereo.match(left, right, **kw)
+    with mock.patch.object(api, "BAND_ARRAY_BYTES", 0):
+        expected = dcstereo.match(left, right, **kw)
+    assert got.disparity.tobytes() == expected.disparity.tobytes()
+    np.testing.assert_array_equal(got.flags, expected.flags)
+    np.testing.assert_array_equal(got.path_cost, expected.path_cost)
+    np.testing.assert_array_equal(got.features, expected.features)
+    return got
+
+
 @pytest.mark.parametrize("cost", ["sad", "bt"])
 @pytest.mark.parametrize("seed", range(6))
 def test_gcp_on_bands_equals_the_row_kernel(cost, seed):
@@ -313,13 +325,7 @@ def test_gcp_on_bands_equals_the_row_kernel(cost, seed):
         gcp_uniqueness=float(rng.choice([1.2, 3.0])),
         gcp_variance_floor=float(rng.choice([0.0, 50.0])),
     )
-    got = dcstereo.match(left, right, **kw)
-    with mock.patch.object(api, "BAND_ARRAY_BYTES", 0):
-        expected = dcstereo.match(left, right, **kw)
-    assert got.disparity.tobytes() == expected.disparity.tobytes()
-    np.testing.assert_array_equal(got.flags, expected.flags)
-    np.testing.assert_array_equal(got.path_cost, expected.path_cost)
-    np.testing.assert_array_equal(got.features, expected.features)
+    got = gcp_bands_equal_rows(left, right, kw)
     assert len(got.features) > 0  # the DP goes through points
 
 
@@ -347,13 +353,7 @@ def test_gcp_on_bands_equals_the_row_kernel_at_any_size(
         max_disparity=dmax, min_disparity=dmin, window=window, method="dsi3-gcp", cost=cost,
         gcp_uniqueness=uniqueness, gcp_variance_floor=floor,
     )  # fmt: skip
-    got = dcstereo.match(left, right, **kw)
-    with mock.patch.object(api, "BAND_ARRAY_BYTES", 0):
-        expected = dcstereo.match(left, right, **kw)
-    assert got.disparity.tobytes() == expected.disparity.tobytes()
-    np.testing.assert_array_equal(got.flags, expected.flags)
-    np.testing.assert_array_equal(got.path_cost, expected.path_cost)
-    np.testing.assert_array_equal(got.features, expected.features)
+    gcp_bands_equal_rows(left, right, kw)
 
 
 @st.composite
@@ -1600,9 +1600,5 @@ def test_bt_on_bands_equals_the_row_kernels_on_middlebury(middlebury_root, scene
     assert_same_dc(expected, got)
     for cost in ("sad", "bt"):  # dsi3-gcp: its points and DP on the bands, as row by row
         kw = dict(max_disparity=data.max_disparity, method="dsi3-gcp", cost=cost)
-        got = dcstereo.match(data.left, data.right, **kw)
-        with mock.patch.object(api, "BAND_ARRAY_BYTES", 0):
-            expected = dcstereo.match(data.left, data.right, **kw)
+        got = gcp_bands_equal_rows(data.left, data.right, kw)
         assert len(got.features) > 1000
-        assert_same_dc(expected, got)
-        np.testing.assert_array_equal(got.path_cost, expected.path_cost)

@@ -1,7 +1,5 @@
 """What the commands write: never over an input, all outputs or none, only real formats."""
 
-import os
-
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -109,21 +107,14 @@ def test_run_leaves_no_partial_outputs_when_a_later_write_fails(folder, monkeypa
 @pytest.mark.parametrize("failing", ["part.pfm", "part.png", "part.csv"])
 @pytest.mark.parametrize("existing", [False, True])
 def test_run_puts_the_outputs_back_when_a_move_fails_partway(
-    folder, monkeypatch, existing, failing
+    folder, refuse_move, existing, failing
 ):
     # every output is written; moving one onto its name fails (its folder's permissions
     # changed during the run, say): those moved already are put back
     if existing:
         for name in ("part.pfm", "part.png", "part.csv"):
             (folder / name).write_text("old")
-    real = os.replace
-
-    def replace(src, dst):
-        if os.path.basename(dst) == failing and os.path.basename(src).startswith("."):
-            raise PermissionError(13, "Permission denied")
-        return real(src, dst)
-
-    monkeypatch.setattr(os, "replace", replace)
+    refuse_move(failing)
     before = snapshot(folder)
     result = invoke(
         folder, "run", *PAIR, "-o", "part.pfm", "--preview", "part.png",

@@ -74,19 +74,6 @@ def _contents(directory):
     }
 
 
-def _refuse_move_onto(monkeypatch, name, error=None):
-    """Make ``os.replace`` of a temporary file onto NAME fail; other moves run as usual."""
-    real = os.replace
-    error = error or PermissionError(13, "Permission denied")
-
-    def replace(src, dst):
-        if os.path.basename(dst) == name and os.path.basename(src).startswith("."):
-            raise error
-        return real(src, dst)
-
-    monkeypatch.setattr(os, "replace", replace)
-
-
 def test_atomic_writes_moves_the_group_at_the_end(tmp_path):
     (tmp_path / "b.txt").write_bytes(b"old b")
     with io.atomic_writes() as stage:
@@ -111,7 +98,7 @@ def test_atomic_writes_failure_in_the_block_leaves_the_old_group(tmp_path):
 
 @pytest.mark.parametrize("links", [True, False], ids=["hard links", "copies"])
 def test_atomic_writes_a_move_failing_partway_puts_the_moved_ones_back(
-    tmp_path, monkeypatch, links
+    tmp_path, monkeypatch, refuse_move, links
 ):
     (tmp_path / "b.txt").write_bytes(b"old b")
     (tmp_path / "c.txt").write_bytes(b"old c")
@@ -123,7 +110,7 @@ def test_atomic_writes_a_move_failing_partway_puts_the_moved_ones_back(
             raise OSError(1, "Operation not permitted")
 
         monkeypatch.setattr(os, "link", no_link)
-    _refuse_move_onto(monkeypatch, "c.txt")
+    refuse_move("c.txt")
     msg = f"^cannot write '{tmp_path / 'c.txt'}': permission denied$"
     with pytest.raises(ValueError, match=msg):
         with io.atomic_writes() as stage:
@@ -134,10 +121,10 @@ def test_atomic_writes_a_move_failing_partway_puts_the_moved_ones_back(
     assert (tmp_path / "link.txt").is_symlink()
 
 
-def test_atomic_writes_an_interrupted_move_puts_the_moved_ones_back(tmp_path, monkeypatch):
+def test_atomic_writes_an_interrupted_move_puts_the_moved_ones_back(tmp_path, refuse_move):
     (tmp_path / "a.txt").write_bytes(b"old a")
     before = _contents(tmp_path)
-    _refuse_move_onto(monkeypatch, "b.txt", KeyboardInterrupt())
+    refuse_move("b.txt", KeyboardInterrupt())
     with pytest.raises(KeyboardInterrupt):
         with io.atomic_writes() as stage:
             stage(tmp_path / "a.txt").write_bytes(b"new a")
@@ -145,7 +132,7 @@ def test_atomic_writes_an_interrupted_move_puts_the_moved_ones_back(tmp_path, mo
     assert _contents(tmp_path) == before
 
 
-def test_atomic_writes_without_a_second_name_keeps_the_new_file(tmp_path, monkeypatch):
+def test_atomic_writes_without_a_second_name_keeps_the_new_file(tmp_path, monkeypatch, refuse_move):
     # neither a hard link nor a copy can be made: the moved file cannot be put back, and
     # is kept rather than removed (the old contents are gone either way)
     (tmp_path / "a.txt").write_bytes(b"old a")
@@ -155,7 +142,7 @@ def test_atomic_writes_without_a_second_name_keeps_the_new_file(tmp_path, monkey
 
     monkeypatch.setattr(os, "link", refuse)
     monkeypatch.setattr(io.shutil, "copy2", refuse)
-    _refuse_move_onto(monkeypatch, "b.txt")
+    refuse_move("b.txt")
     with pytest.raises(ValueError, match="cannot write .*b.txt': permission denied"):
         with io.atomic_writes() as stage:
             stage(tmp_path / "a.txt").write_bytes(b"new a")
