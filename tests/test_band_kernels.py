@@ -292,16 +292,73 @@ def test_pins_of_the_ground_control_points_give_gcp_row(tmp_path):
     assert_same(expected, banded(left, right, 0, ndisp, radius, 3000.0, False, 0.0, partner))
 
 
+def gcp_in_mode(mode, left, right, **kw):
+    """``dsi3-gcp`` forced into one way of running (``api._gcp_band_mode``; 0: row by row)."""
+    with mock.patch.object(api, "_gcp_band_mode", lambda params, width: mode):
+        return dcstereo.match(left, right, **kw)
+
+
 def gcp_bands_equal_rows(left, right, kw):
-    """Assert that ``dsi3-gcp`` on the bands gives ``match_gcp_rows``' result; return it."""
-    got = dcstereo.match(left, right, **kw)
-    with mock.patch.object(api, "BAND_ARRAY_BYTES", 0):
-        expected = dcstereo.match(left, right, **kw)
-    assert got.disparity.tobytes() == expected.disparity.tobytes()
-    np.testing.assert_array_equal(got.flags, expected.flags)
-    np.testing.assert_array_equal(got.path_cost, expected.path_cost)
-    np.testing.assert_array_equal(got.features, expected.features)
+    """Assert that ``dsi3-gcp`` on the bands gives ``match_gcp_rows``' result; return it.
+
+    The bands with their cost array (mode 2) and, for SAD, without it (mode 3: the
+    left-right check on the two least costs of each right pixel).
+    """
+    expected = gcp_in_mode(0, left, right, **kw)
+    modes = (2, 3) if kw.get("cost", "sad") == "sad" else (2,)
+    for mode in modes:
+        got = gcp_in_mode(mode, left, right, **kw)
+        assert got.disparity.tobytes() == expected.disparity.tobytes(), mode
+        np.testing.assert_array_equal(got.flags, expected.flags)
+        np.testing.assert_array_equal(got.path_cost, expected.path_cost)
+        np.testing.assert_array_equal(got.features, expected.features)
     return got
+
+
+def test_gcp_runs_as_dc_does_by_the_band_array():
+    # dc's bound on the kept array: past it the SAD costs are made twice (mode 3), the BT
+    # cost runs row by row; and the default path is the one these tests compare
+    params = dcstereo.MatchParams(max_disparity=63, method="dsi3-gcp")
+    assert api._gcp_band_mode(params, 1900) == 2
+    assert api._gcp_band_mode(params, 2100) == 3
+    assert api._gcp_band_mode(dcstereo.MatchParams(max_disparity=255, method="dsi3-gcp"), 3000) == 3
+    bt = dcstereo.MatchParams(max_disparity=63, method="dsi3-gcp", cost="bt")
+    assert api._gcp_band_mode(bt, 1900) == 2
+    assert api._gcp_band_mode(bt, 2100) == 0
+    rng = np.random.default_rng(8)
+    left = rng.integers(0, 256, (12, 40)).astype(np.uint8)
+    right = np.roll(left, 3, axis=1)
+    default = dcstereo.match(left, right, max_disparity=7, method="dsi3-gcp")
+    forced = gcp_in_mode(2, left, right, max_disparity=7, method="dsi3-gcp")
+    assert default.disparity.tobytes() == forced.disparity.tobytes()
+    with mock.patch.object(api, "DC_BAND_BYTES", 0):  # the bound reaches the choice
+        assert api._gcp_band_mode(params, 40) == 3
+        assert api._gcp_band_mode(bt, 40) == 0
+
+
+def test_gcp_diagonals_are_the_two_least_costs_of_each_right_pixel():
+    # _gcp_diagonals over every column of a band against each right pixel's costs sorted:
+    # the least, and the second counted with repeats (ties are common: small integers)
+    rng = np.random.default_rng(21)
+    nr = _band_kernels.BAND_ROWS
+    for width, dmin, ndisp in ((30, 0, 7), (25, -4, 9), (12, 3, 20), (9, -12, 6), (16, 0, 1)):
+        cost = rng.integers(0, 6, (width, ndisp + 2, nr)).astype(np.float64)
+        cost[:, 0] = cost[:, -1] = np.inf
+        least = np.full(width * nr, np.inf)
+        second = np.full(width * nr, np.inf)
+        flat = cost.ravel()
+        for x in range(width):
+            _band_kernels._gcp_diagonals(
+                flat, np.uint64(x * (ndisp + 2) * nr), x, dmin, ndisp, width, least, second
+            )
+        for j in range(width):
+            for r in range(nr):
+                values = sorted(
+                    cost[j + dmin + k, k + 1, r] for k in range(ndisp) if 0 <= j + dmin + k < width
+                )
+                i = (width - 1 - j) * nr + r
+                assert least[i] == (values[0] if values else np.inf)
+                assert second[i] == (values[1] if len(values) > 1 else np.inf)
 
 
 @pytest.mark.parametrize("cost", ["sad", "bt"])
@@ -740,6 +797,8 @@ def test_band_kernels_run_as_plain_python():
         t.assert_same(
             t.block_per_row(left.astype(np.int32), right.astype(np.int32), -1, 4, 1, bt=True),
             t.block_banded(left.astype(np.int32), right.astype(np.int32), -1, 4, 1, bt=True))
+        gcp = dict(max_disparity=4, window=3, method="dsi3-gcp")
+        assert len(t.gcp_bands_equal_rows(left, right, gcp).features) > 0  # modes 2 and 3
         placed = t._band_kernels._placed(17, np.float64, 3)
         assert placed.shape == (17,) and placed.ctypes.data % 4096 == 3 * 448 % 4096
         print("ok")

@@ -8,7 +8,7 @@ from PIL import Image
 import dcstereo
 import naive_gcp_bt
 import synthetic
-from dcstereo import _kernels, io
+from dcstereo import _band_kernels, _kernels, io
 from dcstereo.cli import main
 from dcstereo.result import FLAG_FEATURE
 
@@ -59,6 +59,24 @@ def test_brute_force_cases_include_crossing_candidates():
         kept, found = naive_gcp_bt.select_gcps(*random_selection_case(seed))
         dropped += len(found) > len(kept)
     assert dropped >= 3
+
+
+@pytest.mark.parametrize("kernels", [_kernels, _band_kernels])  # each file has its copy
+@pytest.mark.parametrize("m", [0, 1, 2, 7, 60, 2500])
+def test_run_lengths_are_the_longest_increasing_runs_from_each_candidate(kernels, m):
+    # the O(m log m) lengths against their definition: 1 + the longest from a later
+    # candidate of larger j (m = 2500: a wide textured row's candidates)
+    rng = np.random.default_rng(m)
+    for values in (rng.permutation(3 * m)[:m], rng.integers(0, max(m // 3, 1), m), np.arange(m)):
+        cand_j = values.astype(np.int64)
+        length = np.zeros(m, dtype=np.int64)
+        longest = kernels._run_lengths(cand_j, m, length, np.empty(m, dtype=np.int64))
+        expected = np.zeros(m, dtype=np.int64)
+        for i in range(m - 1, -1, -1):
+            later = expected[i + 1 :][cand_j[i + 1 :] > cand_j[i]]
+            expected[i] = 1 + (later.max() if len(later) else 0)
+        np.testing.assert_array_equal(length, expected)
+        assert longest == (expected.max() if m else 0)
 
 
 def test_gcp_selection_by_hand():

@@ -2097,7 +2097,7 @@ def _keyed_column_compiled(cost, o, nblocks, scale, numbers, wta_k, wta_ratio, i
 @nb.njit(cache=True)
 def band_block_match(
     cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio, make_costs=None,
-    wanted=None, done=None, fused=None,
+    wanted=None, done=None, fused=None, diagonals=None,
 ):  # fmt: skip
     """Whole-band block match of every left pixel of the ``R`` rows of a band.
 
@@ -2143,6 +2143,12 @@ def band_block_match(
     ``band_lane_costs``' ``match`` does for the band's array (the caller checks
     ``_keys_fit``); they are matched whether ``wanted`` or not (the same values: the
     feature tests read only the wanted columns).
+
+    ``diagonals`` (with ``make_costs`` only) None: nothing more. Otherwise ``(least, second,
+    best)`` for ``dsi3-gcp`` without the band's cost array: each column made is folded
+    into ``least`` and ``second`` (``_gcp_diagonals``; they must hold inf before the band)
+    and each matched column's least cost goes to ``best`` (``_gcp_best``; the columns left
+    out by ``wanted`` keep what they held), what ``band_row_gcps`` reads.
     """
     nr = BAND_ROWS
     unr = np.uint64(nr)
@@ -2178,11 +2184,18 @@ def band_block_match(
                         np.uint64(sub) * nkc, unr, nkc, width_p, shift, wta_k, wta_ratio,
                         np.uint64(x) * unr,
                     )  # fmt: skip
+                    if diagonals is not None:
+                        least, second, best = diagonals
+                        _gcp_diagonals(cost, o, x, dmin, ndisp, width, least, second)
+                        _gcp_best(cost, o, x, wta_k, best)
                     continue
             _cost_column(
                 left_t, right_t, x, width, dmin, ndisp, radius, spread, vs, incremental, hsum,
                 cost, o,
             )  # fmt: skip
+            if diagonals is not None:
+                least, second, best = diagonals
+                _gcp_diagonals(cost, o, x, dmin, ndisp, width, least, second)
         if wanted is not None:
             counts, guard = wanted
             if counts[min(x + guard + 1, width)] == counts[max(x - guard, 0)]:
@@ -2192,6 +2205,8 @@ def band_block_match(
                 continue
         if x_int_lo <= x < x_int_hi:
             _keyed_column(cost, o, nblocks, scale, numbers, wta_k, wta_ratio, np.uint64(x) * unr)
+            if diagonals is not None:
+                _gcp_best(cost, o, x, wta_k, diagonals[2])
             continue
         for i in range(unr):
             pre[i] = cost[o + i]  # the padding cells: inf
@@ -2217,6 +2232,44 @@ def band_block_match(
                 wta_ratio[i] = second / best
             else:
                 wta_ratio[i] = inf if second > 0 else 1.0
+        if diagonals is not None:
+            _gcp_best(cost, o, x, wta_k, diagonals[2])
+
+
+@nb.njit(cache=True, inline="always")
+def _gcp_diagonals(cost, o, x, dmin, ndisp, width, least, second):
+    """Fold column ``x`` (at ``cost[o:]``) into the two least costs of each right pixel.
+
+    ``least[(width - 1 - j) * R + r]`` and ``second[...]`` (right pixels in reverse order)
+    are the least and the second least (counted with repeats: equal to the least where it
+    occurs twice) of lane ``r``'s costs of right pixel ``j``, over the left pixels
+    ``x2 = j + dmin + k2`` of the row: the diagonal of the band's costs that
+    ``_kernels.select_gcps``' left-right check walks. Only the cells with
+    ``0 <= j < width`` are folded (the others are inf). In reverse order a column's
+    right pixels ``j = x - dmin - k`` follow its cells, so the fold is one flat loop (a
+    vector loop; numba leaves the SLP vectorizer off).
+    """
+    nr = BAND_ROWS
+    k_lo = max(0, x - dmin - width + 1)
+    k_hi = min(ndisp, x - dmin + 1)
+    if k_hi <= k_lo:
+        return
+    oc = o + np.uint64((k_lo + 1) * nr)
+    od = np.uint64((width - 1 - x + dmin + k_lo) * nr)
+    for i in range(np.uint64((k_hi - k_lo) * nr)):
+        v = cost[oc + i]
+        m = least[od + i]
+        second[od + i] = min(second[od + i], max(m, v))
+        least[od + i] = min(m, v)
+
+
+@nb.njit(cache=True, inline="always")
+def _gcp_best(cost, o, x, wta_k, best):
+    """``best[x * R + r]``: lane ``r``'s cost at its match ``wta_k`` (inf: none)."""
+    nr = BAND_ROWS
+    for r in range(nr):
+        k = wta_k[x * nr + r]
+        best[x * nr + r] = cost[o + np.uint64((k + 1) * nr + r)] if k >= 0 else np.inf
 
 
 @nb.njit(cache=True, inline="always")
@@ -2489,22 +2542,59 @@ def _worth_splitting(a, c, b, e, i_lo, i_hi):
 
 
 @nb.njit(cache=True)
+def _run_lengths(cand_j, m, length, tails):
+    """``length[i]``: the longest run strictly increasing in ``cand_j`` from candidate ``i``.
+
+    Returns the longest of all. O(m log m): from the last candidate back, ``tails[L - 1]``
+    is the largest ``j`` that starts a run of length ``L`` among the candidates after
+    ``i``, strictly decreasing in ``L`` (a run's second element starts a shorter one with
+    a larger ``j``), so the runs that ``i`` can start are a binary search away. The same
+    lengths as ``max(length[i2] for i2 > i with cand_j[i2] > cand_j[i]) + 1``, which
+    became O(m^2) on wide textured rows (thousands of candidates). ``tails``: scratch of
+    ``m``.
+    """
+    longest = 0
+    for i in range(m - 1, -1, -1):
+        v = cand_j[i]
+        lo = 0  # the count of tails above v: a prefix
+        hi = longest
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if tails[mid] > v:
+                lo = mid + 1
+            else:
+                hi = mid
+        length[i] = lo + 1
+        tails[lo] = v  # tails[lo] <= v, or a new length
+        if lo == longest:
+            longest += 1
+    return longest
+
+
+@nb.njit(cache=True)
 def band_row_gcps(
-    cost, width, ndisp, r, dmin, radius, wta_k, keep, iwork, pins, pinned, partner_row
-):
+    cost, width, ndisp, r, dmin, radius, wta_k, keep, iwork, pins, pinned, partner_row,
+    diagonals=None,
+):  # fmt: skip
     """Intille and Bobick's ground control points of band row ``r``, as ``_kernels.select_gcps``.
 
-    ``cost`` and ``wta_k`` are the band's (``band_lane_costs``, ``band_block_match``);
-    ``keep`` (``band_feature_mask`` with the points' variance floor and uniqueness, no
-    guard) holds the window, variance, uniqueness and range tests. A survivor ``x`` with
-    match ``j`` is a candidate when it passes the exact left-right check (over the right
-    pixel's band every other left pixel costs strictly more); the points are the longest
-    run of candidates strictly increasing in ``j`` too, the first in lexicographic order
-    of the candidates. Each point ``x <-> j`` goes to ``pins[x * R + r]`` (which must hold
-    -1), ``pinned[x]`` and ``partner_row[x]`` (which must hold -1). Returns their number.
-    Scratch: ``iwork`` (int64, at least (3, width)). The longest-run part is a copy of
-    ``select_gcps``' (each kernel file stands alone: numba's cache does not see edits made
-    in another file).
+    ``wta_k`` is the band's block match (``band_block_match``); ``keep``
+    (``band_feature_mask`` with the points' variance floor and uniqueness, no guard) holds
+    the window, variance, uniqueness and range tests. A survivor ``x`` with match ``j`` is
+    a candidate when it passes the exact left-right check: over the right pixel's band
+    every other left pixel costs strictly more. ``diagonals`` None: the check walks the
+    band's cost array ``cost`` (``band_lane_costs``), up to the first left pixel that costs
+    no more. Otherwise ``(least, second, best)``, for a band without the array (``cost``
+    is not read): the pixel's cost ``best[x * R + r]`` must be the least of the right
+    pixel's costs, and no other equal to it (``least`` and ``second``, ``_gcp_diagonals``'
+    order; ``band_block_match``' ``diagonals``). On a band's array the walk is the faster:
+    few survivors, most of them stopped early. The points are the longest run of
+    candidates strictly increasing in ``j`` too, the first in lexicographic order of the
+    candidates. Each point ``x <-> j`` goes to ``pins[x * R + r]`` (which must hold -1),
+    ``pinned[x]`` and ``partner_row[x]`` (which must hold -1). Returns their number.
+    Scratch: ``iwork`` (int64, at least (4, width)). The longest-run part is a copy of
+    ``select_gcps``' (``_run_lengths`` too: each kernel file stands alone, numba's cache
+    does not see edits made in another file).
     """
     nr = BAND_ROWS
     nk = (ndisp + 2) * nr
@@ -2517,30 +2607,30 @@ def band_row_gcps(
             continue
         k = wta_k[x * nr + r]
         j = x - dmin - k
-        best = cost[x * nk + (k + 1) * nr + r]
-        back = True
-        for k2 in range(ndisp):
-            x2 = j + dmin + k2
-            if x2 == x or x2 < 0 or x2 >= width:
+        if diagonals is None:
+            best = cost[x * nk + (k + 1) * nr + r]
+            back = True
+            for k2 in range(ndisp):
+                x2 = j + dmin + k2
+                if x2 == x or x2 < 0 or x2 >= width:
+                    continue
+                if cost[x2 * nk + (k2 + 1) * nr + r] <= best:
+                    back = False
+                    break
+            if not back:
                 continue
-            if cost[x2 * nk + (k2 + 1) * nr + r] <= best:
-                back = False
-                break
-        if not back:
-            continue
+        else:
+            least, second, best_cost = diagonals
+            best = best_cost[x * nr + r]
+            i = (width - 1 - j) * nr + r  # _gcp_diagonals' order
+            if not (least[i] == best and second[i] > best):
+                continue
         cand_x[m] = x
         cand_j[m] = j
         m += 1
     # longest strictly increasing subsequence in j, lexicographically first in the index:
     # ``length[i]``: the longest one that starts at candidate i
-    longest = 0
-    for i in range(m - 1, -1, -1):
-        best_len = 0
-        for i2 in range(i + 1, m):
-            if cand_j[i2] > cand_j[i] and length[i2] > best_len:
-                best_len = length[i2]
-        length[i] = best_len + 1
-        longest = max(longest, length[i])
+    longest = _run_lengths(cand_j, m, length, iwork[3])
     n = 0
     need = longest
     last_j = -1
@@ -3008,16 +3098,19 @@ def match_band_rows(
     ``gcp_row``'s DP through the pins), bit for bit. None compiles to the function
     without the BT code.
 
-    ``gcp`` None: as above. Otherwise (``True``, with ``pin_mode`` 2) ``dsi3-gcp``: the pins
-    of each row are its ground control points (``band_row_gcps``, the points of
+    ``gcp`` None: as above. Otherwise (``True``, with ``pin_mode`` 2 or 3) ``dsi3-gcp``: the
+    pins of each row are its ground control points (``band_row_gcps``, the points of
     ``_kernels.select_gcps``; ``tests`` with the points' variance floor and uniqueness and
     no guard), written to ``partner`` (as ``_kernels.match_gcp_rows``; ``pairs`` and
-    ``counts`` are not used), then as 1. None compiles to the function without that search.
+    ``counts`` are not used), then as 1. Their left-right check walks the band's array in
+    mode 2; in mode 3 it reads the two least costs of each right pixel, which the block
+    match folds in as it makes each column (``band_block_match``' ``diagonals``). None
+    compiles to the function without that search.
     """
     if bt is not None and pin_mode == 3:
         raise ValueError("the Birchfield-Tomasi cost needs the band's cost array (pin_mode 0-2)")
-    if gcp is not None and pin_mode != 2:
-        raise ValueError("the ground control points need the band's cost array (pin_mode 2)")
+    if gcp is not None and pin_mode != 2 and pin_mode != 3:
+        raise ValueError("the ground control points are a search (pin_mode 2 or 3)")
     height, width = disp.shape
     height_p, width_p = left_p.shape
     nr = BAND_ROWS
@@ -3079,6 +3172,10 @@ def match_band_rows(
         stack = _placed((nwork + 2) * 6, np.int64, 26).reshape((nwork + 2, 6))
         strong = _placed(nwork + 1, np.int64, 8)
         done = _placed(width, np.uint8, 27)  # columns the cost pass matched
+        ngcp = nwork * nr if gcp is not None and made else 1
+        gcp_least = _placed(ngcp, np.float64, 30)  # band_row_gcps' left-right check
+        gcp_second = _placed(ngcp, np.float64, 31)
+        gcp_best = _placed(ngcp, np.float64, 0)
         for t in range(run):
             mark = _clock_mark(clock)
             nt = _lane_rows(t, y_a, run, n, radius, height_p, rows)
@@ -3113,7 +3210,17 @@ def match_band_rows(
                 # the block match only where the feature tests read it
                 band_strong_counts(var_band[0], width, tests[3], strong)
                 wanted = (strong, _guard_columns(tests[6]))
-                if made:
+                if made and gcp is not None:
+                    for i in range(width * nr):
+                        gcp_least[i] = np.inf
+                        gcp_second[i] = np.inf
+                    band_block_match(
+                        cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio,
+                        (left_t, right_t, dmin, radius, spread, vs, int(t > 0), hsum), wanted,
+                        None, (x_int_lo, fused_hi, key_shift),
+                        (gcp_least, gcp_second, gcp_best),
+                    )  # fmt: skip
+                elif made:
                     band_block_match(
                         cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio,
                         (left_t, right_t, dmin, radius, spread, vs, int(t > 0), hsum), wanted,
@@ -3138,10 +3245,16 @@ def match_band_rows(
                     if gcp is not None:
                         for x in range(width):
                             partner[y, x] = -1
-                        band_row_gcps(
-                            cost, width, ndisp, r, dmin, radius, wta_k, keep, iwork, pins,
-                            pinned, partner[y],
-                        )  # fmt: skip
+                        if made:
+                            band_row_gcps(
+                                cost, width, ndisp, r, dmin, radius, wta_k, keep, iwork, pins,
+                                pinned, partner[y], (gcp_least, gcp_second, gcp_best),
+                            )  # fmt: skip
+                        else:
+                            band_row_gcps(
+                                cost, width, ndisp, r, dmin, radius, wta_k, keep, iwork, pins,
+                                pinned, partner[y],
+                            )  # fmt: skip
                         continue
                     counts[y] = band_row_features(
                         cost,

@@ -1500,6 +1500,36 @@ def confidence_rows(left_p, right_p, disparity, wanted, dmin, ndisp, radius, bt,
 
 
 @nb.njit(cache=True)
+def _run_lengths(cand_j, m, length, tails):
+    """``length[i]``: the longest run strictly increasing in ``cand_j`` from candidate ``i``.
+
+    Returns the longest of all. O(m log m): from the last candidate back, ``tails[L - 1]``
+    is the largest ``j`` that starts a run of length ``L`` among the candidates after
+    ``i``, strictly decreasing in ``L`` (a run's second element starts a shorter one with
+    a larger ``j``), so the runs that ``i`` can start are a binary search away. The same
+    lengths as ``max(length[i2] for i2 > i with cand_j[i2] > cand_j[i]) + 1``, which
+    became O(m^2) on wide textured rows (thousands of candidates). ``tails``: scratch of
+    ``m``.
+    """
+    longest = 0
+    for i in range(m - 1, -1, -1):
+        v = cand_j[i]
+        lo = 0  # the count of tails above v: a prefix
+        hi = longest
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if tails[mid] > v:
+                lo = mid + 1
+            else:
+                hi = mid
+        length[i] = lo + 1
+        tails[lo] = v  # tails[lo] <= v, or a new length
+        if lo == longest:
+            longest += 1
+    return longest
+
+
+@nb.njit(cache=True)
 def select_gcps(cost, var_l, dmin, radius, uniqueness, var_floor, gcp_x, gcp_j):
     """Ground control points of one scanline (Intille and Bobick): returns their number.
 
@@ -1549,15 +1579,8 @@ def select_gcps(cost, var_l, dmin, radius, uniqueness, var_floor, gcp_x, gcp_j):
         m += 1
     # longest strictly increasing subsequence in j, lexicographically first in the index:
     # ``length[i]``: the longest one that starts at candidate i
-    length = np.zeros(m, dtype=np.int64)
-    longest = 0
-    for i in range(m - 1, -1, -1):
-        best_len = 0
-        for i2 in range(i + 1, m):
-            if cand_j[i2] > cand_j[i] and length[i2] > best_len:
-                best_len = length[i2]
-        length[i] = best_len + 1
-        longest = max(longest, length[i])
+    length = np.empty(m, dtype=np.int64)
+    longest = _run_lengths(cand_j, m, length, np.empty(m, dtype=np.int64))
     n = 0
     need = longest
     last_j = -1

@@ -261,9 +261,9 @@ def _band_rows(
 
 
 #: Largest band cost array (bytes) that the band kernels make before their DP for the
-#: Birchfield-Tomasi cost (``match_band_rows``' and ``match_block_bands``' ``bt``) and for
-#: ``dsi3-gcp``'s pinned DP (``pin_mode`` 1); beyond it the rows run one at a time (a
-#: ``(W, D)`` array each). The bound of ``dc``'s kept array (``DC_BAND_BYTES``), for the
+#: Birchfield-Tomasi cost of ``block``, ``dsi3`` and ``dsi5`` (``match_band_rows``' and
+#: ``match_block_bands``' ``bt``); beyond it the rows run one at a time (a ``(W, D)`` array
+#: each). The bound of ``dc``'s and ``dsi3-gcp``'s kept array (``DC_BAND_BYTES``), for the
 #: same reason: past it the array leaves the caches.
 BAND_ARRAY_BYTES = 8 * 2**20
 
@@ -405,6 +405,19 @@ def _dc_band_mode(params: MatchParams, width: int) -> int:
     return 0 if params.lr_check or params.cost == "bt" else 3
 
 
+def _gcp_band_mode(params: MatchParams, width: int) -> int:
+    """How ``dsi3-gcp`` runs: 0 row by row, else the ``pin_mode`` of ``match_band_rows``.
+
+    As ``dc`` (``_dc_band_mode``): 2 with the band's cost array while it fits
+    ``DC_BAND_BYTES``, else 3 (the SAD costs made twice; the points' left-right check reads
+    the two least costs of each right pixel, folded in as the columns are made); the BT
+    cost needs the array.
+    """
+    if _band_array_fits(params, width, DC_BAND_BYTES):
+        return 2
+    return 0 if params.cost == "bt" else 3
+
+
 def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
     """``dsi3-gcp``: the three-step DP forced through ground control points.
 
@@ -413,10 +426,12 @@ def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
     least ``gcp_variance_floor`` whose whole-band match passes the ``gcp_uniqueness``
     ratio test and the exact left-right check, then the longest subset increasing in both
     ``x_left`` and ``x_right``. They come back as ``features`` (SER and VS NaN) and carry
-    ``FLAG_FEATURE``. While the band cost array fits ``BAND_ARRAY_BYTES`` everything runs
-    on the band kernels (``match_band_rows``' ``gcp``: the band's costs and block match as
-    for ``dc``, the points of each row on them, the DP through them); else row by row
-    (``_kernels.match_gcp_rows``). Both give the same points and maps, bit for bit.
+    ``FLAG_FEATURE``. It runs on the band kernels (``match_band_rows``' ``gcp``: the band's
+    costs and block match as for ``dc``, the points of each row from them, the DP through
+    them), in ``dc``'s modes (``_gcp_band_mode``): with the band's cost array while it fits
+    ``DC_BAND_BYTES``, else with the SAD cost the costs made twice, a column at a time; the
+    Birchfield-Tomasi cost on images too wide for the array runs row by row
+    (``_kernels.match_gcp_rows``). All give the same points and maps, bit for bit.
     """
     radius = params.window // 2
     left_p, right_p = _padded_signals(left, right, radius)
@@ -424,14 +439,15 @@ def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
     partner = np.empty(disparity.shape, dtype=np.int64)
     scale = cost_scale(params.window)
     occ2 = _doubled(params.occlusion_cost, scale)
-    if _band_array_fits(params, left.shape[1]):
+    mode = _gcp_band_mode(params, left.shape[1])
+    if mode:
         # dc's tests tuple, of which the points read the variance floor, the uniqueness
         # and the signal steps (band_feature_mask, band_lane_variance); no guard (0)
         tests = (0.0, 0.0, False, float(params.gcp_variance_floor), False,
                  float(params.gcp_uniqueness), 0, SIGNAL_STEPS)  # fmt: skip
         outputs = (disparity, flags, total)
         _band_rows(
-            left_p, right_p, params, occ2, False, 0.0, outputs, None, 2, partner, tests, gcp=True
+            left_p, right_p, params, occ2, False, 0.0, outputs, None, mode, partner, tests, gcp=True
         )
     else:
         _kernels.match_gcp_rows(
