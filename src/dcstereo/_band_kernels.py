@@ -2145,12 +2145,16 @@ def band_block_match(
     feature tests read only the wanted columns).
 
     ``diagonals`` (with ``make_costs`` only) None: nothing more. Otherwise ``(least, second,
-    best)`` for ``dsi3-gcp`` without the band's cost array: each column made is folded
-    into ``least`` and ``second`` (``_gcp_diagonals``; they must hold inf before the band)
-    and each matched column's least cost goes to ``best`` (``_gcp_best``; the columns left
-    out by ``wanted`` keep what they held), what ``band_row_gcps`` reads.
+    best)`` (``_gcp_scratch``) for ``dsi3-gcp`` without the band's cost array: each column
+    made is folded into ``least`` and ``second`` (``_gcp_diagonals``; first set to inf
+    here) and each matched column's least cost goes to ``best`` (``_gcp_best``; the
+    columns left out by ``wanted`` keep what they held), what ``band_row_gcps`` reads.
     """
     nr = BAND_ROWS
+    if diagonals is not None:
+        for i in range(width * nr):
+            diagonals[0][i] = np.inf
+            diagonals[1][i] = np.inf
     unr = np.uint64(nr)
     nblocks = ndisp + 2  # cells k = -1 .. ndisp, the two padding ones included
     unk = np.uint64(nblocks * nr)
@@ -2234,6 +2238,26 @@ def band_block_match(
                 wta_ratio[i] = inf if second > 0 else 1.0
         if diagonals is not None:
             _gcp_best(cost, o, x, wta_k, diagonals[2])
+
+
+def _gcp_scratch(gcp, n):
+    """``band_block_match``' ``diagonals`` for ``match_band_rows``: None without ``gcp``.
+
+    Otherwise ``(least, second, best)``, ``n`` float64 each. Compiled code takes the
+    overload below, which chooses by the type of ``gcp``.
+    """
+    if gcp is None:
+        return None
+    return (_placed(n, np.float64, 30), _placed(n, np.float64, 31), _placed(n, np.float64, 0))
+
+
+@overload(_gcp_scratch)
+def _gcp_scratch_compiled(gcp, n):
+    if isinstance(gcp, (types.NoneType, types.Omitted)):
+        return lambda gcp, n: None
+    return lambda gcp, n: (
+        _placed(n, np.float64, 30), _placed(n, np.float64, 31), _placed(n, np.float64, 0)
+    )  # fmt: skip
 
 
 @nb.njit(cache=True, inline="always")
@@ -2574,7 +2598,7 @@ def _run_lengths(cand_j, m, length, tails):
 @nb.njit(cache=True)
 def band_row_gcps(
     cost, width, ndisp, r, dmin, radius, wta_k, keep, iwork, pins, pinned, partner_row,
-    diagonals=None,
+    diagonals, folded,
 ):  # fmt: skip
     """Intille and Bobick's ground control points of band row ``r``, as ``_kernels.select_gcps``.
 
@@ -2582,11 +2606,12 @@ def band_row_gcps(
     (``band_feature_mask`` with the points' variance floor and uniqueness, no guard) holds
     the window, variance, uniqueness and range tests. A survivor ``x`` with match ``j`` is
     a candidate when it passes the exact left-right check: over the right pixel's band
-    every other left pixel costs strictly more. ``diagonals`` None: the check walks the
+    every other left pixel costs strictly more. ``folded`` False: the check walks the
     band's cost array ``cost`` (``band_lane_costs``), up to the first left pixel that costs
-    no more. Otherwise ``(least, second, best)``, for a band without the array (``cost``
-    is not read): the pixel's cost ``best[x * R + r]`` must be the least of the right
-    pixel's costs, and no other equal to it (``least`` and ``second``, ``_gcp_diagonals``'
+    no more (``diagonals`` is not read). True, for a band without the array (``cost``
+    is not read): ``diagonals`` is ``(least, second, best)``, and the pixel's cost
+    ``best[x * R + r]`` must be the least of the right pixel's costs, and no other equal to
+    it (``least`` and ``second``, ``_gcp_diagonals``'
     order; ``band_block_match``' ``diagonals``). On a band's array the walk is the faster:
     few survivors, most of them stopped early. The points are the longest run of
     candidates strictly increasing in ``j`` too, the first in lexicographic order of the
@@ -2607,7 +2632,7 @@ def band_row_gcps(
             continue
         k = wta_k[x * nr + r]
         j = x - dmin - k
-        if diagonals is None:
+        if not folded:
             best = cost[x * nk + (k + 1) * nr + r]
             back = True
             for k2 in range(ndisp):
@@ -3172,10 +3197,11 @@ def match_band_rows(
         stack = _placed((nwork + 2) * 6, np.int64, 26).reshape((nwork + 2, 6))
         strong = _placed(nwork + 1, np.int64, 8)
         done = _placed(width, np.uint8, 27)  # columns the cost pass matched
-        ngcp = nwork * nr if gcp is not None and made else 1
-        gcp_least = _placed(ngcp, np.float64, 30)  # band_row_gcps' left-right check
-        gcp_second = _placed(ngcp, np.float64, 31)
-        gcp_best = _placed(ngcp, np.float64, 0)
+        # dsi3-gcp's left-right check without the band's array (None for dc: a variable of
+        # one type per compiled version, so that each compiles one form of the block match;
+        # numba prunes a test of gcp only where it is None, and the gcp version compiled
+        # both forms, 20 s more on its first call)
+        diagonals = _gcp_scratch(gcp, nwork * nr if made else 1)
         for t in range(run):
             mark = _clock_mark(clock)
             nt = _lane_rows(t, y_a, run, n, radius, height_p, rows)
@@ -3210,21 +3236,11 @@ def match_band_rows(
                 # the block match only where the feature tests read it
                 band_strong_counts(var_band[0], width, tests[3], strong)
                 wanted = (strong, _guard_columns(tests[6]))
-                if made and gcp is not None:
-                    for i in range(width * nr):
-                        gcp_least[i] = np.inf
-                        gcp_second[i] = np.inf
+                if made:
                     band_block_match(
                         cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio,
                         (left_t, right_t, dmin, radius, spread, vs, int(t > 0), hsum), wanted,
-                        None, (x_int_lo, fused_hi, key_shift),
-                        (gcp_least, gcp_second, gcp_best),
-                    )  # fmt: skip
-                elif made:
-                    band_block_match(
-                        cost, width, ndisp, x_int_lo, x_int_hi, pre, suf, wta_k, wta_ratio,
-                        (left_t, right_t, dmin, radius, spread, vs, int(t > 0), hsum), wanted,
-                        None, (x_int_lo, fused_hi, key_shift),
+                        None, (x_int_lo, fused_hi, key_shift), diagonals,
                     )  # fmt: skip
                 else:
                     band_block_match(
@@ -3245,16 +3261,10 @@ def match_band_rows(
                     if gcp is not None:
                         for x in range(width):
                             partner[y, x] = -1
-                        if made:
-                            band_row_gcps(
-                                cost, width, ndisp, r, dmin, radius, wta_k, keep, iwork, pins,
-                                pinned, partner[y], (gcp_least, gcp_second, gcp_best),
-                            )  # fmt: skip
-                        else:
-                            band_row_gcps(
-                                cost, width, ndisp, r, dmin, radius, wta_k, keep, iwork, pins,
-                                pinned, partner[y],
-                            )  # fmt: skip
+                        band_row_gcps(
+                            cost, width, ndisp, r, dmin, radius, wta_k, keep, iwork, pins,
+                            pinned, partner[y], diagonals, made,
+                        )  # fmt: skip
                         continue
                     counts[y] = band_row_features(
                         cost,
