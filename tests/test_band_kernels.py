@@ -293,8 +293,8 @@ def test_pins_of_the_ground_control_points_give_gcp_row(tmp_path):
 
 
 def gcp_in_mode(mode, left, right, **kw):
-    """``dsi3-gcp`` forced into one way of running (``api._gcp_band_mode``; 0: row by row)."""
-    with mock.patch.object(api, "_gcp_band_mode", lambda params, width: mode):
+    """``dsi3-gcp`` forced into one way of running (``api._search_band_mode``; 0: row by row)."""
+    with mock.patch.object(api, "_search_band_mode", lambda params, width: mode):
         return dcstereo.match(left, right, **kw)
 
 
@@ -317,23 +317,35 @@ def gcp_bands_equal_rows(left, right, kw):
 
 def test_gcp_runs_as_dc_does_by_the_band_array():
     # dc's bound on the kept array: past it the SAD costs are made twice (mode 3), the BT
-    # cost runs row by row; and the default path is the one these tests compare
+    # cost runs row by row; and dsi3-gcp takes the mode that rule gives (the modes give
+    # the same maps, so the call itself is watched)
     params = dcstereo.MatchParams(max_disparity=63, method="dsi3-gcp")
-    assert api._gcp_band_mode(params, 1900) == 2
-    assert api._gcp_band_mode(params, 2100) == 3
-    assert api._gcp_band_mode(dcstereo.MatchParams(max_disparity=255, method="dsi3-gcp"), 3000) == 3
+    assert api._search_band_mode(params, 1900) == 2
+    assert api._search_band_mode(params, 2100) == 3
+    wide = dcstereo.MatchParams(max_disparity=255, method="dsi3-gcp")
+    assert api._search_band_mode(wide, 3000) == 3
     bt = dcstereo.MatchParams(max_disparity=63, method="dsi3-gcp", cost="bt")
-    assert api._gcp_band_mode(bt, 1900) == 2
-    assert api._gcp_band_mode(bt, 2100) == 0
+    assert api._search_band_mode(bt, 1900) == 2
+    assert api._search_band_mode(bt, 2100) == 0
     rng = np.random.default_rng(8)
     left = rng.integers(0, 256, (12, 40)).astype(np.uint8)
     right = np.roll(left, 3, axis=1)
-    default = dcstereo.match(left, right, max_disparity=7, method="dsi3-gcp")
-    forced = gcp_in_mode(2, left, right, max_disparity=7, method="dsi3-gcp")
-    assert default.disparity.tobytes() == forced.disparity.tobytes()
+
+    def modes_run(**kw):
+        with (
+            mock.patch.object(api, "_band_rows", wraps=api._band_rows) as bands,
+            mock.patch.object(_kernels, "match_gcp_rows", wraps=_kernels.match_gcp_rows) as rows,
+        ):
+            dcstereo.match(left, right, max_disparity=7, method="dsi3-gcp", **kw)
+        return [call.args[8] for call in bands.call_args_list] + [0] * rows.call_count
+
+    assert modes_run() == [2]
+    assert modes_run(cost="bt") == [2]
     with mock.patch.object(api, "DC_BAND_BYTES", 0):  # the bound reaches the choice
-        assert api._gcp_band_mode(params, 40) == 3
-        assert api._gcp_band_mode(bt, 40) == 0
+        assert api._search_band_mode(params, 40) == 3
+        assert api._search_band_mode(bt, 40) == 0
+        assert modes_run() == [3]
+        assert modes_run(cost="bt") == [0]
 
 
 def test_gcp_diagonals_are_the_two_least_costs_of_each_right_pixel():

@@ -2240,24 +2240,26 @@ def band_block_match(
             _gcp_best(cost, o, x, wta_k, diagonals[2])
 
 
+@nb.njit(cache=True, inline="always")
+def _gcp_arrays(n):
+    """``(least, second, best)``, ``n`` float64 each: ``band_block_match``' ``diagonals``."""
+    return (_placed(n, np.float64, 30), _placed(n, np.float64, 31), _placed(n, np.float64, 0))
+
+
 def _gcp_scratch(gcp, n):
     """``band_block_match``' ``diagonals`` for ``match_band_rows``: None without ``gcp``.
 
-    Otherwise ``(least, second, best)``, ``n`` float64 each. Compiled code takes the
-    overload below, which chooses by the type of ``gcp``.
+    Otherwise ``_gcp_arrays(n)``. Compiled code takes the overload below, which chooses by
+    the type of ``gcp``.
     """
-    if gcp is None:
-        return None
-    return (_placed(n, np.float64, 30), _placed(n, np.float64, 31), _placed(n, np.float64, 0))
+    return None if gcp is None else _gcp_arrays(n)
 
 
 @overload(_gcp_scratch)
 def _gcp_scratch_compiled(gcp, n):
     if isinstance(gcp, (types.NoneType, types.Omitted)):
         return lambda gcp, n: None
-    return lambda gcp, n: (
-        _placed(n, np.float64, 30), _placed(n, np.float64, 31), _placed(n, np.float64, 0)
-    )  # fmt: skip
+    return lambda gcp, n: _gcp_arrays(n)
 
 
 @nb.njit(cache=True, inline="always")
@@ -2611,9 +2613,9 @@ def band_row_gcps(
     no more (``diagonals`` is not read). True, for a band without the array (``cost``
     is not read): ``diagonals`` is ``(least, second, best)``, and the pixel's cost
     ``best[x * R + r]`` must be the least of the right pixel's costs, and no other equal to
-    it (``least`` and ``second``, ``_gcp_diagonals``'
-    order; ``band_block_match``' ``diagonals``). On a band's array the walk is the faster:
-    few survivors, most of them stopped early. The points are the longest run of
+    it (``least`` and ``second``, in ``_gcp_diagonals``' order; ``band_block_match``'
+    ``diagonals``). On a band's array the walk is the faster: few survivors, most of them
+    stopped early. The points are the longest run of
     candidates strictly increasing in ``j`` too, the first in lexicographic order of the
     candidates. Each point ``x <-> j`` goes to ``pins[x * R + r]`` (which must hold -1),
     ``pinned[x]`` and ``partner_row[x]`` (which must hold -1). Returns their number.

@@ -399,19 +399,18 @@ def _dc_band_mode(params: MatchParams, width: int) -> int:
     """How ``dc`` runs: 0 row by row, else the ``pin_mode`` of ``match_band_rows`` (2, 3)."""
     if not (params.method == "dc" and params.uniqueness > 0 and params.max_candidates == 0):
         return 0
-    if _band_array_fits(params, width, DC_BAND_BYTES):
-        return 2
-    # mode 3 makes the SAD costs inside its passes; the BT cost needs the array
-    return 0 if params.lr_check or params.cost == "bt" else 3
+    mode = _search_band_mode(params, width)
+    # dc's left-right check walks the band's array, which mode 3 does not keep
+    return 0 if mode == 3 and params.lr_check else mode
 
 
-def _gcp_band_mode(params: MatchParams, width: int) -> int:
-    """How ``dsi3-gcp`` runs: 0 row by row, else the ``pin_mode`` of ``match_band_rows``.
+def _search_band_mode(params: MatchParams, width: int) -> int:
+    """How a search on the bands (``dc``, ``dsi3-gcp``) runs, by the size of its cost array.
 
-    As ``dc`` (``_dc_band_mode``): 2 with the band's cost array while it fits
-    ``DC_BAND_BYTES``, else 3 (the SAD costs made twice; the points' left-right check reads
-    the two least costs of each right pixel, folded in as the columns are made); the BT
-    cost needs the array.
+    2: with the band's cost array while it fits ``DC_BAND_BYTES``; else 3, the SAD costs
+    made twice, inside the passes (``dsi3-gcp``'s left-right check then reads the two least
+    costs of each right pixel, folded in as the columns are made); 0, row by row, for the
+    BT cost, which needs the array.
     """
     if _band_array_fits(params, width, DC_BAND_BYTES):
         return 2
@@ -428,9 +427,9 @@ def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
     ``x_left`` and ``x_right``. They come back as ``features`` (SER and VS NaN) and carry
     ``FLAG_FEATURE``. It runs on the band kernels (``match_band_rows``' ``gcp``: the band's
     costs and block match as for ``dc``, the points of each row from them, the DP through
-    them), in ``dc``'s modes (``_gcp_band_mode``): with the band's cost array while it fits
-    ``DC_BAND_BYTES``, else with the SAD cost the costs made twice, a column at a time; the
-    Birchfield-Tomasi cost on images too wide for the array runs row by row
+    them), in ``dc``'s modes (``_search_band_mode``): with the band's cost array while it
+    fits ``DC_BAND_BYTES``, else with the SAD cost the costs made twice, a column at a
+    time; the Birchfield-Tomasi cost on images too wide for the array runs row by row
     (``_kernels.match_gcp_rows``). All give the same points and maps, bit for bit.
     """
     radius = params.window // 2
@@ -439,7 +438,7 @@ def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
     partner = np.empty(disparity.shape, dtype=np.int64)
     scale = cost_scale(params.window)
     occ2 = _doubled(params.occlusion_cost, scale)
-    mode = _gcp_band_mode(params, left.shape[1])
+    mode = _search_band_mode(params, left.shape[1])
     if mode:
         # dc's tests tuple, of which the points read the variance floor, the uniqueness
         # and the signal steps (band_feature_mask, band_lane_variance); no guard (0)
