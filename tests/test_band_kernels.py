@@ -1526,20 +1526,80 @@ def test_dc_keeps_the_band_cost_array_while_it_fits_the_caches():
     # a band's costs are width x (D + 2) x 8 float64: 450 x 66 x 64 bytes (1.8 MiB) and
     # 1900 x 66 x 64 (7.7 MiB) are kept (mode 2); 2100 x 66 x 64 (8.5 MiB) and 3000 x 258 x
     # 64 (47 MiB) are made twice instead (mode 3), or, with the left-right check, which
-    # reads the array, row by row (0), as are the options the band search does not implement
+    # reads the array, kept all the same (2); row by row (0): the options the band search
+    # does not implement
     params = dcstereo.MatchParams(max_disparity=63)
     assert api._dc_band_mode(params, 450) == 2
     assert api._dc_band_mode(params, 1900) == 2
     assert api._dc_band_mode(params, 2100) == 3
     assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=255), 3000) == 3
-    assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=255, lr_check=True), 3000) == 0
+    assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=255, lr_check=True), 3000) == 2
     assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=63, lr_check=True), 450) == 2
     for options in ({"max_candidates": 5}, {"uniqueness": 0.0}, {"method": "dc-linear"}):
         assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=63, **options), 450) == 0
-    # the Birchfield-Tomasi cost needs the band's cost array: row by row past it
+    # the Birchfield-Tomasi cost needs the band's cost array: kept past the caches, row by
+    # row only past the memory bound (127100 columns of 66 disparities: 512 MiB)
     bt = dcstereo.MatchParams(max_disparity=63, cost="bt")
     assert api._dc_band_mode(bt, 1900) == 2
-    assert api._dc_band_mode(bt, 2100) == 0
+    assert api._dc_band_mode(bt, 2100) == 2
+    assert api._dc_band_mode(bt, 127100) == 2
+    assert api._dc_band_mode(bt, 127101) == 0
+    lr = dcstereo.MatchParams(max_disparity=63, lr_check=True)
+    assert api._dc_band_mode(lr, 127100) == 2
+    assert api._dc_band_mode(lr, 127101) == 0
+
+
+def test_band_cost_arrays_fit_the_memory_bound_together():
+    # each running chunk makes one band cost array, so the chunks of the kernels that make
+    # it are capped to the arrays BAND_ARRAY_BYTES holds (at least one); where one array
+    # alone does not fit, the rows run one at a time; the maps never change
+    params = dcstereo.MatchParams(max_disparity=7, cost="bt")
+    one = api._band_bytes(params, 40)
+    assert one == 40 * 10 * _band_kernels.BAND_ROWS * 8
+    rng = np.random.default_rng(12)
+    left = rng.integers(0, 256, (48, 40)).astype(np.uint8)  # 6 bands
+    right = np.roll(left, 3, axis=1)
+
+    def chunks_run(method, **kw):
+        with (
+            mock.patch.object(
+                _band_kernels, "match_band_rows", wraps=_band_kernels.match_band_rows
+            ) as bands,
+            mock.patch.object(
+                _band_kernels, "match_block_bands", wraps=_band_kernels.match_block_bands
+            ) as blocks,
+        ):
+            got = dcstereo.match(left, right, max_disparity=7, method=method, **kw)
+        used = [c.args[11] for c in bands.call_args_list] + [
+            c.args[5] for c in blocks.call_args_list
+        ]
+        return used, got
+
+    cases = [
+        ("block", {"cost": "bt"}, 2), ("dsi3", {"cost": "bt"}, 2), ("dsi5", {"cost": "bt"}, 2),
+        ("dc", {"cost": "bt"}, 2), ("dc", {}, 2), ("dc", {"lr_check": True}, 2),
+        ("dsi3-gcp", {}, 2), ("dsi5", {}, 6), ("block", {}, 6),
+    ]  # fmt: skip
+    with mock.patch.object(api, "_band_chunks", lambda height: 6):
+        assert api._array_chunks(params, (48, 40)) == 6
+        for method, kw, capped in cases:
+            expected = chunks_run(method, **kw)
+            assert expected[0] == [6]
+            with mock.patch.object(api, "BAND_ARRAY_BYTES", 3 * one - 1):
+                assert api._array_chunks(params, (48, 40)) == 2
+                used, got = chunks_run(method, **kw)
+            assert used == [capped], (method, kw)
+            assert got.disparity.tobytes() == expected[1].disparity.tobytes()
+            np.testing.assert_array_equal(got.flags, expected[1].flags)
+            np.testing.assert_array_equal(got.features, expected[1].features)
+        for method in ("block", "dsi5", "dc"):
+            expected = chunks_run(method, cost="bt")[1]
+            with mock.patch.object(api, "BAND_ARRAY_BYTES", one - 1):  # not one array: rows
+                assert not api._band_array_fits(params, 40)
+                used, got = chunks_run(method, cost="bt")
+            assert used == []
+            assert got.disparity.tobytes() == expected.disparity.tobytes()
+            np.testing.assert_array_equal(got.flags, expected.flags)
 
 
 # --------------------------------------------------------------------------- Birchfield-Tomasi
@@ -1633,11 +1693,14 @@ def test_band_bt_refuses_the_mode_without_a_cost_array():
 
 
 def test_bt_runs_on_bands_while_the_cost_array_fits():
-    # block/dsi3/dsi5 with BT make the band's cost array: 1900 x 66 x 64 bytes (7.7 MiB) fit,
-    # 2100 x 66 x 64 (8.5 MiB) run row by row; both give the same map
+    # block/dsi3/dsi5 with BT make the band's cost array, 66 x 64 bytes a column here:
+    # 127100 columns (512.0 MiB) fit the memory bound, one more runs row by row (both give
+    # the same map); past the caches (2100 columns, 8.5 MiB) the array is still made
     params = dcstereo.MatchParams(max_disparity=63, cost="bt")
-    assert api._band_array_fits(params, 1900)
-    assert not api._band_array_fits(params, 2100)
+    assert api._band_bytes(params, 2100) == 2100 * 66 * 64
+    assert api._band_array_fits(params, 2100)
+    assert api._band_array_fits(params, 127100)
+    assert not api._band_array_fits(params, 127101)
     rng = np.random.default_rng(5)
     left = rng.integers(0, 256, (12, 40)).astype(np.uint8)
     right = np.roll(left, 3, axis=1)

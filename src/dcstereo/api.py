@@ -131,8 +131,9 @@ def _match_block(left, right, params: MatchParams) -> DisparityResult:
     """``block``: the least window cost per pixel.
 
     Runs ``_band_kernels.BAND_ROWS`` rows in lockstep (the same results, bit for bit, as
-    the per-row kernel); the Birchfield-Tomasi cost makes the band's cost array first, so
-    where that array would pass ``BAND_ARRAY_BYTES`` it runs row by row instead.
+    the per-row kernel); the Birchfield-Tomasi cost makes the band's cost array first,
+    with as many chunks at once as ``BAND_ARRAY_BYTES`` holds arrays, and where one array
+    alone would pass it, runs row by row instead.
     """
     radius = params.window // 2
     left_p, right_p = _padded_signals(left, right, radius)
@@ -158,7 +159,7 @@ def _match_block(left, right, params: MatchParams) -> DisparityResult:
             params.min_disparity,
             params.num_disparities,
             radius,
-            _band_chunks(left.shape[0]),
+            _array_chunks(params, left.shape) if bt else _band_chunks(left.shape[0]),
             disparity,
             flags,
             total,
@@ -173,8 +174,8 @@ def _match_dsi(left, right, params: MatchParams, clock=None) -> DisparityResult:
     Both costs run ``_band_kernels.BAND_ROWS`` rows in lockstep (vectorized across rows;
     the same results, bit for bit, as the per-row kernel ``_kernels.match_dsi_rows``).
     The SAD cost makes each column's costs inside the DP pass; the Birchfield-Tomasi cost
-    makes the band's cost array first, so where that array would exceed ``BAND_ARRAY_BYTES``
-    (wide images and disparity ranges) it runs row by row instead. ``clock``: the band
+    makes the band's cost array first (as many chunks at once as ``BAND_ARRAY_BYTES``
+    holds arrays; where one array alone would pass it, row by row instead). ``clock``: the band
     kernel's stage counters (``match_band_rows``; ``benchmarks/bench_stages.py``), the band
     path only.
     """
@@ -248,7 +249,12 @@ def _band_rows(
         pin_mode,
         partner,
         tests,
-        _band_chunks(disparity.shape[0]),
+        # the BT cost and pin modes 1 and 2 make the band's cost array
+        (
+            _array_chunks(params, disparity.shape)
+            if params.cost == "bt" or pin_mode in (1, 2)
+            else _band_chunks(disparity.shape[0])
+        ),
         disparity,
         flags,
         total,
@@ -260,18 +266,34 @@ def _band_rows(
     )
 
 
-#: Largest band cost array (bytes) that the band kernels make before their DP for the
-#: Birchfield-Tomasi cost of ``block``, ``dsi3`` and ``dsi5`` (``match_band_rows``' and
-#: ``match_block_bands``' ``bt``); beyond it the rows run one at a time (a ``(W, D)`` array
-#: each). The bound of ``dc``'s and ``dsi3-gcp``'s kept array (``DC_BAND_BYTES``), for the
-#: same reason: past it the array leaves the caches.
-BAND_ARRAY_BYTES = 8 * 2**20
+#: The most memory (bytes) that the band cost arrays of one call take together: the arrays
+#: the band kernels make before their DP for the Birchfield-Tomasi cost (``match_band_rows``'
+#: and ``match_block_bands``' ``bt``) and for ``dc``'s kept array (mode 2). Each running
+#: chunk makes one array, so the chunks are capped to fit (``_array_chunks``); where one
+#: array alone would not fit, the rows run one at a time (a ``(W, D)`` array each). The
+#: array is kept even where it leaves the caches: on noise strips of 256 rows, one thread,
+#: 4 to 94 MiB arrays, row by row took 2.4-5.2x the time with BT (``block``, ``dsi3``,
+#: ``dsi5``), 1.6-3.5x with ``dc`` and BT, 1.5-2.5x with ``dc``'s left-right check
+#: (``docs/SPEED.md``, "The band cost array beyond the caches").
+BAND_ARRAY_BYTES = 512 * 2**20
+
+
+def _band_bytes(params: MatchParams, width: int) -> int:
+    """Bytes of one band's float64 cost array (``width x (D + 2) x BAND_ROWS``)."""
+    return width * (params.num_disparities + 2) * _band_kernels.BAND_ROWS * 8
 
 
 def _band_array_fits(params: MatchParams, width: int, limit: int | None = None) -> bool:
     """Whether a band's float64 cost array fits ``limit`` (default ``BAND_ARRAY_BYTES``)."""
-    band_bytes = width * (params.num_disparities + 2) * _band_kernels.BAND_ROWS * 8
-    return band_bytes <= (BAND_ARRAY_BYTES if limit is None else limit)
+    return _band_bytes(params, width) <= (BAND_ARRAY_BYTES if limit is None else limit)
+
+
+def _array_chunks(params: MatchParams, shape: tuple[int, int]) -> int:
+    """Chunks of a band kernel that makes the band's cost array: ``_band_chunks``, capped so
+    that the arrays of the chunks that may run at once fit ``BAND_ARRAY_BYTES`` together
+    (at least one; the callers run row by row where one array does not fit)."""
+    fit = max(1, BAND_ARRAY_BYTES // _band_bytes(params, shape[1]))
+    return min(_band_chunks(shape[0]), fit)
 
 
 def _band_chunks(height: int) -> int:
@@ -293,8 +315,9 @@ def _match_dc(left, right, params: MatchParams, clock=None) -> DisparityResult:
     the band kernels: the feature search of each row on its band's costs, then the band DP
     through the pairs (``_band_kernels.match_band_rows``; the band's cost array is kept
     while it fits ``DC_BAND_BYTES``, else the SAD costs are made twice, see
-    ``_dc_band_mode``). The other settings, the left-right check on images too wide for
-    the array, and the Birchfield-Tomasi cost on them, run row by row
+    ``_dc_band_mode``; the left-right check and the Birchfield-Tomasi cost keep the array
+    up to ``BAND_ARRAY_BYTES``). The other settings, and images whose band array would
+    pass that, run row by row
     (``_kernels.match_dc_rows``), which fills each interval between pairs separately.
     Both give the same pairs and maps; the band path's ``path_cost`` is that of the whole
     path through the pairs (the row-by-row one leaves
@@ -390,8 +413,8 @@ def _edge_guard(params: MatchParams, width: int) -> int:
 #: strips of 256 rows, one thread: 4 MiB arrays (1000 x 64) 67 ms kept against 83 made,
 #: 7.9 MiB 128 against 133, 15.9 MiB (2000 x 128) 324 against 260, 23.6 MiB 436 against
 #: 345; on the 3000 x 2000 x 256 pair mode 3 beats the row kernel (6.0 s against 7.8).
-#: Mode 3 needs no costs in the search, so with the left-right check (which walks the
-#: array's diagonals) wide images run row by row.
+#: Mode 3 keeps no costs for the search, so the left-right check (which walks the array's
+#: diagonals) and the BT cost keep the array past this bound, up to ``BAND_ARRAY_BYTES``.
 DC_BAND_BYTES = 8 * 2**20
 
 
@@ -400,19 +423,24 @@ def _dc_band_mode(params: MatchParams, width: int) -> int:
     if not (params.method == "dc" and params.uniqueness > 0 and params.max_candidates == 0):
         return 0
     mode = _search_band_mode(params, width)
-    # dc's left-right check walks the band's array, which mode 3 does not keep
-    return 0 if mode == 3 and params.lr_check else mode
+    if mode == 2 or (mode == 3 and not params.lr_check):
+        return mode
+    # the BT cost and dc's left-right check read the band's array, which mode 3 does not
+    # keep: kept past the caches, 1.5-3.5x faster than row by row (BAND_ARRAY_BYTES)
+    return 2 if _band_array_fits(params, width) else 0
 
 
 def _search_band_mode(params: MatchParams, width: int) -> int:
     """How a search on the bands (``dc``, ``dsi3-gcp``) runs, by the size of its cost array.
 
-    2: with the band's cost array while it fits ``DC_BAND_BYTES``; else 3, the SAD costs
-    made twice, inside the passes (``dsi3-gcp``'s left-right check then reads the two least
-    costs of each right pixel, folded in as the columns are made); 0, row by row, for the
-    BT cost, which needs the array.
+    2: with the band's cost array while it fits ``DC_BAND_BYTES`` (and the memory bound,
+    ``BAND_ARRAY_BYTES``); else 3, the SAD costs made twice, inside the passes
+    (``dsi3-gcp``'s left-right check then reads the two least costs of each right pixel,
+    folded in as the columns are made); 0, row by row, for the BT cost, which needs the
+    array (``dsi3-gcp``'s check walks it: past the caches slower than row by row, 16 to 24
+    MiB arrays 1.1-1.2x; ``dc`` keeps it, ``_dc_band_mode``).
     """
-    if _band_array_fits(params, width, DC_BAND_BYTES):
+    if _band_array_fits(params, width, min(DC_BAND_BYTES, BAND_ARRAY_BYTES)):
         return 2
     return 0 if params.cost == "bt" else 3
 
