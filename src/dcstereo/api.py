@@ -289,9 +289,12 @@ def _band_array_fits(params: MatchParams, width: int, limit: int | None = None) 
 
 
 def _array_chunks(params: MatchParams, shape: tuple[int, int]) -> int:
-    """Chunks of a band kernel that makes the band's cost array: ``_band_chunks``, capped so
-    that the arrays of the chunks that may run at once fit ``BAND_ARRAY_BYTES`` together
-    (at least one; the callers run row by row where one array does not fit)."""
+    """Chunks of a band kernel that makes the band's cost array, ``shape`` the image's.
+
+    ``_band_chunks``, capped so that the arrays of the chunks that may run at once fit
+    ``BAND_ARRAY_BYTES`` together (at least one; the callers run row by row where one
+    array does not fit).
+    """
     fit = max(1, BAND_ARRAY_BYTES // _band_bytes(params, shape[1]))
     return min(_band_chunks(shape[0]), fit)
 
