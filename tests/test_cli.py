@@ -279,3 +279,190 @@ def test_run_unknown_cost_is_a_usage_error(pair):
     assert result.exit_code == 2
     assert "'ncc' is not one of 'sad', 'bt'" in result.output
     assert not (folder / "x.pfm").exists()
+
+
+# The methods' own parameters: each flag, the method that reads it, the keyword of match()
+# and the value it must arrive as.
+METHOD_FLAGS = [
+    ("dsi5", ["--slant-cost", "3"], {"slant_cost": 3.0}),
+    ("dc", ["--slant-cost", "0"], {"slant_cost": 0.0}),
+    ("dc", ["--ser-min", "20"], {"ser_min": 20.0}),
+    ("dc", ["--vs-max", "0.05"], {"vs_max": 0.05}),
+    ("dc", ["--vs-absolute", "--vs-max", "300"], {"vs_relative": False, "vs_max": 300.0}),
+    ("dc-linear", ["--feature-floor", "400"], {"feature_floor": 400.0}),
+    ("dc", ["--uniqueness", "0"], {"uniqueness": 0.0}),
+    ("dc", ["--edge-guard", "0"], {"edge_guard": 0}),
+    ("dc", ["--lr-check"], {"lr_check": True}),
+    ("dc", ["--max-candidates", "3"], {"max_candidates": 3}),
+    ("dsi3-gcp", ["--gcp-uniqueness", "1.5"], {"gcp_uniqueness": 1.5}),
+    ("dsi3-gcp", ["--gcp-variance-floor", "25"], {"gcp_variance_floor": 25.0}),
+    ("redert", ["--orientations=-0.25,0,0.25"], {"orientations": (-0.25, 0.0, 0.25)}),
+    ("redert", ["--orientation-cost", "2"], {"orientation_cost": 2.0}),
+    ("redert", ["--occlusion-discount", "0"], {"occlusion_discount": 0.0}),
+    ("redert", ["--occlusion-discount-pixels", "2"], {"occlusion_discount_pixels": 2}),
+    ("redert", ["--slant-cost", "1"], {"slant_cost": 1.0}),
+]
+
+
+@pytest.mark.parametrize(("method", "flags", "expected"), METHOD_FLAGS)
+def test_method_options_reach_the_matcher(pair, monkeypatch, method, flags, expected):
+    # each flag arrives as match()'s keyword, only when given, and the map written is the
+    # one match() gives with that keyword
+    import dcstereo
+
+    folder, _ = pair
+    seen = []
+    real = dcstereo.match
+
+    def spy(left, right, **kwargs):
+        seen.append(kwargs)
+        return real(left, right, **kwargs)
+
+    monkeypatch.setattr(dcstereo, "match", spy)
+    out = folder / "disp.pfm"
+    args = [folder / "left.png", folder / "right.png", "--max-disparity", 10, "--method", method]
+    result = invoke("run", *args, "-o", out, *flags, "-q")
+    assert result.exit_code == 0, result.output
+    assert len(seen) == 1
+    given = {k: v for k, v in seen[0].items() if k in expected}
+    assert given == expected
+    # none of the other methods' parameters is passed: they keep the method's defaults
+    from dcstereo.cli._common import METHOD_OPTIONS
+
+    assert not set(seen[0]) & (set(METHOD_OPTIONS) - set(expected))
+    left, right = io.read_image(folder / "left.png"), io.read_image(folder / "right.png")
+    direct = real(left, right, max_disparity=10, method=method, **expected)
+    disparity = io.read_disparity(out)
+    np.testing.assert_array_equal(np.isfinite(disparity), np.isfinite(direct.disparity))
+    np.testing.assert_array_equal(
+        disparity[np.isfinite(disparity)], direct.disparity[np.isfinite(direct.disparity)]
+    )
+
+
+def test_method_options_change_the_features(pair):
+    # a stricter SER keeps fewer of dc's pairs, each at least that SER; the left-right
+    # check never adds one (a noisy right view: on the fixture's exact copy every SER is
+    # infinite)
+    folder, _ = pair
+    right = io.read_image(folder / "right.png").astype(int)
+    noise = np.random.default_rng(3).integers(-12, 13, right.shape)
+    Image.fromarray(np.clip(right + noise, 0, 255).astype(np.uint8)).save(folder / "noisy.png")
+
+    def features(name, *flags):
+        csv = folder / f"{name}.csv"
+        result = invoke(
+            "run", folder / "left.png", folder / "noisy.png", "-o", folder / f"{name}.pfm",
+            "--max-disparity", 10, "--features-out", csv, *flags, "-q",
+        )  # fmt: skip
+        assert result.exit_code == 0, result.output
+        return io.read_features_csv(csv)
+
+    default = features("default")
+    strict = float(np.median(default[:, 3]))
+    assert np.isfinite(strict)
+    stricter = features("ser", "--ser-min", repr(strict))
+    assert 0 < len(stricter) < len(default)
+    assert (stricter[:, 3] >= strict).all()
+    assert len(features("lr", "--lr-check")) <= len(default)
+
+
+@pytest.mark.parametrize(
+    ("method", "flags", "message"),
+    [
+        ("dsi3", ["--ser-min", "5"], "Error: --ser-min is read only by dc, dc-linear, not by dsi3"),
+        ("block", ["--slant-cost", "1"], "Error: --slant-cost is read only by dsi5, dc, "),
+        ("dc", ["--gcp-uniqueness", "2"], "Error: --gcp-uniqueness is read only by dsi3-gcp"),
+        ("dc", ["--orientations", "0"], "Error: --orientations is read only by redert, not by dc"),
+        ("dsi5", ["--no-lr-check"], "Error: --lr-check is read only by dc, dc-linear, not by dsi5"),
+        ("dc", ["--ser-min", "-1"], "Error: ser_min must be a non-negative number, got -1.0"),
+        ("dc", ["--max-candidates", "-2"], "Error: max_candidates must be 0 (no limit) or"),
+        ("redert", ["--orientations", "0,0.3"], "Error: orientations must be slopes from 0"),
+        ("redert", ["--occlusion-discount", "1"], "Error: occlusion_discount must be a number"),
+    ],
+)
+def test_method_options_refused_in_one_line_with_no_output(pair, method, flags, message):
+    folder, _ = pair
+    out = folder / "disp.pfm"
+    args = [folder / "left.png", folder / "right.png", "--max-disparity", 10, "--method", method]
+    result = CliRunner().invoke(main, [str(a) for a in ["run", *args, "-o", out, *flags]])
+    assert result.exit_code == 1
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(message), result.output
+    assert not out.exists()
+
+
+def test_orientations_that_are_not_numbers_are_a_usage_error(pair):
+    folder, _ = pair
+    args = [folder / "left.png", folder / "right.png", "--max-disparity", 10]
+    result = CliRunner().invoke(
+        main,
+        [str(a) for a in ["run", *args, "-o", folder / "d.pfm", "--method", "redert"]]
+        + ["--orientations", "0,x"],
+    )
+    assert result.exit_code == 2
+    assert "Invalid value for '--orientations'" in result.output
+    assert "got '0,x'" in result.output
+
+
+def test_batch_and_video_take_the_method_options(pair, tmp_path):
+    # the shared options reach batch (recorded in batch.json, so that a resume with other
+    # values is refused) and video
+    import json
+
+    import dcstereo
+
+    folder, _ = pair
+    source = folder / "list.csv"
+    source.write_text("left.png,right.png,one\n")
+    out = tmp_path / "batch-out"
+    base = ["batch", source, "-o", out, "--max-disparity", 10, "-q"]
+    result = invoke(*base, "--ser-min", "7", "--lr-check")
+    assert result.exit_code == 0, result.output
+    recorded = json.loads((out / "batch.json").read_text())
+    assert recorded["ser_min"] == 7.0 and recorded["lr_check"] is True
+    refused = CliRunner().invoke(main, [str(a) for a in [*base, "--ser-min", "8"]])
+    assert refused.exit_code == 1
+    assert "ser_min 7.0 (now 8.0)" in refused.output
+    result = CliRunner().invoke(
+        main, [str(a) for a in [*base[:-1], "--method", "dsi3", "--ser-min", "8"]]
+    )
+    assert result.exit_code == 1
+    assert "--ser-min is read only by dc, dc-linear, not by dsi3" in result.output
+    # video: two folders of frames (one frame each here)
+    frames = tmp_path / "left", tmp_path / "right"
+    for side, name in zip(frames, ("left.png", "right.png"), strict=True):
+        side.mkdir()
+        (side / "f0.png").write_bytes((folder / name).read_bytes())
+    out = tmp_path / "video-out"
+    video = ["video", *frames, "-o", out, "--max-disparity", 10, "-q"]
+    result = invoke(*video, "--vs-max", "0.05", "--edge-guard", "0")
+    assert result.exit_code == 0, result.output
+    left, right = io.read_image(folder / "left.png"), io.read_image(folder / "right.png")
+    direct = dcstereo.match(left, right, max_disparity=10, vs_max=0.05, edge_guard=0)
+    written = io.read_disparity(next(out.glob("*.pfm")))
+    np.testing.assert_array_equal(np.isfinite(written), np.isfinite(direct.disparity))
+    np.testing.assert_array_equal(
+        written[np.isfinite(written)], direct.disparity[np.isfinite(direct.disparity)]
+    )
+    video = [str(a) for a in [*video, "--method", "block", "--uniqueness", "1"]]
+    refused = CliRunner().invoke(main, video)
+    assert refused.exit_code == 1
+    assert "--uniqueness is read only by dc, dc-linear, not by block" in refused.output
+
+
+def test_the_readme_lists_every_method_option_with_its_methods():
+    # the README's table of the methods' options: one row per group of methods
+    from pathlib import Path
+
+    from dcstereo.cli._common import METHOD_OPTIONS, _flag
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    rows = {}
+    for line in readme.splitlines():
+        if line.startswith("| `") and "`--" in line:
+            methods, flags = line.split("|")[1:3]
+            for method in methods.replace("`", "").split(","):
+                rows[method.strip()] = flags
+    for name, methods in METHOD_OPTIONS.items():
+        for method in methods:
+            assert _flag(name).split("/")[0] in rows.get(method, ""), (name, method)

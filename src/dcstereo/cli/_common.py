@@ -6,6 +6,7 @@ from pathlib import Path
 
 import click
 
+from .. import params as _params
 from ..params import DEFAULT_OCCLUSION_COST, MAX_MEDIAN, METHODS, SUBPIXEL_FITS
 from ..viz import PREVIEW_STYLES
 
@@ -14,6 +15,163 @@ FEATURE_METHODS = ("dc", "dc-linear", "dsi3-gcp")
 
 #: The keyword arguments of :func:`dcstereo.match` that :func:`matching_options` collects.
 MATCH_OPTIONS = ("method", "window", "occlusion_cost", "cost", "fill", "subpixel", "median")
+
+_DC = ("dc", "dc-linear")
+
+#: The methods' own parameters (keyword arguments of :func:`dcstereo.match`) that
+#: :func:`matching_options` adds, and the methods that read each. Not given: the method's
+#: default (the :class:`~dcstereo.params.MatchParams` default); given to a method that
+#: does not read it: an error, rather than a silent no-op.
+METHOD_OPTIONS = {
+    "slant_cost": ("dsi5", *_DC, "redert"),
+    "ser_min": _DC,
+    "vs_max": _DC,
+    "vs_relative": _DC,
+    "feature_floor": _DC,
+    "uniqueness": _DC,
+    "edge_guard": _DC,
+    "lr_check": _DC,
+    "max_candidates": _DC,
+    "gcp_uniqueness": ("dsi3-gcp",),
+    "gcp_variance_floor": ("dsi3-gcp",),
+    "orientations": ("redert",),
+    "orientation_cost": ("redert",),
+    "occlusion_discount": ("redert",),
+    "occlusion_discount_pixels": ("redert",),
+}
+
+
+def _flag(name: str) -> str:
+    """Return the command-line flag of a keyword argument (``ser_min``: ``--ser-min``)."""
+    return "--" + name.replace("_", "-")
+
+
+def _slopes(ctx, param, value):
+    """Parse ``--orientations`` (comma-separated slopes) into a tuple of floats."""
+    if value is None:
+        return None
+    try:
+        return tuple(float(part) for part in value.split(","))
+    except ValueError:
+        raise click.BadParameter(
+            f"expected comma-separated slopes such as -0.5,0,0.5, got {value!r}"
+        ) from None
+
+
+def _method_option_list():
+    """Return the options of :data:`METHOD_OPTIONS` as ``--help`` lists them (default None)."""
+    dc = "[dc, dc-linear]"
+    p = _params
+    return [
+        click.option(
+            "--slant-cost",
+            type=float,
+            default=None,
+            help="[dsi5, dc, dc-linear, redert] Extra cost of each d or e step of the "
+            "five-step model, in the units of --occlusion-cost (redert: of each disparity "
+            f"step of a slanted segment). Default: the method's ({p.DEFAULT_SLANT_COST:g} for "
+            f"dsi5, the paper's model; {p.DEFAULT_DC_SLANT_COST:g} for dc).",
+        ),
+        click.option(
+            "--ser-min",
+            type=float,
+            default=None,
+            help=f"{dc} Least signal-to-error ratio (eq. 2) of a reliable feature pair "
+            f"(default {p.DEFAULT_SER_MIN:g}).",
+        ),
+        click.option(
+            "--vs-max",
+            type=float,
+            default=None,
+            help=f"{dc} Largest variance dissimilarity (eq. 3) of a reliable pair (default "
+            f"{p.DEFAULT_VS_MAX:g}, for the scale-free VS).",
+        ),
+        click.option(
+            "--vs-relative/--vs-absolute",
+            default=None,
+            help=f"{dc} VS scale-free, |var_L - var_R| / (var_L + var_R) (the default), or "
+            "the paper's |var_L - var_R| in gray levels squared (then set --vs-max to match).",
+        ),
+        click.option(
+            "--feature-floor",
+            type=float,
+            default=None,
+            help=f"{dc} Least window variance (gray levels squared) of a candidate feature "
+            f"(default {p.DEFAULT_FEATURE_FLOOR:g}).",
+        ),
+        click.option(
+            "--uniqueness",
+            type=float,
+            default=None,
+            help=f"{dc} A candidate's second-least window cost (two or more disparities "
+            f"away) must be at least this times its least (default {p.DEFAULT_UNIQUENESS:g}; "
+            "0: off).",
+        ),
+        click.option(
+            "--edge-guard",
+            type=int,
+            default=None,
+            help=f"{dc} Columns left and right of a candidate whose windows must match "
+            "within one disparity of it (default: window // 2 + 1; 0: off).",
+        ),
+        click.option(
+            "--lr-check/--no-lr-check",
+            default=None,
+            help=f"{dc} Also require the right pixel of a candidate to match back to it "
+            "(default: off).",
+        ),
+        click.option(
+            "--max-candidates",
+            type=int,
+            default=None,
+            help=f"{dc} Candidates tried per interval before giving up on it (default 0: "
+            "every pixel above --feature-floor).",
+        ),
+        click.option(
+            "--gcp-uniqueness",
+            type=float,
+            default=None,
+            help="[dsi3-gcp] The ratio test of a ground control point (default "
+            f"{p.DEFAULT_GCP_UNIQUENESS:g}; 0: off).",
+        ),
+        click.option(
+            "--gcp-variance-floor",
+            type=float,
+            default=None,
+            help="[dsi3-gcp] Least window variance of a ground control point (default "
+            f"{p.DEFAULT_GCP_VARIANCE_FLOOR:g}).",
+        ),
+        click.option(
+            "--orientations",
+            default=None,
+            callback=_slopes,
+            metavar="SLOPES",
+            help="[redert] Comma-separated surface slopes (px of disparity per px), each of "
+            "0, +-0.0625, +-0.125, +-0.25, +-0.5, +-1 (default "
+            f"{','.join(f'{v:g}' for v in p.DEFAULT_ORIENTATIONS)}).",
+        ),
+        click.option(
+            "--orientation-cost",
+            type=float,
+            default=None,
+            help="[redert] Cost of a change of orientation, in the units of "
+            f"--occlusion-cost (default {p.DEFAULT_ORIENTATION_COST:g}).",
+        ),
+        click.option(
+            "--occlusion-discount",
+            type=float,
+            default=None,
+            help="[redert] Fraction of --occlusion-cost taken off the pixels of an "
+            f"occlusion run after its first, in [0, 1) (default {p.DEFAULT_OCCLUSION_DISCOUNT:g}).",
+        ),
+        click.option(
+            "--occlusion-discount-pixels",
+            type=int,
+            default=None,
+            help="[redert] How many pixels of a run after its first get the discount "
+            f"(default {p.DEFAULT_OCCLUSION_DISCOUNT_PIXELS}).",
+        ),
+    ]
 
 
 class CommandError(click.ClickException):
@@ -161,9 +319,10 @@ def set_threads(threads):
 def matching_options(func):
     """Options of :func:`dcstereo.match` shared by the matching commands, and ``--threads``.
 
-    The command receives the options named in :data:`MATCH_OPTIONS` as one dict,
-    ``match_options`` (keyword arguments of ``match``), and ``threads`` on its own; a new
-    matching option is added here once, for every command.
+    The command receives the options named in :data:`MATCH_OPTIONS`, and those of
+    :data:`METHOD_OPTIONS` that were given, as one dict, ``match_options`` (keyword
+    arguments of ``match``), and ``threads`` on its own; a new matching option is added
+    here once, for every command.
     """
     options = [
         click.option(
@@ -209,6 +368,7 @@ def matching_options(func):
             "through the window costs at d - 1, d, d + 1 (before --fill; default: off).",
         ),
         median_option,
+        *_method_option_list(),
         click.option(
             "--threads",
             type=int,
@@ -216,7 +376,24 @@ def matching_options(func):
             help="Number of threads (default: all cores).",
         ),
     ]
-    return _option_group(func, "match_options", MATCH_OPTIONS, options)
+
+    @functools.wraps(func)
+    def given_method_options(*args, **kwargs):
+        # the methods' own options join match_options only where given, and only for a
+        # method that reads them
+        method = kwargs["match_options"]["method"]
+        for name, methods in METHOD_OPTIONS.items():
+            value = kwargs.pop(name)
+            if value is None:
+                continue
+            if method not in methods:
+                raise CommandError(
+                    f"{_flag(name)} is read only by {', '.join(methods)}, not by {method}"
+                )
+            kwargs["match_options"][name] = value
+        return func(*args, **kwargs)
+
+    return _option_group(given_method_options, "match_options", MATCH_OPTIONS, options)
 
 
 #: ``--median K``: the post-filter of :mod:`dcstereo.postfilter`.
