@@ -123,6 +123,39 @@ def test_bench_subpixel_occlusion_cost_and_threshold(tmp_path):
     assert maes[0] != maes[6]  # the refined, filtered map scores differently
 
 
+def test_bench_method_options_reach_the_methods_that_read_them(tmp_path):
+    # --ser-min reaches dc (fewer features, a different map) and not the others' scores;
+    # an option that none of the methods run reads is refused before any runs
+    write_v2_scene(tmp_path / "data" / "a", seed=5)
+    rows = {}
+    for extra in ([], ["--edge-guard", "0", "--uniqueness", "0", "--feature-floor", "0"]):
+        out = tmp_path / f"bench{len(extra)}.json"
+        result = invoke(
+            "bench", tmp_path / "data", "--methods", "dc,dsi5", "--json", out, "--quiet", *extra
+        )
+        assert result.exit_code == 0, result.output
+        payload = json.loads(out.read_text())
+        rows[len(extra)] = {r["method"]: r for r in payload["rows"]}
+        if extra:
+            assert payload["match_options"]["edge_guard"] == 0
+            assert payload["match_options"]["uniqueness"] == 0.0
+            assert payload["match_options"]["feature_floor"] == 0.0
+        else:
+            assert "edge_guard" not in payload["match_options"]
+    assert rows[0]["dsi5"]["dense"] == rows[6]["dsi5"]["dense"]
+    assert rows[0]["dc"]["features"] < rows[6]["dc"]["features"]
+    for methods, message in [
+        ("dsi5,block", "Error: --ser-min is read only by dc, dc-linear, none of the methods run "
+         "(dsi5, block)"),
+        ("dsi3+bt", "Error: --ser-min is read only by dc, dc-linear, not by dsi3+bt"),
+    ]:  # fmt: skip
+        result = invoke("bench", tmp_path / "data", "--methods", methods, "--ser-min", "3")
+        lines = result.output.strip().splitlines()
+        assert result.exit_code == 1 and lines == [message], lines
+    result = invoke("bench", tmp_path / "data", "--methods", "dc+bt", "--ser-min", "3", "-q")
+    assert result.exit_code == 0, result.output
+
+
 def test_bench_bad_threshold_or_median_fails_before_running(tmp_path):
     write_v2_scene(tmp_path / "data" / "a", seed=5)
     for option, value, message in [

@@ -274,8 +274,10 @@ def bench(
     -------
     list of dict
         One row per (scene, method): ``{"scene", "method", "size", "max_disparity",
-        "seconds", "sparse": scores, "dense": scores}`` with scores as in :func:`score`.
-        ``seconds`` is the wall time of one call, compilation excluded.
+        "seconds", "features", "sparse": scores, "dense": scores}`` with scores as in
+        :func:`score`. ``seconds`` is the wall time of one call, compilation excluded;
+        ``features`` the number of feature pairs (``dc``, ``dc-linear``) or control points
+        (``dsi3-gcp``), None for the methods without.
     """
     options = dict(options or {})
     ours = {**options, **(match_options or {})}
@@ -302,6 +304,7 @@ def bench(
                 "size": [scene.shape[1], scene.shape[0]],
                 "max_disparity": scene.max_disparity,
                 "seconds": seconds,
+                "features": None if result.features is None else len(result.features),
                 "sparse": score(result.disparity, scene, thresholds),
                 "dense": score(result.filled().disparity, scene, thresholds),
             }

@@ -368,7 +368,6 @@ def matching_options(func):
             "through the window costs at d - 1, d, d + 1 (before --fill; default: off).",
         ),
         median_option,
-        *_method_option_list(),
         click.option(
             "--threads",
             type=int,
@@ -378,22 +377,56 @@ def matching_options(func):
     ]
 
     @functools.wraps(func)
-    def given_method_options(*args, **kwargs):
-        # the methods' own options join match_options only where given, and only for a
-        # method that reads them
-        method = kwargs["match_options"]["method"]
-        for name, methods in METHOD_OPTIONS.items():
-            value = kwargs.pop(name)
-            if value is None:
-                continue
-            if method not in methods:
-                raise CommandError(
-                    f"{_flag(name)} is read only by {', '.join(methods)}, not by {method}"
-                )
-            kwargs["match_options"][name] = value
+    def with_method_options(*args, method_options, **kwargs):
+        # the methods' own options join match_options where given, for a method that reads
+        # them
+        check_method_options(method_options, [kwargs["match_options"]["method"]])
+        kwargs["match_options"].update(method_options)
         return func(*args, **kwargs)
 
-    return _option_group(given_method_options, "match_options", MATCH_OPTIONS, options)
+    return _option_group(
+        add_method_options(with_method_options), "match_options", MATCH_OPTIONS, options
+    )
+
+
+def add_method_options(func):
+    """Add each method's own parameters (:data:`METHOD_OPTIONS`) to the command ``func``.
+
+    The command receives those given as one dict, ``method_options`` (keyword arguments of
+    :func:`dcstereo.match`); :func:`check_method_options` refuses one that none of the
+    methods run reads.
+    """
+
+    @functools.wraps(func)
+    def collect(*args, **kwargs):
+        given = {name: kwargs.pop(name) for name in METHOD_OPTIONS}
+        kwargs["method_options"] = {k: v for k, v in given.items() if v is not None}
+        return func(*args, **kwargs)
+
+    for option in reversed(_method_option_list()):
+        collect = option(collect)
+    return collect
+
+
+def check_method_options(given, methods):
+    """Refuse (a one-line error) an option of ``given`` that none of ``methods`` reads.
+
+    ``methods`` are dcstereo method names, with or without a ``+bt`` suffix, and others
+    (OpenCV's), which read none.
+    """
+    names = [method.removesuffix("+bt") for method in methods]
+    for name in given:
+        readers = METHOD_OPTIONS[name]
+        if any(method in readers for method in names):
+            continue
+        if len(names) == 1:
+            raise CommandError(
+                f"{_flag(name)} is read only by {', '.join(readers)}, not by {methods[0]}"
+            )
+        raise CommandError(
+            f"{_flag(name)} is read only by {', '.join(readers)}, none of the methods run "
+            f"({', '.join(methods)})"
+        )
 
 
 #: ``--median K``: the post-filter of :mod:`dcstereo.postfilter`.

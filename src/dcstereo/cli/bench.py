@@ -6,7 +6,14 @@ import click
 
 from ..metrics import DEFAULT_THRESHOLDS
 from ..params import DEFAULT_OCCLUSION_COST, SUBPIXEL_FITS, check_median
-from ._common import check_output_paths, median_option, one_line_errors, set_threads
+from ._common import (
+    add_method_options,
+    check_method_options,
+    check_output_paths,
+    median_option,
+    one_line_errors,
+    set_threads,
+)
 
 
 @click.command()
@@ -59,10 +66,11 @@ from ._common import check_output_paths, median_option, one_line_errors, set_thr
 )
 @click.option("--threads", type=int, default=None, help="Number of threads (default: all).")
 @click.option("--quiet", "-q", is_flag=True, help="Print only the table.")
+@add_method_options
 @one_line_errors
 def bench(
     data_dir, methods, window, occlusion_cost, subpixel, median, threshold, json_out, gt_scale,
-    threads, quiet,
+    threads, quiet, method_options,
 ):  # fmt: skip
     """Run METHODS on every scene folder under DATA_DIR and print a table.
 
@@ -70,7 +78,8 @@ def bench(
     loaded before any method runs, and one that cannot be read stops the bench. The table
     gives bad-1.0 (or --threshold) (%) of the filled (dense) maps in the nonocc, all and
     disc masks and their mean absolute error over nonocc, the density of the raw map and
-    the time per run, then the mean of each method.
+    the time per run, then the mean of each method. A method's own options (--ser-min
+    and the others of run) reach the methods that read them.
     """
     from .. import io
     from ..evaluation import (
@@ -89,7 +98,9 @@ def bench(
         raise ValueError(f"--threshold must be a positive number of pixels, got {threshold:g}")
     thresholds = sorted({*DEFAULT_THRESHOLDS, threshold})
     check_median(median, "--median")
+    check_method_options(method_options, names)
     match_options = {"occlusion_cost": occlusion_cost, "subpixel": subpixel, "median": median}
+    match_options.update(method_options)
     set_threads(threads)
 
     def progress(scene, method, seconds):
