@@ -124,8 +124,9 @@ def test_bench_subpixel_occlusion_cost_and_threshold(tmp_path):
 
 
 def test_bench_method_options_reach_the_methods_that_read_them(tmp_path):
-    # --ser-min reaches dc (fewer features, a different map) and not the others' scores;
-    # an option that none of the methods run reads is refused before any runs
+    # dc's options reach dc (with its extra tests off and no floor it accepts more pairs)
+    # and leave dsi5's scores alone; an option that none of the methods run reads is
+    # refused before any runs
     write_v2_scene(tmp_path / "data" / "a", seed=5)
     rows = {}
     for extra in ([], ["--edge-guard", "0", "--uniqueness", "0", "--feature-floor", "0"]):

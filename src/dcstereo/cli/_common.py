@@ -41,9 +41,13 @@ METHOD_OPTIONS = {
 }
 
 
+#: The two flags of the on/off options of :data:`METHOD_OPTIONS`.
+_SWITCHES = {"vs_relative": "--vs-relative/--vs-absolute", "lr_check": "--lr-check/--no-lr-check"}
+
+
 def _flag(name: str) -> str:
     """Return the command-line flag of a keyword argument (``ser_min``: ``--ser-min``)."""
-    return "--" + name.replace("_", "-")
+    return _SWITCHES.get(name, "--" + name.replace("_", "-"))
 
 
 def _slopes(ctx, param, value):
@@ -87,7 +91,7 @@ def _method_option_list():
             f"{p.DEFAULT_VS_MAX:g}, for the scale-free VS).",
         ),
         click.option(
-            "--vs-relative/--vs-absolute",
+            _SWITCHES["vs_relative"],
             default=None,
             help=f"{dc} VS scale-free, |var_L - var_R| / (var_L + var_R) (the default), or "
             "the paper's |var_L - var_R| in gray levels squared (then set --vs-max to match).",
@@ -115,7 +119,7 @@ def _method_option_list():
             "within one disparity of it (default: window // 2 + 1; 0: off).",
         ),
         click.option(
-            "--lr-check/--no-lr-check",
+            _SWITCHES["lr_check"],
             default=None,
             help=f"{dc} Also require the right pixel of a candidate to match back to it "
             "(default: off).",
