@@ -249,6 +249,48 @@ def test_compare_without_truth_and_more_methods(pair, tmp_path):
     assert not np.array_equal(parts[0, 1], parts[0, 2])  # block differs from dc
 
 
+def test_compare_method_options_reach_dcstereos_methods_only(pair, tmp_path, monkeypatch):
+    # dc's options go to dcstereo's methods (those that do not read one ignore it), never
+    # to OpenCV's; an option none of the methods reads is refused before any runs
+    from dcstereo import evaluation
+
+    left, right, _ = pair
+    calls = {}
+    real = evaluation.run_method
+
+    def spy(method, *args, **kwargs):
+        calls[method] = kwargs
+        return real(method, *args, **kwargs)
+
+    monkeypatch.setattr(evaluation, "run_method", spy)
+    out = tmp_path / "fig.png"
+    methods = "dc,dsi5,opencv-sgbm" if _opencv_installed() else "dc,dsi5"
+    result = invoke(
+        "compare", left, right, "-o", out, "--max-disparity", 10, "--methods", methods,
+        "--ser-min", "7", "--slant-cost", "2",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert calls["dc"]["ser_min"] == 7.0 and calls["dc"]["slant_cost"] == 2.0
+    assert calls["dsi5"]["slant_cost"] == 2.0
+    if "opencv-sgbm" in calls:
+        assert "ser_min" not in calls["opencv-sgbm"] and "slant_cost" not in calls["opencv-sgbm"]
+    calls.clear()
+    refused = invoke(
+        "compare", left, right, "-o", tmp_path / "g.png", "--max-disparity", 10, "--methods",
+        "block,dsi3", "--ser-min", "7",
+    )  # fmt: skip
+    assert refused.exit_code == 1 and calls == {} and not (tmp_path / "g.png").exists()
+    assert refused.output.strip().splitlines() == [
+        "Error: --ser-min is read only by dc, dc-linear, none of the methods run (block, dsi3)"
+    ]
+
+
+def _opencv_installed():
+    import importlib.util
+
+    return importlib.util.find_spec("cv2") is not None
+
+
 def test_compare_errors(pair, tmp_path):
     left, right, _ = pair
     result = invoke("compare", left, right, "-o", tmp_path / "no" / "f.png", "--max-disparity", 9)

@@ -58,6 +58,7 @@ def compare_methods(
     max_disparity: int,
     methods: Sequence[str] = PAPER_METHODS,
     min_disparity: int = 0,
+    match_options: dict | None = None,
     **options,
 ) -> dict:
     """Run each method on the pair (see :func:`dcstereo.evaluation.run_method`).
@@ -70,6 +71,10 @@ def compare_methods(
         Inclusive search range.
     methods : sequence of str
         Method names, :data:`dcstereo.params.METHODS` or ``opencv-sgbm`` / ``opencv-bm``.
+    match_options : dict, optional
+        Passed to dcstereo's methods only, not to OpenCV's (each method's own parameters,
+        ``ser_min`` and the others of :class:`~dcstereo.params.MatchParams`, which the
+        methods that do not read them ignore).
     **options
         Passed to every method.
 
@@ -78,9 +83,10 @@ def compare_methods(
     dict of str to DisparityResult
         In the order of ``methods``; results are not filled.
     """
-    from .evaluation import run_method
+    from .evaluation import OPENCV_METHODS, run_method
 
     _check_methods(methods)
+    ours = {**options, **(match_options or {})}
     return {
         method: run_method(
             method,
@@ -88,7 +94,7 @@ def compare_methods(
             right,
             max_disparity=max_disparity,
             min_disparity=min_disparity,
-            **options,
+            **(options if method in OPENCV_METHODS else ours),
         )
         for method in methods
     }

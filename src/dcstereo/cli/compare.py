@@ -3,7 +3,9 @@
 import click
 
 from ._common import (
+    add_method_options,
     check_distinct_paths,
+    check_method_options,
     check_output_paths,
     disparity_range_options,
     one_line_errors,
@@ -40,14 +42,17 @@ from ._common import (
 )
 @click.option("--window", type=int, default=5, show_default=True, help="Odd window side.")
 @click.option("--threads", type=int, default=None, help="Number of threads (default: all).")
+@add_method_options
 @one_line_errors
 def compare(
-    left, right, output, max_disparity, min_disparity, gt, gt_scale, methods, window, threads
-):
+    left, right, output, max_disparity, min_disparity, gt, gt_scale, methods, window, threads,
+    method_options,
+):  # fmt: skip
     """Match LEFT/RIGHT with each method and lay out the maps side by side in OUTPUT.
 
     Rows: the paper's display (histogram-equalized, occlusions white), the filled map in
-    colour and, with --gt, the error map (red: wrong by more than 1 pixel).
+    colour and, with --gt, the error map (red: wrong by more than 1 pixel). A method's own
+    options (--ser-min and the others of run) reach the methods that read them.
     """
     from pathlib import Path
 
@@ -70,6 +75,7 @@ def compare(
         {"--output": output},
     )
     names = parse_methods(methods)
+    check_method_options(method_options, names)
     set_threads(threads)
     left_image = io.read_image(left)
     right_image = io.read_image(right)
@@ -87,6 +93,7 @@ def compare(
         min_disparity=min_disparity,
         methods=names,
         window=window,
+        match_options=method_options,
     )
     figure = compare_figure(
         left_image, results, max_disparity=max_disparity, truth=truth, mask=mask
