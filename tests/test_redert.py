@@ -15,11 +15,14 @@ from dcstereo.metrics import bad_pixel_rate, mean_abs_error
 from dcstereo.redert import match_redert, orientation_steps
 
 
-def run_dp(node, seg, dmin, oq, occ, orient, slant, steps=4, discount=0.0, run_cap=1):
-    """Call ``scanline_dp``; return (total, path) in the oracle's format."""
+def run_dp(node, seg, dmin, oq, occ, orient, slant, steps=4, discount=0.0, run_cap=1, ring=None):
+    """Call ``scanline_dp``; return (total, path) in the oracle's format.
+
+    ``ring``: the columns its table keeps (default: every column).
+    """
     width, ndisp, norient = node.shape
     nstates = norient + 2 * run_cap + 2
-    table = np.empty((width, ndisp, nstates))
+    table = np.empty((width if ring is None else ring, ndisp, nstates))
     back = np.empty((width, ndisp, nstates), dtype=np.uint8)
     path_x = np.empty(2 * width + 2, dtype=np.int64)
     path_k = np.empty(2 * width + 2, dtype=np.int64)
@@ -114,6 +117,60 @@ def test_scanline_dp_matches_oracle(seed):
     if expected < math.inf:
         cost = naive_redert.path_cost(path, *args)
         assert cost == pytest.approx(total)
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_scanline_dp_keeps_only_the_columns_it_reads(seed):
+    # the table as a ring of the longest segment's columns plus one (what match_redert_rows
+    # allocates) gives the path and cost of a table of every column, the ends along
+    # j == width - 1 (x < width - 1) included: wider rows than the oracle can take
+    rng = np.random.default_rng(7300 + seed)
+    steps, slopes = ORIENTATION_SETS[seed % len(ORIENTATION_SETS)]
+    oq = np.array(slopes, dtype=np.int64)
+    longest = max(naive_redert.segment(q, steps)[0] for q in slopes)
+    width = int(rng.integers(longest + 2, 48))
+    ndisp = int(rng.integers(1, min(width, 12) + 1))
+    dmin = int(rng.integers(-ndisp - 2, 3))
+    if dmin + ndisp - 1 >= width:
+        dmin = width - ndisp
+    node, seg = random_costs(rng, width, dmin, ndisp, oq, steps)
+    occ = float(rng.integers(1, 15))
+    orient, slant = (float(v) for v in rng.integers(0, 15, size=2))
+    discount = float(rng.integers(0, occ))
+    run_cap = int(rng.integers(1, 5))
+    args = (node, seg, dmin, oq, occ, orient, slant, steps, discount, run_cap)
+    expected = run_dp(*args)
+    for ring in (longest + 1, longest + 3):
+        assert run_dp(*args, ring=ring) == expected
+    with pytest.raises(ValueError, match="the table must keep the longest segment's columns"):
+        run_dp(*args, ring=longest)
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_scanline_dp_with_a_ring_matches_oracle(seed):
+    # a ring shorter than the row (segments of at most two pixels: three columns) against
+    # the exhaustive oracle, with ranges whose paths may end along j == width - 1 before
+    # the last column (negative disparities): those ends are kept as their columns finish
+    rng = np.random.default_rng(8800 + seed)
+    steps, slopes = [(4, (0,)), (4, (0, 2)), (4, (-2, 0, 2)), (2, (-1, 0, 1))][seed % 4]
+    oq = np.array(slopes, dtype=np.int64)
+    ring = max(naive_redert.segment(q, steps)[0] for q in slopes) + 1
+    width = int(rng.integers(ring + 1, 7))
+    ndisp = int(rng.integers(1, 4))
+    dmin = int(rng.integers(-3, 2))
+    if dmin + ndisp - 1 >= width:
+        dmin = width - ndisp
+    node, seg = random_costs(rng, width, dmin, ndisp, oq, steps)
+    occ = float(rng.integers(1, 15))
+    orient, slant = (float(v) for v in rng.integers(0, 15, size=2))
+    discount = float(rng.integers(0, occ))
+    run_cap = int(rng.integers(1, 4))
+    args = (node, seg, dmin, oq, occ, orient, slant, steps, discount, run_cap)
+    expected = naive_redert.best_path_cost(*args)
+    total, path = run_dp(*args, ring=ring)
+    assert total == expected
+    if expected < math.inf:
+        assert naive_redert.path_cost(path, *args) == pytest.approx(total)
 
 
 def test_oracle_counts_a_hand_checked_tiny_case():

@@ -334,6 +334,10 @@ def scanline_dp(
     right pixel occluded in a border run. Back-pointer codes: a matched state entered by
     a segment stores ``1 + o1``; any other state stores ``1 + state`` of its predecessor,
     or ``O + 2 N + 3`` (the virtual start).
+
+    ``table`` (float64, ``(ring, D, states)``) holds the values of the last ``ring``
+    columns, column ``x`` in slot ``x % ring``: at least the longest segment's length plus
+    one (or the width); ``back`` (uint8, ``(W, D, states)``) every column's.
     """
     width, ndisp, norient = node.shape
     s_left = norient
@@ -346,23 +350,39 @@ def scanline_dp(
     inf = np.inf
     lengths = np.empty(norient, dtype=np.int64)
     deltas = np.empty(norient, dtype=np.int64)
+    longest = 1
     for o in range(norient):
         lengths[o], deltas[o] = segment_shape(oq[o], steps)
+        longest = max(longest, lengths[o])
+    # the table keeps the last `ring` columns: column x in slot x % ring (what a node reads
+    # lies at most the longest segment back)
+    ring = table.shape[0]
+    if ring < min(width, longest + 1):
+        raise ValueError("scanline_dp: the table must keep the longest segment's columns")
     # per node, over its matched states: the least cost and the first state that has it,
     # and the first state of least cost plus the orientation change (its value is
     # least + orient: adding a constant keeps the order, rounded too, but can tie two
     # states): what a segment into a later node and the first pixel of an occlusion run read
-    least = np.empty((width, ndisp), dtype=np.float64)
-    least_code = np.empty((width, ndisp), dtype=np.int64)
-    turn_code = np.empty((width, ndisp), dtype=np.int64)
+    least = np.empty((ring, ndisp), dtype=np.float64)
+    least_code = np.empty((ring, ndisp), dtype=np.int64)
+    turn_code = np.empty((ring, ndisp), dtype=np.int64)
+    # the cheapest state of each node with j == width - 1 and x < width - 1 (a path's
+    # possible end), kept as its column finishes: the ring may no longer hold it
+    end_value = np.full(ndisp, inf)
+    end_state = np.full(ndisp, -1, dtype=np.int64)
+    slots = np.empty(norient, dtype=np.int64)  # the slot of each segment's start column
     for x in range(width):
+        sx = x % ring
+        s1 = (x - 1) % ring  # read only where x >= 1
+        for o in range(norient):
+            slots[o] = (x - lengths[o]) % ring  # read only where the segment starts inside
         for k in range(ndisp):
             for st in range(nstates):
-                table[x, k, st] = inf
+                table[sx, k, st] = inf
                 back[x, k, st] = CODE_NONE
-            least[x, k] = inf
-            least_code[x, k] = CODE_NONE
-            turn_code[x, k] = CODE_NONE
+            least[sx, k] = inf
+            least_code[sx, k] = CODE_NONE
+            turn_code[sx, k] = CODE_NONE
         k_hi = min(ndisp - 1, x - dmin)
         k_lo = max(0, x - (width - 1) - dmin)
         for k in range(k_hi, k_lo - 1, -1):
@@ -375,8 +395,8 @@ def scanline_dp(
                 diag_code = start_code
             else:
                 for st in range(s_left, nstates):
-                    if table[x - 1, k, st] < diag_best:
-                        diag_best = table[x - 1, k, st]
+                    if table[s1, k, st] < diag_best:
+                        diag_best = table[s1, k, st]
                         diag_code = 1 + st
             for o2 in range(norient):
                 best = inf
@@ -389,30 +409,30 @@ def scanline_dp(
                     delta = deltas[o2]
                     if delta != 0:
                         here += slant
-                    px = x - lengths[o2]
+                    sp = slots[o2]
                     pk = k - delta
                     # cheapest matched predecessor, a change of orientation charged
-                    v = table[px, pk, o2]
+                    v = table[sp, pk, o2]
                     c = 1 + o2
-                    turn = least[px, pk] + orient
+                    turn = least[sp, pk] + orient
                     if turn < v:
                         v = turn
-                        c = turn_code[px, pk]
+                        c = turn_code[sp, pk]
                     if v + here < best:
                         best = v + here
                         code = c
-                table[x, k, o2] = best
+                table[sx, k, o2] = best
                 back[x, k, o2] = code
             low = inf
             low_turn = inf
             for o in range(norient):
-                if table[x, k, o] < low:
-                    low = table[x, k, o]
-                    least_code[x, k] = 1 + o
-                if table[x, k, o] + orient < low_turn:
-                    low_turn = table[x, k, o] + orient
-                    turn_code[x, k] = 1 + o
-            least[x, k] = low
+                if table[sx, k, o] < low:
+                    low = table[sx, k, o]
+                    least_code[sx, k] = 1 + o
+                if table[sx, k, o] + orient < low_turn:
+                    low_turn = table[sx, k, o] + orient
+                    turn_code[sx, k] = 1 + o
+            least[sx, k] = low
             # left pixel x occluded, from (x - 1, k - 1); right pixel j occluded, from
             # (x, k + 1): the same rules
             for side in range(2):
@@ -420,27 +440,27 @@ def scanline_dp(
                     if k < 1:
                         continue
                     at_start = x - 1 == -1
-                    px, pk, base, s_border = x - 1, k - 1, s_left, s_left_border
+                    sp, pk, base, s_border = s1, k - 1, s_left, s_left_border
                 else:
                     if k + 1 >= ndisp:
                         continue
                     at_start = j - 1 == -1
-                    px, pk, base, s_border = x, k + 1, s_right, s_right_border
+                    sp, pk, base, s_border = sx, k + 1, s_right, s_right_border
                 if not border_runs:
                     s_border = base
                 if at_start:
-                    table[x, k, s_border] = occ
+                    table[sx, k, s_border] = occ
                     back[x, k, s_border] = start_code
                     continue
                 if border_runs:
                     best = inf
                     code = CODE_NONE
                     for st in (s_left_border, s_right_border):
-                        if table[px, pk, st] < best:
-                            best = table[px, pk, st]
+                        if table[sp, pk, st] < best:
+                            best = table[sp, pk, st]
                             code = 1 + st
                     if code != CODE_NONE:
-                        table[x, k, s_border] = best + occ
+                        table[sx, k, s_border] = best + occ
                         back[x, k, s_border] = code
                 for count in range(1, run_cap + 1):
                     best = inf
@@ -448,51 +468,56 @@ def scanline_dp(
                     if count == 1:
                         # the first pixel of a run, after a match (run_cap 1: every
                         # occluded pixel, from any state, as in dsi3)
-                        best = least[px, pk]
-                        code = least_code[px, pk]
+                        best = least[sp, pk]
+                        code = least_code[sp, pk]
                         if run_cap == 1:
                             for st in range(norient, norient + 2):
-                                if table[px, pk, st] < best:
-                                    best = table[px, pk, st]
+                                if table[sp, pk, st] < best:
+                                    best = table[sp, pk, st]
                                     code = 1 + st
                         best += occ
                     else:
                         # the run goes on: a discounted pixel, the count-th of the run
                         for st in (s_left + count - 2, s_right + count - 2):
-                            w = table[px, pk, st] + (occ - discount)
+                            w = table[sp, pk, st] + (occ - discount)
                             if w < best:
                                 best = w
                                 code = 1 + st
                         if count == run_cap:  # or a pixel beyond the discounted ones
                             for st in (s_left + count - 1, s_right + count - 1):
-                                w = table[px, pk, st] + occ
+                                w = table[sp, pk, st] + occ
                                 if w < best:
                                     best = w
                                     code = 1 + st
                     if code != CODE_NONE:
-                        table[x, k, base + count - 1] = best
+                        table[sx, k, base + count - 1] = best
                         back[x, k, base + count - 1] = code
+        k = x - dmin - (width - 1)  # the node of this column with j == width - 1
+        if x < width - 1 and 0 <= k < ndisp:
+            for st in range(nstates):
+                if table[sx, k, st] < end_value[k]:
+                    end_value[k] = table[sx, k, st]
+                    end_state[k] = st
 
     # the end: nodes with x == width - 1, then nodes with j == width - 1 (x < width - 1)
     end_x = -1
     end_k = -1
     end_st = -1
     total = inf
+    last = (width - 1) % ring
     for k in range(ndisp):
         x = width - 1
         j = x - dmin - k
         if 0 <= j <= width - 1:
             for st in range(nstates):
-                if table[x, k, st] < total:
-                    total = table[x, k, st]
+                if table[last, k, st] < total:
+                    total = table[last, k, st]
                     end_x, end_k, end_st = x, k, st
     for k in range(ndisp):
         x = width - 1 + dmin + k
-        if 0 <= x < width - 1:
-            for st in range(nstates):
-                if table[x, k, st] < total:
-                    total = table[x, k, st]
-                    end_x, end_k, end_st = x, k, st
+        if 0 <= x < width - 1 and end_value[k] < total:
+            total = end_value[k]
+            end_x, end_k, end_st = x, k, end_state[k]
     if not total < inf:
         return 0, inf
 
@@ -582,8 +607,11 @@ def match_redert_rows(
 ):
     """Run the orientation DP on every row; rows (in chunks) are the only parallel loop.
 
-    Per thread: the column sums (W x sampled disparities), the cost volume and
-    the DP tables (W x D x (orientations + 2 run_cap + 2)); never H x W x D.
+    Per thread: the column sums (W x sampled disparities), the cost volume, the DP's back
+    pointers (W x D x (orientations + 2 run_cap + 2) bytes) and its values for the last
+    columns only (the longest segment's plus one: 9 x D x states float64 with the default
+    orientations, where a table of every column, 4.5 MB a thread on teddy, was 129 MB on a
+    3000-pixel row of 256 disparities); never H x W x D.
     """
     height, width = disp.shape
     norient = oq.shape[0]
@@ -592,12 +620,18 @@ def match_redert_rows(
         omax = max(omax, abs(oq[o]))
     e_lo = steps * dmin - radius * omax
     ne = steps * (ndisp - 1) + 2 * radius * omax + 1
+    # the DP's values: the columns of the longest segment and its end (the steps back
+    # to the start are all kept)
+    ring = 1
+    for o in range(norient):
+        ring = max(ring, segment_shape(oq[o], steps)[0] + 1)
+    ring = min(ring, width)
     for c in nb.prange(nchunks):
         y0, y1 = _chunk_bounds(height, nchunks, c)
         columns = np.empty((width, ne), dtype=np.int64)
         node = np.empty((width, ndisp, norient), dtype=np.float64)
         seg = np.empty((width, ndisp, norient), dtype=np.float64)
-        table = np.empty((width, ndisp, norient + 2 * run_cap + 2), dtype=np.float64)
+        table = np.empty((ring, ndisp, norient + 2 * run_cap + 2), dtype=np.float64)
         back = np.empty((width, ndisp, norient + 2 * run_cap + 2), dtype=np.uint8)
         path_x = np.empty(2 * width + 2, dtype=np.int64)
         path_k = np.empty(2 * width + 2, dtype=np.int64)
