@@ -330,6 +330,37 @@ def test_scanline_picture(pair, tmp_path):
     assert result.exit_code == 1 and "row must be in 0..23" in result.output
 
 
+def test_scanline_takes_the_method_options(pair, tmp_path):
+    # --feature-floor reaches dc's row: the pairs it reports are those of a whole-image
+    # run with the same option; refused for methods that do not read it
+    import dcstereo
+
+    left, right, _ = pair
+    counts = {}
+    for floor in ("0", "1e9"):
+        out = tmp_path / f"row{floor}.png"
+        result = invoke(
+            "scanline", left, right, "--row", 12, "--max-disparity", 10, "-o", out,
+            "--methods", "dc", "--feature-floor", floor, "--width", 400, "--height", 300,
+        )  # fmt: skip
+        assert result.exit_code == 0, result.output
+        counts[floor] = int(result.output.split(", ")[-1].split()[0])
+        full = dcstereo.match(
+            io.read_image(left), io.read_image(right), max_disparity=10,
+            feature_floor=float(floor),
+        )  # fmt: skip
+        assert counts[floor] == int((full.features[:, 0] == 12).sum())
+    assert counts["1e9"] == 0 < counts["0"]
+    refused = invoke(
+        "scanline", left, right, "--row", 12, "--max-disparity", 10, "-o", tmp_path / "r.png",
+        "--methods", "dsi3,dsi5", "--feature-floor", "0",
+    )  # fmt: skip
+    assert refused.exit_code == 1 and not (tmp_path / "r.png").exists()
+    assert "--feature-floor is read only by dc, dc-linear, none of the methods run" in (
+        refused.output
+    )
+
+
 def test_scanline_data_matches_a_full_run(pair):
     import dcstereo
     from dcstereo.explore import dsi_row, scanline

@@ -3,7 +3,9 @@
 import click
 
 from ._common import (
+    add_method_options,
     check_distinct_paths,
+    check_method_options,
     check_output_paths,
     disparity_range_options,
     one_line_errors,
@@ -43,15 +45,18 @@ MAX_SIDE = 10000
     show_default=True,
     help="Picture height, px.",
 )
+@add_method_options
 @one_line_errors
 def scanline(
-    left, right, row, max_disparity, min_disparity, output, methods, window, width, height
-):
+    left, right, row, max_disparity, min_disparity, output, methods, window, width, height,
+    method_options,
+):  # fmt: skip
     """Draw row ROW of LEFT/RIGHT as the paper's Fig. 1 / 2 do.
 
     The disparity-space image of the row (x across, disparity up, dark = good match),
     the optimal paths of the methods, the feature pairs dc accepted (yellow circles) and
-    the two intensity profiles.
+    the two intensity profiles. A method's own options (--ser-min and the others of run)
+    reach the methods that read them.
     """
     from .. import io
     from ..evaluation import parse_methods
@@ -65,6 +70,7 @@ def scanline(
     names = parse_methods(methods)
     if any(name in OPENCV_METHODS for name in names):
         raise ValueError("scanline draws dcstereo's methods only (OpenCV gives no path)")
+    check_method_options(method_options, names)
     left_image = io.read_image(left)
     right_image = io.read_image(right)
     data = gather(
@@ -75,6 +81,7 @@ def scanline(
         min_disparity=min_disparity,
         window=window,
         methods=names,
+        **method_options,
     )
     io.write_rgb_png(output, scanline_figure(data, width=width, height=height))
     pairs = sum(len(p) for p in data["features"].values())
