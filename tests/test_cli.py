@@ -467,3 +467,17 @@ def test_the_readme_lists_every_method_option_with_its_methods():
     for name, methods in METHOD_OPTIONS.items():
         for method in methods:
             assert _flag(name).split("/")[0] in rows.get(method, ""), (name, method)
+
+
+def test_help_tags_each_method_option_with_the_methods_that_read_it():
+    from dcstereo.cli._common import METHOD_OPTIONS, _flag
+
+    result = CliRunner().invoke(main, ["run", "--help"])
+    assert result.exit_code == 0
+    # each option's entry: from its flag to the next option (the help wraps)
+    entries = {}
+    for entry in result.output.split("\n  -")[1:]:
+        entries["-" + entry.split()[0]] = " ".join(entry.split())
+    for name, methods in METHOD_OPTIONS.items():
+        entry = entries[_flag(name).split("/")[0]]
+        assert f"[{', '.join(methods)}]" in entry, (name, entry)

@@ -80,6 +80,20 @@ def random_costs(rng, width, dmin, ndisp, oq, steps=4):
     return node, seg
 
 
+def random_dp_case(rng, steps, oq, width, ndisp, dmin, most_runs):
+    """The arguments of :func:`run_dp` for a random row: ``dmin`` moved down so the range
+    fits the row, random costs, occlusion, orientation and slant costs, a run discount
+    (0 in some cases: the plain model) and 1 to ``most_runs`` run states."""
+    if dmin + ndisp - 1 >= width:
+        dmin = width - ndisp
+    node, seg = random_costs(rng, width, dmin, ndisp, oq, steps)
+    occ = float(rng.integers(1, 15))
+    orient, slant = (float(v) for v in rng.integers(0, 15, size=2))
+    discount = float(rng.integers(0, occ))
+    run_cap = int(rng.integers(1, most_runs + 1))
+    return (node, seg, dmin, oq, occ, orient, slant, steps, discount, run_cap)
+
+
 #: (steps, slopes in units of 1/steps): quarter-pixel sets and eighth-pixel sets (L = 8)
 ORIENTATION_SETS = [
     (4, (0,)),
@@ -101,16 +115,8 @@ def test_scanline_dp_matches_oracle(seed):
     width = int(rng.integers(2, 7)) if longest <= 4 else int(rng.integers(longest, longest + 2))
     ndisp = int(rng.integers(1, min(width, 3 if longest <= 4 else 2) + 1))
     dmin = int(rng.integers(-1, 2))
-    if dmin + ndisp - 1 >= width:
-        dmin = width - ndisp
     oq = np.array(slopes, dtype=np.int64)
-    node, seg = random_costs(rng, width, dmin, ndisp, oq, steps)
-    occ, orient, slant = (float(v) for v in rng.integers(0, 15, size=3))
-    occ += 1.0
-    # the run discount (0 in some cases, then the plain model) and the run states
-    discount = float(rng.integers(0, occ))
-    run_cap = int(rng.integers(1, 4))
-    args = (node, seg, dmin, oq, occ, orient, slant, steps, discount, run_cap)
+    args = random_dp_case(rng, steps, oq, width, ndisp, dmin, most_runs=3)
     expected = naive_redert.best_path_cost(*args)
     total, path = run_dp(*args)
     assert total == expected
@@ -131,14 +137,7 @@ def test_scanline_dp_keeps_only_the_columns_it_reads(seed):
     width = int(rng.integers(longest + 2, 48))
     ndisp = int(rng.integers(1, min(width, 12) + 1))
     dmin = int(rng.integers(-ndisp - 2, 3))
-    if dmin + ndisp - 1 >= width:
-        dmin = width - ndisp
-    node, seg = random_costs(rng, width, dmin, ndisp, oq, steps)
-    occ = float(rng.integers(1, 15))
-    orient, slant = (float(v) for v in rng.integers(0, 15, size=2))
-    discount = float(rng.integers(0, occ))
-    run_cap = int(rng.integers(1, 5))
-    args = (node, seg, dmin, oq, occ, orient, slant, steps, discount, run_cap)
+    args = random_dp_case(rng, steps, oq, width, ndisp, dmin, most_runs=4)
     expected = run_dp(*args)
     for ring in (longest + 1, longest + 3):
         assert run_dp(*args, ring=ring) == expected
@@ -158,14 +157,7 @@ def test_scanline_dp_with_a_ring_matches_oracle(seed):
     width = int(rng.integers(ring + 1, 7))
     ndisp = int(rng.integers(1, 4))
     dmin = int(rng.integers(-3, 2))
-    if dmin + ndisp - 1 >= width:
-        dmin = width - ndisp
-    node, seg = random_costs(rng, width, dmin, ndisp, oq, steps)
-    occ = float(rng.integers(1, 15))
-    orient, slant = (float(v) for v in rng.integers(0, 15, size=2))
-    discount = float(rng.integers(0, occ))
-    run_cap = int(rng.integers(1, 4))
-    args = (node, seg, dmin, oq, occ, orient, slant, steps, discount, run_cap)
+    args = random_dp_case(rng, steps, oq, width, ndisp, dmin, most_runs=3)
     expected = naive_redert.best_path_cost(*args)
     total, path = run_dp(*args, ring=ring)
     assert total == expected

@@ -62,119 +62,111 @@ def _slopes(ctx, param, value):
         ) from None
 
 
-def _method_option_list():
-    """Return the options of :data:`METHOD_OPTIONS` as ``--help`` lists them (default None)."""
-    dc = "[dc, dc-linear]"
+def _method_option_help():
+    """Return each option of :data:`METHOD_OPTIONS`: its ``--help`` text, untagged.
+
+    With it, its ``click.option`` settings other than the flag and the default (None:
+    not given).
+    """
     p = _params
+    slopes = ",".join(f"{v:g}" for v in p.DEFAULT_ORIENTATIONS)
+    return {
+        "slant_cost": (
+            "Extra cost of each d or e step of the five-step model, in the units of "
+            "--occlusion-cost (redert: of each disparity step of a slanted segment). Default: "
+            f"the method's ({p.DEFAULT_SLANT_COST:g} for dsi5, the paper's model; "
+            f"{p.DEFAULT_DC_SLANT_COST:g} for dc).",
+            {"type": float},
+        ),
+        "ser_min": (
+            "Least signal-to-error ratio (eq. 2) of a reliable feature pair "
+            f"(default {p.DEFAULT_SER_MIN:g}).",
+            {"type": float},
+        ),
+        "vs_max": (
+            "Largest variance dissimilarity (eq. 3) of a reliable pair (default "
+            f"{p.DEFAULT_VS_MAX:g}, for the scale-free VS).",
+            {"type": float},
+        ),
+        "vs_relative": (
+            "VS scale-free, |var_L - var_R| / (var_L + var_R) (the default), or the paper's "
+            "|var_L - var_R| in gray levels squared (then set --vs-max to match).",
+            {},
+        ),
+        "feature_floor": (
+            "Least window variance (gray levels squared) of a candidate feature "
+            f"(default {p.DEFAULT_FEATURE_FLOOR:g}).",
+            {"type": float},
+        ),
+        "uniqueness": (
+            "A candidate's second-least window cost (two or more disparities away) must be "
+            f"at least this times its least (default {p.DEFAULT_UNIQUENESS:g}; 0: off).",
+            {"type": float},
+        ),
+        "edge_guard": (
+            "Columns left and right of a candidate whose windows must match within one "
+            "disparity of it (default: window // 2 + 1; 0: off).",
+            {"type": int},
+        ),
+        "lr_check": (
+            "Also require the right pixel of a candidate to match back to it (default: off).",
+            {},
+        ),
+        "max_candidates": (
+            "Candidates tried per interval before giving up on it (default 0: every pixel "
+            "above --feature-floor).",
+            {"type": int},
+        ),
+        "gcp_uniqueness": (
+            "The ratio test of a ground control point (default "
+            f"{p.DEFAULT_GCP_UNIQUENESS:g}; 0: off).",
+            {"type": float},
+        ),
+        "gcp_variance_floor": (
+            "Least window variance of a ground control point (default "
+            f"{p.DEFAULT_GCP_VARIANCE_FLOOR:g}).",
+            {"type": float},
+        ),
+        "orientations": (
+            "Comma-separated surface slopes (px of disparity per px), each of 0, +-0.0625, "
+            f"+-0.125, +-0.25, +-0.5, +-1 (default {slopes}).",
+            {"callback": _slopes, "metavar": "SLOPES"},
+        ),
+        "orientation_cost": (
+            "Cost of a change of orientation, in the units of --occlusion-cost "
+            f"(default {p.DEFAULT_ORIENTATION_COST:g}).",
+            {"type": float},
+        ),
+        "occlusion_discount": (
+            "Fraction of --occlusion-cost taken off the pixels of an occlusion run after its "
+            f"first, in [0, 1) (default {p.DEFAULT_OCCLUSION_DISCOUNT:g}).",
+            {"type": float},
+        ),
+        "occlusion_discount_pixels": (
+            "How many pixels of a run after its first get the discount "
+            f"(default {p.DEFAULT_OCCLUSION_DISCOUNT_PIXELS}).",
+            {"type": int},
+        ),
+    }
+
+
+def _method_option_list():
+    """Return the options of :data:`METHOD_OPTIONS` as ``--help`` lists them.
+
+    In its order, each help text tagged with the methods that read the option.
+    """
+    texts = _method_option_help()
+    if texts.keys() != METHOD_OPTIONS.keys():
+        raise AssertionError("every option of METHOD_OPTIONS needs one help text")
     return [
         click.option(
-            "--slant-cost",
-            type=float,
+            _flag(name),
+            name,
             default=None,
-            help="[dsi5, dc, dc-linear, redert] Extra cost of each d or e step of the "
-            "five-step model, in the units of --occlusion-cost (redert: of each disparity "
-            f"step of a slanted segment). Default: the method's ({p.DEFAULT_SLANT_COST:g} for "
-            f"dsi5, the paper's model; {p.DEFAULT_DC_SLANT_COST:g} for dc).",
-        ),
-        click.option(
-            "--ser-min",
-            type=float,
-            default=None,
-            help=f"{dc} Least signal-to-error ratio (eq. 2) of a reliable feature pair "
-            f"(default {p.DEFAULT_SER_MIN:g}).",
-        ),
-        click.option(
-            "--vs-max",
-            type=float,
-            default=None,
-            help=f"{dc} Largest variance dissimilarity (eq. 3) of a reliable pair (default "
-            f"{p.DEFAULT_VS_MAX:g}, for the scale-free VS).",
-        ),
-        click.option(
-            _SWITCHES["vs_relative"],
-            default=None,
-            help=f"{dc} VS scale-free, |var_L - var_R| / (var_L + var_R) (the default), or "
-            "the paper's |var_L - var_R| in gray levels squared (then set --vs-max to match).",
-        ),
-        click.option(
-            "--feature-floor",
-            type=float,
-            default=None,
-            help=f"{dc} Least window variance (gray levels squared) of a candidate feature "
-            f"(default {p.DEFAULT_FEATURE_FLOOR:g}).",
-        ),
-        click.option(
-            "--uniqueness",
-            type=float,
-            default=None,
-            help=f"{dc} A candidate's second-least window cost (two or more disparities "
-            f"away) must be at least this times its least (default {p.DEFAULT_UNIQUENESS:g}; "
-            "0: off).",
-        ),
-        click.option(
-            "--edge-guard",
-            type=int,
-            default=None,
-            help=f"{dc} Columns left and right of a candidate whose windows must match "
-            "within one disparity of it (default: window // 2 + 1; 0: off).",
-        ),
-        click.option(
-            _SWITCHES["lr_check"],
-            default=None,
-            help=f"{dc} Also require the right pixel of a candidate to match back to it "
-            "(default: off).",
-        ),
-        click.option(
-            "--max-candidates",
-            type=int,
-            default=None,
-            help=f"{dc} Candidates tried per interval before giving up on it (default 0: "
-            "every pixel above --feature-floor).",
-        ),
-        click.option(
-            "--gcp-uniqueness",
-            type=float,
-            default=None,
-            help="[dsi3-gcp] The ratio test of a ground control point (default "
-            f"{p.DEFAULT_GCP_UNIQUENESS:g}; 0: off).",
-        ),
-        click.option(
-            "--gcp-variance-floor",
-            type=float,
-            default=None,
-            help="[dsi3-gcp] Least window variance of a ground control point (default "
-            f"{p.DEFAULT_GCP_VARIANCE_FLOOR:g}).",
-        ),
-        click.option(
-            "--orientations",
-            default=None,
-            callback=_slopes,
-            metavar="SLOPES",
-            help="[redert] Comma-separated surface slopes (px of disparity per px), each of "
-            "0, +-0.0625, +-0.125, +-0.25, +-0.5, +-1 (default "
-            f"{','.join(f'{v:g}' for v in p.DEFAULT_ORIENTATIONS)}).",
-        ),
-        click.option(
-            "--orientation-cost",
-            type=float,
-            default=None,
-            help="[redert] Cost of a change of orientation, in the units of "
-            f"--occlusion-cost (default {p.DEFAULT_ORIENTATION_COST:g}).",
-        ),
-        click.option(
-            "--occlusion-discount",
-            type=float,
-            default=None,
-            help="[redert] Fraction of --occlusion-cost taken off the pixels of an "
-            f"occlusion run after its first, in [0, 1) (default {p.DEFAULT_OCCLUSION_DISCOUNT:g}).",
-        ),
-        click.option(
-            "--occlusion-discount-pixels",
-            type=int,
-            default=None,
-            help="[redert] How many pixels of a run after its first get the discount "
-            f"(default {p.DEFAULT_OCCLUSION_DISCOUNT_PIXELS}).",
-        ),
+            help=f"[{', '.join(readers)}] {texts[name][0]}",
+            **texts[name][1],
+        )
+        for name, readers in METHOD_OPTIONS.items()
     ]
 
 
