@@ -32,7 +32,10 @@ def test_synthetic_pair_follows_its_disparity(bench):
         assert np.abs(left[row, inside] - expected[inside]).max() <= 1.0
 
 
-def run_tiny(bench, tmp_path, methods):
+def run_tiny(bench, tmp_path, methods, compile_methods=None):
+    """Run the script on a tiny synthetic pair; ``compile_methods``: the methods of its
+    compile-time table (each compiled from nothing in a child: a minute a method on a slow
+    host), none by default."""
     out_json = tmp_path / "speed.json"
     out_md = tmp_path / "speed.md"
     code = bench.main(
@@ -47,8 +50,8 @@ def run_tiny(bench, tmp_path, methods):
             "1",
             "--repeat",
             "1",
-            "--compile-methods",
-            "block",
+            *(["--compile-methods", compile_methods] if compile_methods else []),
+            *([] if compile_methods else ["--compile-scene", "none"]),
             "--json",
             str(out_json),
             "--markdown",
@@ -64,7 +67,7 @@ def is_number(value):
 
 
 def test_dcstereo_methods_table(bench, tmp_path):
-    payload, markdown = run_tiny(bench, tmp_path, ["block", "dsi5"])
+    payload, markdown = run_tiny(bench, tmp_path, ["block", "dsi5"], compile_methods="block")
     rows = payload["results"]
     assert [(r["scene"], r["method"], r["threads"]) for r in rows] == [
         ("synthetic", "block", 1),
