@@ -1,13 +1,23 @@
 """Shared fixtures: where the Middlebury development data lives, a small pair on disk."""
 
 import os
+from pathlib import Path
 
-import numpy as np
-import pytest
-from PIL import Image
+# Under pytest-xdist each worker keeps numba's compiled kernels in a cache folder of its
+# own, set before numba is imported: two processes writing entries of one function's
+# cache index at once can pair a signature with another's machine code (numba#4807).
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    _cache = (
+        os.environ.get("NUMBA_CACHE_DIR") or Path(__file__).resolve().parents[1] / ".numba-cache"
+    )
+    os.environ["NUMBA_CACHE_DIR"] = os.path.join(_cache, os.environ["PYTEST_XDIST_WORKER"])
 
-import synthetic
-from dcstereo.datasets import list_middlebury, middlebury_dir
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+from PIL import Image  # noqa: E402
+
+import synthetic  # noqa: E402
+from dcstereo.datasets import list_middlebury, middlebury_dir  # noqa: E402
 
 
 @pytest.fixture(scope="session")

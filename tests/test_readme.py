@@ -54,3 +54,24 @@ def test_the_readme_python_examples_run(tmp_path, monkeypatch):
     assert known.any() and np.array_equal(np.isfinite(depth_png), known)
     assert np.abs(depth_png[known] - depth_pfm[known]).max() <= 0.5
     assert namespace["kept"].shape == left.shape
+
+
+def test_the_readme_says_why_each_dependency_is_there():
+    # every package pyproject.toml installs (extras included) has a row in the README's
+    # "Dependencies, and why" table
+    import tomllib
+
+    project = tomllib.loads((README.parent / "pyproject.toml").read_text(encoding="utf-8"))
+    wanted = list(project["project"]["dependencies"])
+    for extra in project["project"]["optional-dependencies"].values():
+        wanted += extra
+    names = {re.split(r"[<>=!~\[; ]", spec, maxsplit=1)[0].lower() for spec in wanted}
+    text = README.read_text(encoding="utf-8")
+    table = text.split("## Dependencies, and why", 1)[1].split("\n## ", 1)[0]
+    named = {
+        word.lower()
+        for line in table.splitlines()
+        if line.startswith("| ")
+        for word in re.findall(r"[A-Za-z][\w.-]*", line.split("|")[1])
+    }
+    assert names <= named, sorted(names - named)
