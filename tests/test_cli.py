@@ -481,3 +481,111 @@ def test_help_tags_each_method_option_with_the_methods_that_read_it():
     for name, methods in METHOD_OPTIONS.items():
         entry = entries[_flag(name).split("/")[0]]
         assert f"[{', '.join(methods)}]" in entry, (name, entry)
+
+
+def fresh_kernels():
+    """Two new numba functions, one calling the other: compiled on their first call."""
+    import numba
+
+    inner = numba.njit(lambda x: x + 1)
+    return numba.njit(lambda x: inner(x) * 2)
+
+
+def test_compile_watch_announces_the_first_compile_and_times_it(capsys):
+    import time
+
+    from dcstereo.cli._common import COMPILE_NOTICE, compile_note, compile_watch
+
+    outer = fresh_kernels()
+    start = time.perf_counter()
+    with compile_watch() as watch:
+        assert outer(3) == 8
+        assert fresh_kernels()(1) == 4  # a second compile: no second notice
+    wall = time.perf_counter() - start
+    assert capsys.readouterr().err == COMPILE_NOTICE + "\n"
+    # the callee compiles inside its caller: counted once, so never more than the wall
+    assert 0 < watch.seconds <= wall
+    assert compile_note(watch) == f" ({watch.seconds:.1f} s of it compiling the kernels)"
+    with compile_watch() as again:
+        assert outer(4) == 10  # compiled already
+    assert again.seconds == 0 and compile_note(again) == ""
+    assert capsys.readouterr().err == ""
+    with compile_watch(quiet=True) as quiet:
+        assert fresh_kernels()(0) == 2
+    assert quiet.seconds > 0 and capsys.readouterr().err == ""
+
+
+def test_run_announces_compiling_and_says_its_share_of_the_time(pair, monkeypatch):
+    import dcstereo
+    from dcstereo.cli._common import COMPILE_NOTICE
+
+    folder, _ = pair
+    real = dcstereo.match
+
+    def compiling_match(*args, **kwargs):
+        fresh_kernels()(1)  # stands in for a kernel not yet compiled
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(dcstereo, "match", compiling_match)
+    args = ["run", folder / "left.png", folder / "right.png", "-o", folder / "d.pfm"]
+    result = CliRunner().invoke(main, [str(a) for a in [*args, "--max-disparity", 15]])
+    assert result.exit_code == 0, result.output
+    assert COMPILE_NOTICE in result.stderr
+    assert "s of it compiling the kernels), " in result.stdout
+    quiet = CliRunner().invoke(main, [str(a) for a in [*args, "--max-disparity", 15, "-q"]])
+    assert quiet.exit_code == 0 and quiet.output == ""
+
+
+def test_a_second_process_compiles_nothing(pair):
+    # every kernel `run` calls is cached on disk: a later process loads them all, so no
+    # compile notice and no compile time (a kernel without numba's cache would show here)
+    import subprocess
+    import sys
+
+    folder, _ = pair
+    command = [sys.executable, "-c", "from dcstereo.cli import main; main()", "run"]
+    command += ["left.png", "right.png"]
+    command += ["-o", "d.pfm", "--max-disparity", "15", "--preview", "p.png"]
+    command += ["--confidence-out", "c.pfm"]
+    for _ in range(2):
+        done = subprocess.run(
+            command, cwd=folder, capture_output=True, text=True, timeout=900, check=False
+        )
+        assert done.returncode == 0, done.stderr
+    assert done.stderr == "" and "compiling" not in done.stdout, done.stdout + done.stderr
+
+
+@pytest.mark.parametrize("command", ["batch", "video"])
+def test_batch_and_video_announce_compiling_before_their_bar(command, pair, tmp_path, monkeypatch):
+    import shutil
+
+    import dcstereo.batch
+    import dcstereo.video
+    from dcstereo.cli._common import COMPILE_NOTICE
+
+    module = dcstereo.batch if command == "batch" else dcstereo.video
+    real = module.match
+
+    def compiling_match(*args, **kwargs):
+        fresh_kernels()(1)  # stands in for a kernel not yet compiled
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(module, "match", compiling_match)
+    folder, _ = pair
+    source, out = tmp_path / "source", tmp_path / "out"
+    if command == "batch":
+        (source / "pair0").mkdir(parents=True)
+        for side in ("left", "right"):
+            shutil.copy(folder / f"{side}.png", source / "pair0" / f"{side}.png")
+        args = ["batch", source, "-o", out]
+    else:
+        for side in ("left", "right"):
+            (source / side).mkdir(parents=True)
+            for frame in range(2):
+                shutil.copy(folder / f"{side}.png", source / side / f"img{frame}.png")
+        args = ["video", source / "left", source / "right", "-o", out]
+    result = CliRunner().invoke(main, [str(a) for a in [*args, "--max-disparity", 15]])
+    assert result.exit_code == 0, result.output
+    # once, and before the progress bar (which starts when the first pair is done)
+    assert result.stderr.startswith(COMPILE_NOTICE + "\n")
+    assert result.stderr.count(COMPILE_NOTICE) == 1

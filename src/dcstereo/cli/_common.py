@@ -2,9 +2,11 @@
 
 import contextlib
 import functools
+import time
 from pathlib import Path
 
 import click
+from numba.core import event as numba_event
 
 from .. import params as _params
 from ..params import DEFAULT_OCCLUSION_COST, MAX_MEDIAN, METHODS, SUBPIXEL_FITS
@@ -257,6 +259,62 @@ def staged_outputs():
                 raise ValueError(str(exc).replace(str(temporary), str(path))) from None
 
         yield write
+
+
+#: What the commands print (on stderr) when a kernel compiles, before it does.
+COMPILE_NOTICE = (
+    "Compiling the kernels for this machine: a minute or more, on the first run only "
+    "(numba caches them on disk)."
+)
+
+
+class CompileWatch(numba_event.Listener):
+    """Time numba's compiling inside :func:`compile_watch`, and announce its start once.
+
+    ``seconds``: the time the outermost compiles took (a kernel's callees compile inside
+    it, counted once); 0 when every kernel came from numba's cache.
+    """
+
+    def __init__(self, announce):
+        self.seconds = 0.0
+        self._announce = announce
+        self._depth = 0
+        self._start = 0.0
+
+    def on_start(self, event):
+        """Start the clock at an outermost compile (numba compiles one at a time)."""
+        if self._depth == 0:
+            if self._announce is not None:
+                self._announce()
+                self._announce = None
+            self._start = time.perf_counter()
+        self._depth += 1
+
+    def on_end(self, event):
+        """Stop the clock at the end of an outermost compile."""
+        self._depth -= 1
+        if self._depth == 0:
+            self.seconds += time.perf_counter() - self._start
+
+
+@contextlib.contextmanager
+def compile_watch(quiet=False):
+    """Watch numba compile kernels in the block: yields a :class:`CompileWatch`.
+
+    Unless ``quiet``, the first compile prints :data:`COMPILE_NOTICE` on stderr before it
+    starts, so that a first run's wait is explained; a run whose kernels are all cached
+    prints nothing.
+    """
+    watch = CompileWatch(None if quiet else lambda: click.echo(COMPILE_NOTICE, err=True))
+    with numba_event.install_listener("numba:compile", watch):
+        yield watch
+
+
+def compile_note(watch) -> str:
+    """``" (N s of it compiling the kernels)"`` after a time that includes compiling, or ""."""
+    if watch.seconds < 0.05:
+        return ""
+    return f" ({watch.seconds:.1f} s of it compiling the kernels)"
 
 
 def output_folder(output) -> Path:

@@ -8,6 +8,7 @@ import click
 from ._common import (
     CommandError,
     apply_threads,
+    compile_watch,
     depth_file_options,
     disparity_range_options,
     matching_options,
@@ -220,7 +221,12 @@ def batch(
     # Refuse bad options before a cluster starts; run_batch makes the folder once valid.
     MatchParams(max_disparity=max_disparity, min_disparity=min_disparity, **match_options)
     apply_threads(threads, scheduler)
-    with progress_bar("pairs", quiet) as bar, dask_client(scheduler) as client:
+    # compile_watch: a first run's compiling is announced (here, not on a Dask cluster)
+    with (
+        progress_bar("pairs", quiet) as bar,
+        dask_client(scheduler) as client,
+        compile_watch(quiet),
+    ):
         report = run_batch(
             pairs,
             folder,

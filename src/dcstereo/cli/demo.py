@@ -6,6 +6,7 @@ import click
 import numpy as np
 
 from ._common import (
+    compile_watch,
     matching_options,
     one_line_errors,
     output_folder,
@@ -55,9 +56,10 @@ def demo(output, max_disparity, match_options, threads):
     # the sparse map is written and scored too: fill after matching, not in it
     options = dict(match_options, max_disparity=max_disparity)
     fill = options.pop("fill")
-    # compile (cached on disk after the first run); it also refuses bad options before
-    # the folder is made
-    match(scene.left, scene.right, **options)
+    # compile (cached on disk after the first run: announced when it happens); it also
+    # refuses bad options before the folder is made
+    with compile_watch():
+        match(scene.left, scene.right, **options)
     folder.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     result = match(scene.left, scene.right, **options)

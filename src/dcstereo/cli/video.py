@@ -7,6 +7,7 @@ import click
 from ._common import (
     CommandError,
     apply_threads,
+    compile_watch,
     depth_file_options,
     disparity_range_options,
     matching_options,
@@ -135,7 +136,12 @@ def video(
     # Refuse bad options before a cluster starts; match_sequence makes the folder once valid.
     MatchParams(max_disparity=max_disparity, min_disparity=min_disparity, **match_options)
     apply_threads(threads, scheduler)
-    with progress_bar("frames", quiet) as bar, dask_client(scheduler) as client:
+    # compile_watch: a first run's compiling is announced (here, not on a Dask cluster)
+    with (
+        progress_bar("frames", quiet) as bar,
+        dask_client(scheduler) as client,
+        compile_watch(quiet),
+    ):
         report = match_sequence(
             sequence,
             folder,
