@@ -481,3 +481,33 @@ def test_eval_scale_options(tmp_path):
     result = invoke("eval", tmp_path / "pred8.png", tmp_path / "toy", "--scale", 4, "--gt-scale", 4)
     assert result.exit_code == 1 and "2005/2006 scenes only" in result.output
     assert "--scale" in invoke("eval", "--help").output
+
+
+@pytest.mark.parametrize("command", ["bench", "compare"])
+def test_bench_and_compare_announce_compiling(command, tmp_path, monkeypatch):
+    import numba
+
+    import dcstereo.api
+    from dcstereo.cli._common import COMPILE_NOTICE
+
+    real = dcstereo.api.match
+
+    def compiling_match(*args, **kwargs):
+        numba.njit(lambda x: x + 1)(1)  # stands in for a kernel not yet compiled
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(dcstereo.api, "match", compiling_match)
+    write_v2_scene(tmp_path / "data" / "toy")
+    if command == "bench":
+        args = ["bench", tmp_path / "data", "--methods", "dsi3,dsi5"]
+    else:
+        scene = tmp_path / "data" / "toy"
+        args = ["compare", scene / "left.png", scene / "right.png", "-o", tmp_path / "fig.png"]
+        args += ["--max-disparity", 10, "--methods", "dsi3,dsi5"]
+    result = CliRunner().invoke(main, [str(a) for a in args])
+    assert result.exit_code == 0, result.output
+    assert result.stderr.startswith(COMPILE_NOTICE + "\n")
+    assert result.stderr.count(COMPILE_NOTICE) == 1  # once, though two methods compile
+    if command == "bench":
+        quiet = CliRunner().invoke(main, [str(a) for a in [*args, "--quiet"]])
+        assert quiet.exit_code == 0 and quiet.stderr == ""

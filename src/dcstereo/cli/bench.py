@@ -10,6 +10,7 @@ from ._common import (
     add_method_options,
     check_method_options,
     check_output_paths,
+    compile_watch,
     median_option,
     one_line_errors,
     set_threads,
@@ -107,15 +108,16 @@ def bench(
         if not quiet:
             click.echo(f"{scene:>14s} {method:<12s} {1000 * seconds:8.0f} ms", err=True)
 
-    rows = bench_folder(
-        data_dir,
-        names,
-        options={"window": window},
-        match_options=match_options,
-        thresholds=thresholds,
-        progress=progress,
-        truth_scale=gt_scale,
-    )
+    with compile_watch(quiet):  # each method's first run on a machine compiles it
+        rows = bench_folder(
+            data_dir,
+            names,
+            options={"window": window},
+            match_options=match_options,
+            thresholds=thresholds,
+            progress=progress,
+            truth_scale=gt_scale,
+        )
     table = bench_table(rows, title=f"bench {data_dir}", threshold=threshold)
     click.echo(render(table), nl=False)
     if json_out is not None:

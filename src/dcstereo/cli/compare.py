@@ -7,6 +7,7 @@ from ._common import (
     check_distinct_paths,
     check_method_options,
     check_output_paths,
+    compile_watch,
     disparity_range_options,
     one_line_errors,
     set_threads,
@@ -86,15 +87,16 @@ def compare(
             truth, mask = scene.disparity, scene.masks["nonocc"]
         else:
             truth = io.read_disparity(gt, scale=gt_scale)
-    results = compare_methods(
-        left_image,
-        right_image,
-        max_disparity=max_disparity,
-        min_disparity=min_disparity,
-        methods=names,
-        window=window,
-        match_options=method_options,
-    )
+    with compile_watch():  # each method's first run on a machine compiles it
+        results = compare_methods(
+            left_image,
+            right_image,
+            max_disparity=max_disparity,
+            min_disparity=min_disparity,
+            methods=names,
+            window=window,
+            match_options=method_options,
+        )
     figure = compare_figure(
         left_image, results, max_disparity=max_disparity, truth=truth, mask=mask
     )
