@@ -33,9 +33,11 @@ def test_synthetic_pair_follows_its_disparity(bench):
 
 
 def run_tiny(bench, tmp_path, methods, compile_methods=None):
-    """Run the script on a tiny synthetic pair; ``compile_methods``: the methods of its
-    compile-time table (each compiled from nothing in a child: a minute a method on a slow
-    host), none by default."""
+    """Run the script on a tiny synthetic pair.
+
+    ``compile_methods``: the methods of its compile-time table (each compiled from nothing
+    in a child, a minute a method on a slow host); none by default.
+    """
     out_json = tmp_path / "speed.json"
     out_md = tmp_path / "speed.md"
     code = bench.main(
@@ -50,8 +52,11 @@ def run_tiny(bench, tmp_path, methods, compile_methods=None):
             "1",
             "--repeat",
             "1",
-            *(["--compile-methods", compile_methods] if compile_methods else []),
-            *([] if compile_methods else ["--compile-scene", "none"]),
+            *(
+                ["--compile-methods", compile_methods]
+                if compile_methods
+                else ["--compile-scene", "none"]
+            ),
             "--json",
             str(out_json),
             "--markdown",

@@ -491,6 +491,16 @@ def fresh_kernels():
     return numba.njit(lambda x: inner(x) * 2)
 
 
+def compiling_first(real):
+    """``real`` (a ``match``) after compiling new kernels: a kernel not yet compiled."""
+
+    def compiling_match(*args, **kwargs):
+        fresh_kernels()(1)
+        return real(*args, **kwargs)
+
+    return compiling_match
+
+
 def test_compile_watch_announces_the_first_compile_and_times_it(capsys):
     import time
 
@@ -520,13 +530,7 @@ def test_run_announces_compiling_and_says_its_share_of_the_time(pair, monkeypatc
     from dcstereo.cli._common import COMPILE_NOTICE
 
     folder, _ = pair
-    real = dcstereo.match
-
-    def compiling_match(*args, **kwargs):
-        fresh_kernels()(1)  # stands in for a kernel not yet compiled
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(dcstereo, "match", compiling_match)
+    monkeypatch.setattr(dcstereo, "match", compiling_first(dcstereo.match))
     args = ["run", folder / "left.png", folder / "right.png", "-o", folder / "d.pfm"]
     result = CliRunner().invoke(main, [str(a) for a in [*args, "--max-disparity", 15]])
     assert result.exit_code == 0, result.output
@@ -564,13 +568,7 @@ def test_batch_and_video_announce_compiling_before_their_bar(command, pair, tmp_
     from dcstereo.cli._common import COMPILE_NOTICE
 
     module = dcstereo.batch if command == "batch" else dcstereo.video
-    real = module.match
-
-    def compiling_match(*args, **kwargs):
-        fresh_kernels()(1)  # stands in for a kernel not yet compiled
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(module, "match", compiling_match)
+    monkeypatch.setattr(module, "match", compiling_first(module.match))
     folder, _ = pair
     source, out = tmp_path / "source", tmp_path / "out"
     if command == "batch":

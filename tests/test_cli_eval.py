@@ -485,18 +485,11 @@ def test_eval_scale_options(tmp_path):
 
 @pytest.mark.parametrize("command", ["bench", "compare"])
 def test_bench_and_compare_announce_compiling(command, tmp_path, monkeypatch):
-    import numba
-
     import dcstereo.api
     from dcstereo.cli._common import COMPILE_NOTICE
+    from test_cli import compiling_first
 
-    real = dcstereo.api.match
-
-    def compiling_match(*args, **kwargs):
-        numba.njit(lambda x: x + 1)(1)  # stands in for a kernel not yet compiled
-        return real(*args, **kwargs)
-
-    monkeypatch.setattr(dcstereo.api, "match", compiling_match)
+    monkeypatch.setattr(dcstereo.api, "match", compiling_first(dcstereo.api.match))
     write_v2_scene(tmp_path / "data" / "toy")
     if command == "bench":
         args = ["bench", tmp_path / "data", "--methods", "dsi3,dsi5"]

@@ -20,29 +20,6 @@ MATCH_OPTIONS = ("method", "window", "occlusion_cost", "cost", "fill", "subpixel
 
 _DC = ("dc", "dc-linear")
 
-#: The methods' own parameters (keyword arguments of :func:`dcstereo.match`) that
-#: :func:`matching_options` adds, and the methods that read each. Not given: the method's
-#: default (the :class:`~dcstereo.params.MatchParams` default); given to a method that
-#: does not read it: an error, rather than a silent no-op.
-METHOD_OPTIONS = {
-    "slant_cost": ("dsi5", *_DC, "redert"),
-    "ser_min": _DC,
-    "vs_max": _DC,
-    "vs_relative": _DC,
-    "feature_floor": _DC,
-    "uniqueness": _DC,
-    "edge_guard": _DC,
-    "lr_check": _DC,
-    "max_candidates": _DC,
-    "gcp_uniqueness": ("dsi3-gcp",),
-    "gcp_variance_floor": ("dsi3-gcp",),
-    "orientations": ("redert",),
-    "orientation_cost": ("redert",),
-    "occlusion_discount": ("redert",),
-    "occlusion_discount_pixels": ("redert",),
-}
-
-
 #: The two flags of the on/off options of :data:`METHOD_OPTIONS`.
 _SWITCHES = {"vs_relative": "--vs-relative/--vs-absolute", "lr_check": "--lr-check/--no-lr-check"}
 
@@ -64,92 +41,109 @@ def _slopes(ctx, param, value):
         ) from None
 
 
-def _method_option_help():
-    """Return each option of :data:`METHOD_OPTIONS`: its ``--help`` text, untagged.
+_DEFAULT_SLOPES = ",".join(f"{v:g}" for v in _params.DEFAULT_ORIENTATIONS)
 
-    With it, its ``click.option`` settings other than the flag and the default (None:
-    not given).
-    """
-    p = _params
-    slopes = ",".join(f"{v:g}" for v in p.DEFAULT_ORIENTATIONS)
-    return {
-        "slant_cost": (
-            "Extra cost of each d or e step of the five-step model, in the units of "
-            "--occlusion-cost (redert: of each disparity step of a slanted segment). Default: "
-            f"the method's ({p.DEFAULT_SLANT_COST:g} for dsi5, the paper's model; "
-            f"{p.DEFAULT_DC_SLANT_COST:g} for dc).",
-            {"type": float},
-        ),
-        "ser_min": (
-            "Least signal-to-error ratio (eq. 2) of a reliable feature pair "
-            f"(default {p.DEFAULT_SER_MIN:g}).",
-            {"type": float},
-        ),
-        "vs_max": (
-            "Largest variance dissimilarity (eq. 3) of a reliable pair (default "
-            f"{p.DEFAULT_VS_MAX:g}, for the scale-free VS).",
-            {"type": float},
-        ),
-        "vs_relative": (
-            "VS scale-free, |var_L - var_R| / (var_L + var_R) (the default), or the paper's "
-            "|var_L - var_R| in gray levels squared (then set --vs-max to match).",
-            {},
-        ),
-        "feature_floor": (
-            "Least window variance (gray levels squared) of a candidate feature "
-            f"(default {p.DEFAULT_FEATURE_FLOOR:g}).",
-            {"type": float},
-        ),
-        "uniqueness": (
-            "A candidate's second-least window cost (two or more disparities away) must be "
-            f"at least this times its least (default {p.DEFAULT_UNIQUENESS:g}; 0: off).",
-            {"type": float},
-        ),
-        "edge_guard": (
-            "Columns left and right of a candidate whose windows must match within one "
-            "disparity of it (default: window // 2 + 1; 0: off).",
-            {"type": int},
-        ),
-        "lr_check": (
-            "Also require the right pixel of a candidate to match back to it (default: off).",
-            {},
-        ),
-        "max_candidates": (
-            "Candidates tried per interval before giving up on it (default 0: every pixel "
-            "above --feature-floor).",
-            {"type": int},
-        ),
-        "gcp_uniqueness": (
-            "The ratio test of a ground control point (default "
-            f"{p.DEFAULT_GCP_UNIQUENESS:g}; 0: off).",
-            {"type": float},
-        ),
-        "gcp_variance_floor": (
-            "Least window variance of a ground control point (default "
-            f"{p.DEFAULT_GCP_VARIANCE_FLOOR:g}).",
-            {"type": float},
-        ),
-        "orientations": (
-            "Comma-separated surface slopes (px of disparity per px), each of 0, +-0.0625, "
-            f"+-0.125, +-0.25, +-0.5, +-1 (default {slopes}).",
-            {"callback": _slopes, "metavar": "SLOPES"},
-        ),
-        "orientation_cost": (
-            "Cost of a change of orientation, in the units of --occlusion-cost "
-            f"(default {p.DEFAULT_ORIENTATION_COST:g}).",
-            {"type": float},
-        ),
-        "occlusion_discount": (
-            "Fraction of --occlusion-cost taken off the pixels of an occlusion run after its "
-            f"first, in [0, 1) (default {p.DEFAULT_OCCLUSION_DISCOUNT:g}).",
-            {"type": float},
-        ),
-        "occlusion_discount_pixels": (
-            "How many pixels of a run after its first get the discount "
-            f"(default {p.DEFAULT_OCCLUSION_DISCOUNT_PIXELS}).",
-            {"type": int},
-        ),
-    }
+#: The methods' own parameters (keyword arguments of :func:`dcstereo.match`) that
+#: :func:`matching_options` adds: the methods that read each, its ``--help`` text and its
+#: ``click.option`` settings other than the flag and the default (None: not given, then
+#: the :class:`~dcstereo.params.MatchParams` default). Given to a method that does not
+#: read it: an error, rather than a silent no-op.
+_METHOD_OPTION_TABLE = {
+    "slant_cost": (
+        ("dsi5", *_DC, "redert"),
+        "Extra cost of each d or e step of the five-step model, in the units of "
+        "--occlusion-cost (redert: of each disparity step of a slanted segment). Default: "
+        f"the method's ({_params.DEFAULT_SLANT_COST:g} for dsi5, the paper's model; "
+        f"{_params.DEFAULT_DC_SLANT_COST:g} for dc).",
+        {"type": float},
+    ),
+    "ser_min": (
+        _DC,
+        "Least signal-to-error ratio (eq. 2) of a reliable feature pair "
+        f"(default {_params.DEFAULT_SER_MIN:g}).",
+        {"type": float},
+    ),
+    "vs_max": (
+        _DC,
+        "Largest variance dissimilarity (eq. 3) of a reliable pair (default "
+        f"{_params.DEFAULT_VS_MAX:g}, for the scale-free VS).",
+        {"type": float},
+    ),
+    "vs_relative": (
+        _DC,
+        "VS scale-free, |var_L - var_R| / (var_L + var_R) (the default), or the paper's "
+        "|var_L - var_R| in gray levels squared (then set --vs-max to match).",
+        {},
+    ),
+    "feature_floor": (
+        _DC,
+        "Least window variance (gray levels squared) of a candidate feature "
+        f"(default {_params.DEFAULT_FEATURE_FLOOR:g}).",
+        {"type": float},
+    ),
+    "uniqueness": (
+        _DC,
+        "A candidate's second-least window cost (two or more disparities away) must be "
+        f"at least this times its least (default {_params.DEFAULT_UNIQUENESS:g}; 0: off).",
+        {"type": float},
+    ),
+    "edge_guard": (
+        _DC,
+        "Columns left and right of a candidate whose windows must match within one "
+        "disparity of it (default: window // 2 + 1; 0: off).",
+        {"type": int},
+    ),
+    "lr_check": (
+        _DC,
+        "Also require the right pixel of a candidate to match back to it (default: off).",
+        {},
+    ),
+    "max_candidates": (
+        _DC,
+        "Candidates tried per interval before giving up on it (default 0: every pixel "
+        "above --feature-floor).",
+        {"type": int},
+    ),
+    "gcp_uniqueness": (
+        ("dsi3-gcp",),
+        "The ratio test of a ground control point (default "
+        f"{_params.DEFAULT_GCP_UNIQUENESS:g}; 0: off).",
+        {"type": float},
+    ),
+    "gcp_variance_floor": (
+        ("dsi3-gcp",),
+        "Least window variance of a ground control point (default "
+        f"{_params.DEFAULT_GCP_VARIANCE_FLOOR:g}).",
+        {"type": float},
+    ),
+    "orientations": (
+        ("redert",),
+        "Comma-separated surface slopes (px of disparity per px), each of 0, +-0.0625, "
+        f"+-0.125, +-0.25, +-0.5, +-1 (default {_DEFAULT_SLOPES}).",
+        {"callback": _slopes, "metavar": "SLOPES"},
+    ),
+    "orientation_cost": (
+        ("redert",),
+        "Cost of a change of orientation, in the units of --occlusion-cost "
+        f"(default {_params.DEFAULT_ORIENTATION_COST:g}).",
+        {"type": float},
+    ),
+    "occlusion_discount": (
+        ("redert",),
+        "Fraction of --occlusion-cost taken off the pixels of an occlusion run after its "
+        f"first, in [0, 1) (default {_params.DEFAULT_OCCLUSION_DISCOUNT:g}).",
+        {"type": float},
+    ),
+    "occlusion_discount_pixels": (
+        ("redert",),
+        "How many pixels of a run after its first get the discount "
+        f"(default {_params.DEFAULT_OCCLUSION_DISCOUNT_PIXELS}).",
+        {"type": int},
+    ),
+}
+
+#: The methods that read each option of :data:`_METHOD_OPTION_TABLE`.
+METHOD_OPTIONS = {name: row[0] for name, row in _METHOD_OPTION_TABLE.items()}
 
 
 def _method_option_list():
@@ -157,18 +151,11 @@ def _method_option_list():
 
     In its order, each help text tagged with the methods that read the option.
     """
-    texts = _method_option_help()
-    if texts.keys() != METHOD_OPTIONS.keys():
-        raise AssertionError("every option of METHOD_OPTIONS needs one help text")
     return [
         click.option(
-            _flag(name),
-            name,
-            default=None,
-            help=f"[{', '.join(readers)}] {texts[name][0]}",
-            **texts[name][1],
+            _flag(name), name, default=None, help=f"[{', '.join(readers)}] {text}", **settings
         )
-        for name, readers in METHOD_OPTIONS.items()
+        for name, (readers, text, settings) in _METHOD_OPTION_TABLE.items()
     ]
 
 
