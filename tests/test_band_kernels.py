@@ -59,11 +59,13 @@ def banded(left, right, dmin, ndisp, radius, occ2, five, slant2, partner=None, n
     anchored = partner is not None
     if partner is None:
         partner = np.empty((0, 0), dtype=np.int64)
+    # every argument given, as api._band_rows gives them: an omitted one is a type of its
+    # own, and numba would compile (and the suite wait for) one more version of the kernel
     _band_kernels.match_band_rows(
         padded(left, radius), padded(right, radius), dmin, ndisp, radius, occ2, five, slant2,
         int(anchored), partner, PIN_TESTS if anchored else None, nchunks, disp, flags, total,
         np.empty((0, 0, 4), dtype=np.float32), np.empty(0, dtype=np.int64), None,
-        True if bt else None,
+        True if bt else None, None,
     )  # fmt: skip
     return disp, flags, total
 
@@ -1689,6 +1691,7 @@ def test_band_bt_refuses_the_mode_without_a_cost_array():
             padded(left, 1), padded(left, 1), 0, 3, 1, 100.0, True, 50.0, 3,
             np.empty((0, 0), dtype=np.int64), PIN_TESTS, 1, disp, flags, total,
             np.empty((4, 6, 4), dtype=np.float32), np.empty(4, dtype=np.int64), None, True,
+            None,
         )  # fmt: skip
 
 

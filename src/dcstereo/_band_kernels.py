@@ -363,7 +363,13 @@ def _spread(left_t, o_left, spread, o_spread, n):
         spread[o_spread + i] = spread[o_spread + i - np.uint64(nr)]
 
 
-@nb.njit(cache=True, inline="always")
+# _vertical_sums and _vertical_update are compiled functions of their own, not inlined into
+# numba's IR as the small helpers are: every inlined call site copies the callee's IR and
+# types it again, and these two sit under _column_sums, which sits under three call sites
+# of _cost_column, itself inlined in three kernels. Inlined, that tree was half of
+# ``dc``'s first compile (117 s -> 60 s without it on the AMD host, docs/SPEED.md); called,
+# the times of every method stayed within the noise (each call makes a whole column).
+@nb.njit(cache=True)
 def _vertical_sums(left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, vs, vs_off):
     """Vertical window SADs of left column ``c`` into ``vs[vs_off + k * R + r]``.
 
@@ -415,7 +421,7 @@ def _vertical_sums(left_t, right_t, c, width, width_p, dmin, ndisp, radius, spre
                 )
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _vertical_update(left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, vs, vs_off):
     """Move the vertical window SADs of column ``c`` at ``vs[vs_off + k * R + r]`` down a row.
 
@@ -3056,6 +3062,18 @@ def _chunk_bounds(count, nchunks, c):
     return c * count // nchunks, (c + 1) * count // nchunks
 
 
+@nb.njit(cache=True)
+def _signal_span(left_p, right_p):
+    """Return the largest value of the two views minus their least (int64)."""
+    low = np.int64(left_p[0, 0])
+    high = low
+    for view in (left_p, right_p):
+        for v in view.ravel():
+            low = min(low, np.int64(v))
+            high = max(high, np.int64(v))
+    return high - low
+
+
 @nb.njit(parallel=True, cache=True)
 def match_band_rows(
     left_p,
@@ -3152,7 +3170,9 @@ def match_band_rows(
     key_shift = _key_shift(ndisp + 2)
     fused_hi = x_int_lo  # none
     if tests is not None and (pin_mode == 2 or pin_mode == 3):
-        span = np.int64(max(left_p.max(), right_p.max())) - min(left_p.min(), right_p.min())
+        # no array expressions in a parallel function (the views' max and min, slice
+        # fills): numba makes each one a parallel loop of its own, seconds of compile
+        span = _signal_span(left_p, right_p)
         if _keys_fit(span, radius, key_shift):
             fused_hi = x_int_hi
     for ch in nb.prange(nchunks):
@@ -3173,9 +3193,11 @@ def match_band_rows(
         ring = _placed(3 * nk, np.float64, 9).reshape((3, nk))
         ends = _placed(2 * ndisp * nr, np.float64, 10)
         pins = _placed(width * nr, np.int64, 11)
-        pins[:] = -1
+        for i in range(width * nr):
+            pins[i] = -1
         pinned = _placed(width, np.bool_, 12)
-        pinned[:] = False
+        for x in range(width):
+            pinned[x] = False
         anchor_total = _placed(width * nr, np.float64, 13)
         anchor_steps = _placed(width * nr, np.int64, 14)
         anchor_x = np.empty(width, dtype=np.int64)

@@ -622,7 +622,10 @@ def collect_features(partner, ser, vs, flag, flags):
     """
     height, width = partner.shape
     given = ser.shape[0] > 0
-    starts = np.zeros(height + 1, dtype=np.int64)
+    # no array expressions in a parallel function: numba makes each one a parallel loop
+    # of its own (compile time); the loops below write every entry
+    starts = np.empty(height + 1, dtype=np.int64)
+    starts[0] = 0
     for y in nb.prange(height):
         count = 0
         for x in range(width):
@@ -1290,8 +1293,8 @@ def match_dc_rows(
             _row_costs_any(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, y > y0, bt)
             window_variance_row(left_p, y, radius, signal_steps, colsum, colsq, var_l, y > y0)
             window_variance_row(right_p, y, radius, signal_steps, colsum_r, colsq_r, var_r, y > y0)
-            wta_k[:] = NOT_MATCHED
             for x in range(width):
+                wta_k[x] = NOT_MATCHED
                 disp[y, x] = np.nan
                 flags[y, x] = FLAG_BORDER
                 partner[y, x] = -1

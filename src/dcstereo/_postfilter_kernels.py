@@ -79,7 +79,9 @@ def median_rows_binned(disparity, bins, moved, radius, nbins, low, exact, out):
     height, width = bins.shape
     side = 2 * radius + 1
     for y in nb.prange(height):
-        hist = np.zeros(nbins, dtype=np.int32)
+        hist = np.empty(nbins, dtype=np.int32)  # no array expression: see value_buckets
+        for b in range(nbins):
+            hist[b] = 0
         values = np.empty(side * side, dtype=np.float32)
         top = max(0, y - radius)
         bottom = min(height, y + radius + 1)
@@ -159,10 +161,15 @@ def value_buckets(disparity, max_bins, bins):
     unspecified) when the map has no estimate or no scale from 2 up fits.
     """
     height, width = disparity.shape
-    lows = np.full(height, np.inf)
-    highs = np.full(height, -np.inf)
-    halves = np.ones(height, dtype=np.bool_)
+    # loops, not array expressions (np.full, .min()): numba makes each array expression of
+    # a parallel function a parallel loop of its own, which only lengthens the compile
+    lows = np.empty(height)
+    highs = np.empty(height)
+    halves = np.empty(height, dtype=np.bool_)
     for y in nb.prange(height):
+        lows[y] = np.inf
+        highs[y] = -np.inf
+        halves[y] = True
         for x in range(width):
             v = np.float64(disparity[y, x])
             if not np.isfinite(v):
@@ -171,11 +178,16 @@ def value_buckets(disparity, max_bins, bins):
             highs[y] = max(highs[y], v)
             if 2.0 * v != np.floor(2.0 * v):
                 halves[y] = False
-    low = lows.min()
+    low = np.inf
+    high = -np.inf
+    exact = True
+    for y in range(height):
+        low = min(low, lows[y])
+        high = max(high, highs[y])
+        exact = exact and halves[y]
     if not np.isfinite(low):
         return 0.0, 0, False
-    span = highs.max() - low
-    exact = halves.all()
+    span = high - low
     scale = 2.0 if exact else FINEST_BUCKETS
     while scale > 2.0 and scale * span >= max_bins:
         scale *= 0.5
