@@ -1251,6 +1251,23 @@ def test_keys_fit_says_whether_every_key_is_below_two_to_the_31():
     assert _band_kernels._keys_fit(4080, 2, _band_kernels._key_shift(258))  # 256 disparities
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_signal_span_is_the_two_views_max_minus_min(seed):
+    # dc's keys are used only where the views' span lets them fit (_keys_fit); the span is
+    # the largest value of both views minus the least, wherever each lies
+    rng = np.random.default_rng(4200 + seed)
+    for shape in ((1, 1), (3, 7), (40, 57)):
+        low, high = sorted(rng.integers(-5000, 70000, 2))
+        left = rng.integers(low, high + 1, shape).astype(np.int32)
+        right = rng.integers(low, high + 1, shape).astype(np.int32)
+        for a, b in ((left, right), (right, left), (left, left)):
+            expected = int(max(a.max(), b.max())) - int(min(a.min(), b.min()))
+            assert _band_kernels._signal_span(a, b) == expected
+    extreme = np.array([[np.iinfo(np.int32).min]], dtype=np.int32)
+    top = np.array([[np.iinfo(np.int32).max]], dtype=np.int32)
+    assert _band_kernels._signal_span(extreme, top) == 2**32 - 1  # int64: no overflow
+
+
 def test_lane_costs_match_the_columns_they_move():
     # band_lane_costs given the block match's outputs makes the same costs, matches the
     # columns inside the range that it moves down a row (done 1) as band_block_match does

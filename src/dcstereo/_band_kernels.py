@@ -367,8 +367,9 @@ def _spread(left_t, o_left, spread, o_spread, n):
 # numba's IR as the small helpers are: every inlined call site copies the callee's IR and
 # types it again, and these two sit under _column_sums, which sits under three call sites
 # of _cost_column, itself inlined in three kernels. Inlined, that tree was half of
-# ``dc``'s first compile (117 s -> 60 s without it on the AMD host, docs/SPEED.md); called,
-# the times of every method stayed within the noise (each call makes a whole column).
+# ``dc``'s first compile (117 s -> 60 s without it on the AMD host, docs/SPEED.md). Called,
+# ``block``, ``dsi3`` and ``dsi5`` kept their times; ``dc`` and ``dsi3-gcp`` measured 1-4 %
+# slower, at the edge of the noise (each call makes or moves a whole column's sums).
 @nb.njit(cache=True)
 def _vertical_sums(left_t, right_t, c, width, width_p, dmin, ndisp, radius, spread, vs, vs_off):
     """Vertical window SADs of left column ``c`` into ``vs[vs_off + k * R + r]``.
@@ -3066,8 +3067,9 @@ def _chunk_bounds(count, nchunks, c):
 def _signal_span(left_p, right_p):
     """Return the largest value of the two views minus their least (int64).
 
-    Indexed loops in the views' own type: vector minima and maxima (a sixth of the time of
-    the parallel reductions this replaced, and 6x faster than a loop over an iterator).
+    Indexed loops in the views' own type: vector minima and maxima (on tsukuba's padded
+    pair 19 us, against 36 us for the parallel reductions this replaced and 113 us for a
+    loop over an iterator).
     """
     low = left_p[0, 0]
     high = low
