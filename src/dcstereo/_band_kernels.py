@@ -3177,8 +3177,8 @@ def match_band_rows(
     key_shift = _key_shift(ndisp + 2)
     fused_hi = x_int_lo  # none
     if tests is not None and (pin_mode == 2 or pin_mode == 3):
-        # no array expressions in a parallel function (the views' max and min, slice
-        # fills): numba makes each one a parallel loop of its own, seconds of compile
+        # a loop, not the views' max() and min(): numba makes each array expression of a
+        # parallel function a parallel loop of its own, seconds of compile
         span = _signal_span(left_p, right_p)
         if _keys_fit(span, radius, key_shift):
             fused_hi = x_int_hi
@@ -3199,12 +3199,9 @@ def match_band_rows(
         step_bits = _placed(width * (ndisp + 2), np.uint32, 7)
         ring = _placed(3 * nk, np.float64, 9).reshape((3, nk))
         ends = _placed(2 * ndisp * nr, np.float64, 10)
+        # no fill: free mode reads neither, and the anchored modes write both each band
         pins = _placed(width * nr, np.int64, 11)
-        for i in range(width * nr):
-            pins[i] = -1
         pinned = _placed(width, np.bool_, 12)
-        for x in range(width):
-            pinned[x] = False
         anchor_total = _placed(width * nr, np.float64, 13)
         anchor_steps = _placed(width * nr, np.int64, 14)
         anchor_x = np.empty(width, dtype=np.int64)

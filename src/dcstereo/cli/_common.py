@@ -250,7 +250,7 @@ def staged_outputs():
 
 #: What the commands print (on stderr) when a kernel compiles, before it does.
 COMPILE_NOTICE = (
-    "Compiling the kernels for this machine: a minute or more, on the first run only "
+    "Compiling the kernels for this machine: about a minute, on the first run only "
     "(numba caches them on disk)."
 )
 

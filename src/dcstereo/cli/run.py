@@ -188,8 +188,9 @@ def run(
     left_image = io.read_image(left)
     right_image = io.read_image(right)
     camera = calibration_of(calibration, left_image.shape, depth_out or ply_out)
-    # the kernels' first compile (a minute or more) is announced, and the time says its share
-    with compile_watch(quiet) as watch:
+    # staged outputs: written only if all succeed; the watch: the kernels' first compile
+    # (about a minute) is announced, and the match's time says its share
+    with compile_watch(quiet) as watch, staged_outputs() as write:
         start = time.perf_counter()
         if tile_rows is not None:
             from ..tiling import match_tiled
@@ -205,38 +206,37 @@ def run(
         seconds = time.perf_counter() - start
         compiling = compile_note(watch)
 
-        with staged_outputs() as write:
-            write(io.write_disparity, output, result.disparity)
-            if occlusion_out is not None:
-                write(io.write_mask_png, occlusion_out, result.occluded)
-            if preview is not None:
-                picture = make_preview(result.disparity, result.occluded, style=preview_style)
-                if draw_features and len(result.features):
-                    picture = draw_points(
-                        picture,
-                        result.features[:, 1],
-                        result.features[:, 0],
-                        color=(255, 0, 0),
-                        radius=0,
-                    )
-                write(io.write_rgb_png, preview, picture)
-            if features_out is not None:
-                write(io.write_features_csv, features_out, result.features)
-            if depth_out is not None:
-                too_far = write(io.write_depth, depth_out, depth(result.disparity, camera),
-                                scale=depth_scale)  # fmt: skip
-            sure = None
-            if confidence_out is not None or ply_min_confidence is not None:
-                from ..confidence import confidence
+        write(io.write_disparity, output, result.disparity)
+        if occlusion_out is not None:
+            write(io.write_mask_png, occlusion_out, result.occluded)
+        if preview is not None:
+            picture = make_preview(result.disparity, result.occluded, style=preview_style)
+            if draw_features and len(result.features):
+                picture = draw_points(
+                    picture,
+                    result.features[:, 1],
+                    result.features[:, 0],
+                    color=(255, 0, 0),
+                    radius=0,
+                )
+            write(io.write_rgb_png, preview, picture)
+        if features_out is not None:
+            write(io.write_features_csv, features_out, result.features)
+        if depth_out is not None:
+            too_far = write(io.write_depth, depth_out, depth(result.disparity, camera),
+                            scale=depth_scale)  # fmt: skip
+        sure = None
+        if confidence_out is not None or ply_min_confidence is not None:
+            from ..confidence import confidence
 
-                sure = confidence(result, left_image, right_image)
-            if confidence_out is not None:
-                write(io.write_pfm, confidence_out, sure)
-            if ply_out is not None:
-                colors = left_image if left_image.dtype.kind == "u" else None
-                keep = None if ply_min_confidence is None else sure >= ply_min_confidence
-                cloud = point_cloud(result.disparity, camera, colors, mask=keep)
-                write(io.write_ply, ply_out, cloud.points, cloud.colors)
+            sure = confidence(result, left_image, right_image)
+        if confidence_out is not None:
+            write(io.write_pfm, confidence_out, sure)
+        if ply_out is not None:
+            colors = left_image if left_image.dtype.kind == "u" else None
+            keep = None if ply_min_confidence is None else sure >= ply_min_confidence
+            cloud = point_cloud(result.disparity, camera, colors, mask=keep)
+            write(io.write_ply, ply_out, cloud.points, cloud.colors)
     if not quiet:
         height, width = result.disparity.shape
         valid = 100.0 * result.valid.mean()
