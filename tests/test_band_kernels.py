@@ -902,8 +902,22 @@ def test_band_block_match_equals_the_naive_one(seed):
 
 
 def _compiled(function):
-    """``function`` called from compiled code (its vector form, through ``overload``)."""
-    return numba.njit(lambda *args: function(*args))
+    """``function`` called from compiled code (its vector form, through ``overload``).
+
+    One compiled caller per number of arguments, each spelled out: an overload inlined in
+    numba's IR (``_cells5_chain``'s) cannot be called with ``*args``.
+    """
+    callers = {}
+
+    def call(*args):
+        if len(args) not in callers:
+            names = ", ".join(f"a{i}" for i in range(len(args)))
+            scope = {"function": function}
+            exec(f"def caller({names}):\n    return function({names})", scope)
+            callers[len(args)] = numba.njit(scope["caller"])
+        return callers[len(args)](*args)
+
+    return call
 
 
 @pytest.mark.parametrize("seed", range(4))

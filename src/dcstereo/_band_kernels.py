@@ -1373,6 +1373,19 @@ def _wide_vectors():
 #: venus, teddy). Tests exercise the branch of the host they run on.
 _CARRY = _wide_vectors()
 
+#: Whether the cells' vector code keeps the match steps (c, d, e) of each pinned lane's
+#: anchor cell as the loop passes it (three selects a block, three values of ``R`` lanes
+#: carried; AVX-512), or gathers the anchor cells' inputs from the arrays after the loop
+#: and makes them again, in the same operations (AVX2). With AVX2's 16 registers the three
+#: carried values (six registers) made the pinned columns' loop spill to the stack and load
+#: back 25-34 times a block (7-9 now). The stack's page offset is random from process to
+#: process (address-space randomization), and where the spill slots met the page offsets
+#: of the loop's arrays, loads waited on unrelated stores (see ``PLACE_STEP``): about one
+#: process in six ran dc's forward pass up to 70 % slower (venus 4.4 -> 7.5 ms), every
+#: call. Costs 2-3 % of dc's time on tsukuba and venus in the other processes
+#: (docs/SPEED.md).
+_ANCHORS_IN_LOOP = _wide_vectors()
+
 
 def _cells_codegen(five, guarded=False, pinning=False):
     def codegen(context, builder, sig, args):
@@ -1414,9 +1427,10 @@ def _cells_codegen(five, guarded=False, pinning=False):
             pinned_lanes = builder.fcmp_ordered(">=", pin_k_vec, _vector_of(0.0, _VEC_F64))
             inf_vec = _vector_of(float("inf"), _VEC_F64)
             zero_vec = _vector_of(0.0, _VEC_F64)
-            # the match steps c, d, e of each pinned lane's anchor cell, kept as the loop
-            # passes it (a select each), for the anchor's value and step after the loop
-            at_anchor = [cgutils.alloca_once_value(builder, inf_vec) for _ in range(3)]
+            if _ANCHORS_IN_LOOP:
+                # the match steps c, d, e of each pinned lane's anchor cell, kept as the
+                # loop passes it (a select each), for the anchor's value and step after it
+                at_anchor = [cgutils.alloca_once_value(builder, inf_vec) for _ in range(3)]
         if five:
             slant2_vec = _broadcast(builder, slant2, _VEC_F64)
             prev_up = cgutils.alloca_once_value(builder, _load_vector(builder, prev, above))
@@ -1454,8 +1468,9 @@ def _cells_codegen(five, guarded=False, pinning=False):
                     k_here = builder.sub(builder.udiv(p, width), ir.Constant(_I64, 1))
                     k_vec = _broadcast(builder, builder.sitofp(k_here, ir.DoubleType()), _VEC_F64)
                     at = builder.fcmp_ordered("==", pin_k_vec, k_vec)
-                    for slot, step_value in zip(at_anchor, (c, d, e), strict=True):
-                        builder.store(builder.select(at, step_value, builder.load(slot)), slot)
+                    if _ANCHORS_IN_LOOP:
+                        for slot, step_value in zip(at_anchor, (c, d, e), strict=True):
+                            builder.store(builder.select(at, step_value, builder.load(slot)), slot)
                     pin_value = builder.select(at, zero_vec, inf_vec)
                     cell = builder.select(pinned_lanes, pin_value, cell)
             else:
@@ -1478,11 +1493,69 @@ def _cells_codegen(five, guarded=False, pinning=False):
                 builder.store(left_below, left_here)
             builder.store(prev_below, prev_here)
         if pinning:
-            _store_anchors(context, builder, sig, args, [builder.load(s) for s in at_anchor],
-                           pinned_lanes)  # fmt: skip
+            if _ANCHORS_IN_LOOP:
+                match_steps = [builder.load(s) for s in at_anchor]
+            else:
+                # the anchor cells' inputs, gathered lane by lane (block ``k + 1`` of each
+                # pinned lane's ``k``; the others read block k_hi + 1, inside the column),
+                # and their c, d, e by the loop's operations in the loop's order
+                k_lanes = builder.select(
+                    pinned_lanes,
+                    builder.fptosi(pin_k_vec, _VEC_I64),
+                    _broadcast(builder, k_hi, _VEC_I64),
+                )
+                anchor = builder.add(
+                    builder.mul(
+                        builder.add(k_lanes, _vector_of(1, _VEC_I64)),
+                        _vector_of(BAND_ROWS, _VEC_I64),
+                    ),
+                    ir.Constant(_VEC_I64, list(range(BAND_ROWS))),
+                )
+
+                def gather(array, offset):
+                    return _gather_lanes(builder, array, builder.add(anchor, offset))
+
+                def offset(value):
+                    return _broadcast(builder, value, _VEC_I64)
+
+                up = _vector_of(BAND_ROWS, _VEC_I64)
+                down = _vector_of(-BAND_ROWS, _VEC_I64)
+                h2 = builder.fmul(two, gather(cost, offset(o_here)))
+                c = builder.fadd(gather(prev, _vector_of(0, _VEC_I64)), h2)
+                u = builder.fadd(builder.fadd(h2, gather(cost, offset(o_left))), slant2_vec)
+                d = builder.fadd(
+                    builder.fadd(gather(prev, up), gather(cost, builder.add(offset(o_here), up))),
+                    u,
+                )
+                e2 = gather(prev2, down)
+                if guarded:
+                    e2 = builder.fadd(e2, e_off_vec)
+                e = builder.fadd(
+                    builder.fadd(e2, gather(cost, builder.add(offset(o_left), down))), u
+                )
+                match_steps = [c, d, e]
+            _store_anchors(context, builder, sig, args, match_steps, pinned_lanes)
         return context.get_dummy_value()
 
     return codegen
+
+
+def _gather_lanes(builder, data, index):
+    """Return ``<R x double>`` of ``data[index[r]]`` for each lane ``r`` (a gather)."""
+    element = data.type
+    pointers_type = ir.VectorType(element, BAND_ROWS)
+    base = _broadcast(builder, builder.ptrtoint(data, _I64), _VEC_I64)
+    addresses = builder.add(base, builder.mul(index, _vector_of(8, _VEC_I64)))
+    pointers = builder.inttoptr(addresses, pointers_type)
+    mask_type = ir.VectorType(ir.IntType(1), BAND_ROWS)
+    gather = cgutils.get_or_insert_function(
+        builder.module,
+        ir.FunctionType(_VEC_F64, [pointers_type, ir.IntType(32), mask_type, _VEC_F64]),
+        f"llvm.masked.gather.v{BAND_ROWS}f64.v{BAND_ROWS}p0",
+    )
+    every = ir.Constant(mask_type, [1] * BAND_ROWS)
+    undef = ir.Constant(_VEC_F64, ir.Undefined)
+    return builder.call(gather, [pointers, ir.Constant(ir.IntType(32), 8), every, undef])
 
 
 def _store_anchors(context, builder, sig, args, match_steps, pinned_lanes):
@@ -1559,7 +1632,9 @@ def _cells3_vector(typingctx, cur, prev, cost, o_here, steps, o_steps, k_lo, k_h
     return signature, _cells_codegen(False)
 
 
-@overload(_cells5_chain)
+# inlined in numba's IR (a small function: one intrinsic): with the gathers after the
+# loop, LLVM no longer inlined the pinned forms into band_forward, a call a column
+@overload(_cells5_chain, inline="always")
 def _cells5_compiled(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2,
                      slant2, e_off=None, pin_k=None, pin_total=None, pin_steps=None,
                      o_pin=0):  # fmt: skip
