@@ -6,7 +6,9 @@ import pytest
 import dcstereo
 import synthetic
 from dcstereo import METHODS, MatchParams, _checks, api, fill_occlusions, metrics
+from dcstereo import params as params_module
 from dcstereo.cost import window_variance
+from dcstereo.explore import compare_methods
 from dcstereo.redert import match_redert
 from dcstereo.signal import intensity, matching_signal, padded_signal
 from dcstereo.tiling import match_tiled, row_bands
@@ -65,6 +67,72 @@ def test_numpy_scalars_of_the_redert_options():
     )
     assert params.orientations == (-0.5, 0.0, 0.5)
     assert params.occlusion_discount_pixels == 3
+
+
+#: A valid value other than the default of each method's own parameter.
+OTHER_VALUES = {
+    "slant_cost": 1.0,
+    "ser_min": 2.0,
+    "vs_max": 0.5,
+    "vs_relative": False,
+    "feature_floor": 50.0,
+    "uniqueness": 1.5,
+    "edge_guard": 2,
+    "lr_check": True,
+    "max_candidates": 3,
+    "gcp_uniqueness": 2.0,
+    "gcp_variance_floor": 50.0,
+    "orientations": (0.0,),
+    "orientation_cost": 1.0,
+    "occlusion_discount": 0.1,
+    "occlusion_discount_pixels": 2,
+}
+
+
+def test_every_method_option_has_a_value_to_try():
+    assert set(OTHER_VALUES) == set(params_module.METHOD_OPTIONS)
+
+
+@pytest.mark.parametrize("name", sorted(OTHER_VALUES))
+def test_an_option_the_method_does_not_read_is_refused(name):
+    # before: ignored (dcstereo.match(..., method="dsi3", ser_min=5) ran dsi3 as if it
+    # had not been given); the readers accept it
+    left, right = pair()
+    readers = params_module.METHOD_OPTIONS[name]
+    value = OTHER_VALUES[name]
+    for method in METHODS:
+        if method in readers:
+            MatchParams(max_disparity=6, method=method, **{name: value})
+            continue
+        with pytest.raises(ValueError) as err:
+            dcstereo.match(left, right, max_disparity=6, method=method, **{name: value})
+        assert str(err.value) == f"{name} is read only by {', '.join(readers)}, not by {method}"
+        # the default, given explicitly, changes nothing and is accepted
+        default = getattr(MatchParams(max_disparity=6), name)
+        MatchParams(max_disparity=6, method=method, **{name: default})
+
+
+def test_the_tools_of_several_methods_give_each_method_its_own_options():
+    left, right = pair(height=12, width=40)
+    # a variance floor above every pixel: dc finds no pair; dsi3 and block run as without it
+    results = compare_methods(
+        left,
+        right,
+        max_disparity=6,
+        methods=["dsi3", "dc", "block"],
+        match_options={"feature_floor": 1e9},
+    )
+    assert len(results["dc"].features) == 0
+    assert len(dcstereo.match(left, right, max_disparity=6).features) > 0
+    same(results["dsi3"], dcstereo.match(left, right, max_disparity=6, method="dsi3"))
+    same(results["block"], dcstereo.match(left, right, max_disparity=6, method="block"))
+    with pytest.raises(ValueError, match="^ser_min is read only by dc, dc-linear, none of the"):
+        compare_methods(
+            left, right, max_disparity=6, methods=["dsi3", "block"], match_options={"ser_min": 2}
+        )
+    assert params_module.options_for("dsi3+bt", {"ser_min": 2, "window": 3}) == {"window": 3}
+    assert params_module.options_for("dc+bt", {"ser_min": 2}) == {"ser_min": 2}
+    assert params_module.options_for("opencv-sgbm", {"orientations": (0.0,)}) == {}
 
 
 @pytest.mark.parametrize("name", ["fill", "vs_relative", "lr_check"])

@@ -5,7 +5,7 @@ import pytest
 from click.testing import CliRunner
 from PIL import Image
 
-from dcstereo import io
+from dcstereo import io, params
 from dcstereo.cli import main
 
 
@@ -587,3 +587,10 @@ def test_batch_and_video_announce_compiling_before_their_bar(command, pair, tmp_
     # once, and before the progress bar (which starts when the first pair is done)
     assert result.stderr.startswith(COMPILE_NOTICE + "\n")
     assert result.stderr.count(COMPILE_NOTICE) == 1
+
+
+def test_the_cli_offers_every_method_option_of_the_library():
+    # the flags' table and the library's readers are one list (the readers come from it)
+    from dcstereo.cli import _common
+
+    assert set(_common._METHOD_OPTION_TABLE) == set(params.METHOD_OPTIONS)

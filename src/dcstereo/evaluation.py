@@ -19,10 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
+from . import params
 from .datasets import StereoScene, find_scenes, load_scene, scene_layout
 from .metrics import DEFAULT_THRESHOLDS, bad_key, evaluate
 from .opencv import OPENCV_METHODS
-from .params import METHODS
+from .params import METHODS, check_method_options, options_for
 from .result import DisparityResult
 
 #: Order of the masks in reports.
@@ -91,7 +92,7 @@ def parse_methods(text: str | None) -> list[str]:
 
 
 #: Suffix of a method name that runs it with ``cost="bt"`` (``"dsi5+bt"``) in bench.
-BT_SUFFIX = "+bt"
+BT_SUFFIX = params.BT_SUFFIX
 
 
 def _bt_method(name: str) -> bool:
@@ -258,7 +259,9 @@ def bench(
     match_options : dict, optional
         Passed to dcstereo's methods only, not to OpenCV's: the options of
         :func:`dcstereo.match` that OpenCV's matchers do not have (for example
-        ``{"subpixel": "equiangular", "occlusion_cost": 12}``).
+        ``{"subpixel": "equiangular", "occlusion_cost": 12}``). Each method's own
+        parameters (:data:`dcstereo.params.METHOD_OPTIONS`) go to the methods that read
+        them; one that none of ``methods`` reads is refused (``ValueError``).
     thresholds : sequence of float
         Bad-pixel thresholds.
     progress : callable, optional
@@ -281,12 +284,13 @@ def bench(
     """
     options = dict(options or {})
     ours = {**options, **(match_options or {})}
+    check_method_options(ours, methods)
     warmed: set = set()
     rows = []
     for item in scenes:
         scene = item if isinstance(item, StereoScene) else _load(item, truth_scale)
         for method in methods:
-            method_options = options if method in OPENCV_METHODS else ours
+            method_options = options if method in OPENCV_METHODS else options_for(method, ours)
             _warm_up(method, scene, method_options, warmed)
             start = time.perf_counter()
             result = run_method(

@@ -14,6 +14,7 @@ import numpy as np
 
 from . import viz
 from ._checks import is_integer, is_number
+from .params import check_method_options, options_for
 from .signal import check_image, check_pair, intensity
 
 #: Methods of :func:`compare_methods` and :func:`scanline` by default (the paper's Fig. 4).
@@ -72,9 +73,10 @@ def compare_methods(
     methods : sequence of str
         Method names, :data:`dcstereo.params.METHODS` or ``opencv-sgbm`` / ``opencv-bm``.
     match_options : dict, optional
-        Passed to dcstereo's methods only, not to OpenCV's (each method's own parameters,
-        ``ser_min`` and the others of :class:`~dcstereo.params.MatchParams`, which the
-        methods that do not read them ignore).
+        Passed to dcstereo's methods only, not to OpenCV's. Each method's own parameters
+        (``ser_min`` and the others of :data:`dcstereo.params.METHOD_OPTIONS`) go to the
+        methods that read them; one that none of ``methods`` reads is refused
+        (``ValueError``).
     **options
         Passed to every method.
 
@@ -87,6 +89,7 @@ def compare_methods(
 
     _check_methods(methods)
     ours = {**options, **(match_options or {})}
+    check_method_options(ours, methods)
     return {
         method: run_method(
             method,
@@ -94,7 +97,7 @@ def compare_methods(
             right,
             max_disparity=max_disparity,
             min_disparity=min_disparity,
-            **(options if method in OPENCV_METHODS else ours),
+            **(options if method in OPENCV_METHODS else options_for(method, ours)),
         )
         for method in methods
     }
@@ -298,7 +301,8 @@ def scanline(
         :func:`dcstereo.evaluation.run_method`: a ``+bt`` suffix for the
         Birchfield-Tomasi cost); feature pairs come from the ``dc`` methods.
     **options
-        Passed to :func:`dcstereo.match`.
+        Passed to :func:`dcstereo.match`; each method's own parameters only to the methods
+        that read them (one that none of ``methods`` reads: ``ValueError``).
 
     Returns
     -------
@@ -311,6 +315,7 @@ def scanline(
     from .evaluation import run_method
 
     _check_methods(methods)
+    check_method_options(options, methods)
     dsi = dsi_row(
         left,
         right,
@@ -333,7 +338,7 @@ def scanline(
             max_disparity=max_disparity,
             min_disparity=min_disparity,
             window=window,
-            **options,
+            **options_for(method, options),
         )
         paths[method] = result.disparity[row - top].astype(np.float64)
         if result.features is not None:

@@ -47,6 +47,78 @@ SUBPIXEL_FITS = ("equiangular", "parabola")
 MAX_MEDIAN = 15
 
 
+_DC = ("dc", "dc-linear")
+
+#: The methods' own parameters (fields of :class:`MatchParams`) and the methods that read
+#: each. Given to any other method (a value other than the default), they are refused:
+#: an option a method does not read would change nothing, silently.
+METHOD_OPTIONS = {
+    "slant_cost": ("dsi5", *_DC, "redert"),
+    "ser_min": _DC,
+    "vs_max": _DC,
+    "vs_relative": _DC,
+    "feature_floor": _DC,
+    "uniqueness": _DC,
+    "edge_guard": _DC,
+    "lr_check": _DC,
+    "max_candidates": _DC,
+    "gcp_uniqueness": ("dsi3-gcp",),
+    "gcp_variance_floor": ("dsi3-gcp",),
+    "orientations": ("redert",),
+    "orientation_cost": ("redert",),
+    "occlusion_discount": ("redert",),
+    "occlusion_discount_pixels": ("redert",),
+}
+
+
+#: Suffix of a method name that runs it with ``cost="bt"`` (``"dsi5+bt"``) in the tools
+#: that compare methods (:mod:`dcstereo.evaluation`).
+BT_SUFFIX = "+bt"
+
+
+def _base_method(method: str) -> str:
+    """Return ``method`` without :data:`BT_SUFFIX`."""
+    return method.removesuffix(BT_SUFFIX)
+
+
+def options_for(method: str, options: dict) -> dict:
+    """Return ``options`` without the :data:`METHOD_OPTIONS` that ``method`` does not read.
+
+    For the tools that run several methods with one set of options (``ser_min`` goes to
+    ``dc`` and ``dc-linear``, not to ``dsi3``); ``method`` may carry a ``+bt`` suffix, and
+    OpenCV's methods read none.
+    """
+    base = _base_method(method)
+    return {
+        name: value
+        for name, value in options.items()
+        if name not in METHOD_OPTIONS or base in METHOD_OPTIONS[name]
+    }
+
+
+def check_method_options(names, methods, label=str) -> None:
+    """Raise ``ValueError`` for an option of ``names`` that none of ``methods`` reads.
+
+    ``names``: keyword arguments of :func:`dcstereo.match` (those outside
+    :data:`METHOD_OPTIONS` are not checked); ``methods``: method names, with or without a
+    ``+bt`` suffix (others, OpenCV's, read none); ``label``: how the message names an
+    option (the command line: by its flag).
+    """
+    bases = [_base_method(method) for method in methods]
+    for name in names:
+        readers = METHOD_OPTIONS.get(name)
+        if readers is None or any(base in readers for base in bases):
+            continue
+        if len(bases) == 1:
+            raise ValueError(
+                f"{label(name)} is read only by {', '.join(readers)}, not by {methods[0]}"
+            )
+        raise ValueError(
+            f"{label(name)} is read only by {', '.join(readers)}, none of the methods run "
+            f"({', '.join(methods)})"
+        )
+
+
 def check_median(value, name: str = "median") -> int:
     """Return a median filter's window side: 0 (off) or odd, 3 to :data:`MAX_MEDIAN`."""
     if isinstance(value, np.integer):
@@ -308,6 +380,12 @@ class MatchParams:
                     f"edge_guard must be None, 0 (no guard) or positive, got {self.edge_guard}"
                 )
         self._check_orientations()
+        given = [
+            field.name
+            for field in fields(self)
+            if field.name in METHOD_OPTIONS and getattr(self, field.name) != field.default
+        ]
+        check_method_options(given, [self.method])
 
     def _check_orientations(self):
         """Validate the ``redert`` parameters (orientations, their cost, the discount)."""

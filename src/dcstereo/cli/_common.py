@@ -18,8 +18,6 @@ FEATURE_METHODS = ("dc", "dc-linear", "dsi3-gcp")
 #: The keyword arguments of :func:`dcstereo.match` that :func:`matching_options` collects.
 MATCH_OPTIONS = ("method", "window", "occlusion_cost", "cost", "fill", "subpixel", "median")
 
-_DC = ("dc", "dc-linear")
-
 #: The two flags of the on/off options of :data:`METHOD_OPTIONS`.
 _SWITCHES = {"vs_relative": "--vs-relative/--vs-absolute", "lr_check": "--lr-check/--no-lr-check"}
 
@@ -44,13 +42,13 @@ def _slopes(ctx, param, value):
 _DEFAULT_SLOPES = ",".join(f"{v:g}" for v in _params.DEFAULT_ORIENTATIONS)
 
 #: The methods' own parameters (keyword arguments of :func:`dcstereo.match`) that
-#: :func:`matching_options` adds: the methods that read each, its ``--help`` text and its
-#: ``click.option`` settings other than the flag and the default (None: not given, then
-#: the :class:`~dcstereo.params.MatchParams` default). Given to a method that does not
-#: read it: an error, rather than a silent no-op.
+#: :func:`matching_options` adds: each one's ``--help`` text and ``click.option`` settings
+#: other than the flag and the default (None: not given, then the
+#: :class:`~dcstereo.params.MatchParams` default). The methods that read each are
+#: :data:`dcstereo.params.METHOD_OPTIONS`; given to a method that does not read it: an
+#: error, rather than a silent no-op.
 _METHOD_OPTION_TABLE = {
     "slant_cost": (
-        ("dsi5", *_DC, "redert"),
         "Extra cost of each d or e step of the five-step model, in the units of "
         "--occlusion-cost (redert: of each disparity step of a slanted segment). Default: "
         f"the method's ({_params.DEFAULT_SLANT_COST:g} for dsi5, the paper's model; "
@@ -58,84 +56,70 @@ _METHOD_OPTION_TABLE = {
         {"type": float},
     ),
     "ser_min": (
-        _DC,
         "Least signal-to-error ratio (eq. 2) of a reliable feature pair "
         f"(default {_params.DEFAULT_SER_MIN:g}).",
         {"type": float},
     ),
     "vs_max": (
-        _DC,
         "Largest variance dissimilarity (eq. 3) of a reliable pair (default "
         f"{_params.DEFAULT_VS_MAX:g}, for the scale-free VS).",
         {"type": float},
     ),
     "vs_relative": (
-        _DC,
         "VS scale-free, |var_L - var_R| / (var_L + var_R) (the default), or the paper's "
         "|var_L - var_R| in gray levels squared (then set --vs-max to match).",
         {},
     ),
     "feature_floor": (
-        _DC,
         "Least window variance (gray levels squared) of a candidate feature "
         f"(default {_params.DEFAULT_FEATURE_FLOOR:g}).",
         {"type": float},
     ),
     "uniqueness": (
-        _DC,
         "A candidate's second-least window cost (two or more disparities away) must be "
         f"at least this times its least (default {_params.DEFAULT_UNIQUENESS:g}; 0: off).",
         {"type": float},
     ),
     "edge_guard": (
-        _DC,
         "Columns left and right of a candidate whose windows must match within one "
         "disparity of it (default: window // 2 + 1; 0: off).",
         {"type": int},
     ),
     "lr_check": (
-        _DC,
         "Also require the right pixel of a candidate to match back to it (default: off).",
         {},
     ),
     "max_candidates": (
-        _DC,
         "Candidates tried per interval before giving up on it (default 0: every pixel "
         "above --feature-floor).",
         {"type": int},
     ),
     "gcp_uniqueness": (
-        ("dsi3-gcp",),
         "The ratio test of a ground control point (default "
         f"{_params.DEFAULT_GCP_UNIQUENESS:g}; 0: off).",
         {"type": float},
     ),
     "gcp_variance_floor": (
-        ("dsi3-gcp",),
         "Least window variance of a ground control point (default "
         f"{_params.DEFAULT_GCP_VARIANCE_FLOOR:g}).",
         {"type": float},
     ),
     "orientations": (
-        ("redert",),
         "Comma-separated surface slopes (px of disparity per px), each of 0, +-0.0625, "
         f"+-0.125, +-0.25, +-0.5, +-1 (default {_DEFAULT_SLOPES}).",
         {"callback": _slopes, "metavar": "SLOPES"},
     ),
     "orientation_cost": (
-        ("redert",),
         "Cost of a change of orientation, in the units of --occlusion-cost "
         f"(default {_params.DEFAULT_ORIENTATION_COST:g}).",
         {"type": float},
     ),
     "occlusion_discount": (
-        ("redert",),
         "Fraction of --occlusion-cost taken off the pixels of an occlusion run after its "
         f"first, in [0, 1) (default {_params.DEFAULT_OCCLUSION_DISCOUNT:g}).",
         {"type": float},
     ),
     "occlusion_discount_pixels": (
-        ("redert",),
         "How many pixels of a run after its first get the discount "
         f"(default {_params.DEFAULT_OCCLUSION_DISCOUNT_PIXELS}).",
         {"type": int},
@@ -143,7 +127,7 @@ _METHOD_OPTION_TABLE = {
 }
 
 #: The methods that read each option of :data:`_METHOD_OPTION_TABLE`.
-METHOD_OPTIONS = {name: row[0] for name, row in _METHOD_OPTION_TABLE.items()}
+METHOD_OPTIONS = _params.METHOD_OPTIONS
 
 
 def _method_option_list():
@@ -153,9 +137,13 @@ def _method_option_list():
     """
     return [
         click.option(
-            _flag(name), name, default=None, help=f"[{', '.join(readers)}] {text}", **settings
+            _flag(name),
+            name,
+            default=None,
+            help=f"[{', '.join(METHOD_OPTIONS[name])}] {text}",
+            **settings,
         )
-        for name, (readers, text, settings) in _METHOD_OPTION_TABLE.items()
+        for name, (text, settings) in _METHOD_OPTION_TABLE.items()
     ]
 
 
@@ -453,21 +441,13 @@ def check_method_options(given, methods):
     """Refuse (a one-line error) an option of ``given`` that none of ``methods`` reads.
 
     ``methods`` are dcstereo method names, with or without a ``+bt`` suffix, and others
-    (OpenCV's), which read none.
+    (OpenCV's), which read none. :func:`dcstereo.params.check_method_options`, with the
+    options named by their flags.
     """
-    names = [method.removesuffix("+bt") for method in methods]
-    for name in given:
-        readers = METHOD_OPTIONS[name]
-        if any(method in readers for method in names):
-            continue
-        if len(names) == 1:
-            raise CommandError(
-                f"{_flag(name)} is read only by {', '.join(readers)}, not by {methods[0]}"
-            )
-        raise CommandError(
-            f"{_flag(name)} is read only by {', '.join(readers)}, none of the methods run "
-            f"({', '.join(methods)})"
-        )
+    try:
+        _params.check_method_options(given, methods, label=_flag)
+    except ValueError as exc:
+        raise CommandError(str(exc)) from None
 
 
 #: ``--median K``: the post-filter of :mod:`dcstereo.postfilter`.
