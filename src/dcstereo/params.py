@@ -150,6 +150,9 @@ MAX_OCCLUSION_DISCOUNT_PIXELS = 64
 class MatchParams:
     """Parameters of one matching run.
 
+    A method's own parameter (:data:`METHOD_OPTIONS`) given a value other than its default
+    for a method that does not read it is refused (``ValueError``).
+
     Parameters
     ----------
     max_disparity, min_disparity : int
@@ -176,7 +179,7 @@ class MatchParams:
         :data:`DEFAULT_DC_SLANT_COST` for the fill DP of ``dc`` (and of ``dc-linear``,
         which runs it at the two ends of each scanline). From ``occlusion_cost`` up, a d
         or e step never beats an occlusion plus a match, and the model is the three-step
-        one. Ignored by ``dsi3`` and ``block``. ``redert``: the cost of each disparity
+        one. Not read by ``dsi3``, ``dsi3-gcp`` and ``block``. ``redert``: the cost of each disparity
         step of a slanted segment (None: ``dcstereo.redert.DEFAULT_REDERT_SLANT_COST``).
     ser_min : float
         ``dc`` methods: smallest signal-to-error ratio (eq. 2) of a reliable feature pair,
