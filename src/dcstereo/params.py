@@ -179,8 +179,9 @@ class MatchParams:
         :data:`DEFAULT_DC_SLANT_COST` for the fill DP of ``dc`` (and of ``dc-linear``,
         which runs it at the two ends of each scanline). From ``occlusion_cost`` up, a d
         or e step never beats an occlusion plus a match, and the model is the three-step
-        one. Not read by ``dsi3``, ``dsi3-gcp`` and ``block``. ``redert``: the cost of each disparity
-        step of a slanted segment (None: ``dcstereo.redert.DEFAULT_REDERT_SLANT_COST``).
+        one. Not read by ``dsi3``, ``dsi3-gcp`` and ``block``. ``redert``: the cost of
+        each disparity step of a slanted segment (None:
+        ``dcstereo.redert.DEFAULT_REDERT_SLANT_COST``).
     ser_min : float
         ``dc`` methods: smallest signal-to-error ratio (eq. 2) of a reliable feature pair,
         ``(var_L + var_R) / sum_window (I_L - I_R)^2``.
