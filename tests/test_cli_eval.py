@@ -483,8 +483,8 @@ def test_eval_scale_options(tmp_path):
     assert "--scale" in invoke("eval", "--help").output
 
 
-@pytest.mark.parametrize("command", ["bench", "compare"])
-def test_bench_and_compare_announce_compiling(command, tmp_path, monkeypatch):
+@pytest.mark.parametrize("command", ["bench", "compare", "scanline"])
+def test_bench_compare_and_scanline_announce_compiling(command, tmp_path, monkeypatch):
     import dcstereo.api
     from dcstereo.cli._common import COMPILE_NOTICE
     from test_cli import compiling_first
@@ -495,8 +495,10 @@ def test_bench_and_compare_announce_compiling(command, tmp_path, monkeypatch):
         args = ["bench", tmp_path / "data", "--methods", "dsi3,dsi5"]
     else:
         scene = tmp_path / "data" / "toy"
-        args = ["compare", scene / "left.png", scene / "right.png", "-o", tmp_path / "fig.png"]
+        args = [command, scene / "left.png", scene / "right.png", "-o", tmp_path / "fig.png"]
         args += ["--max-disparity", 10, "--methods", "dsi3,dsi5"]
+        if command == "scanline":
+            args += ["--row", 5]
     result = CliRunner().invoke(main, [str(a) for a in args])
     assert result.exit_code == 0, result.output
     assert result.stderr.startswith(COMPILE_NOTICE + "\n")

@@ -7,6 +7,7 @@ from ._common import (
     check_distinct_paths,
     check_method_options,
     check_output_paths,
+    compile_watch,
     disparity_range_options,
     one_line_errors,
 )
@@ -73,16 +74,17 @@ def scanline(
     check_method_options(method_options, names)
     left_image = io.read_image(left)
     right_image = io.read_image(right)
-    data = gather(
-        left_image,
-        right_image,
-        row,
-        max_disparity=max_disparity,
-        min_disparity=min_disparity,
-        window=window,
-        methods=names,
-        **method_options,
-    )
+    with compile_watch():  # each method's first run on a machine compiles it
+        data = gather(
+            left_image,
+            right_image,
+            row,
+            max_disparity=max_disparity,
+            min_disparity=min_disparity,
+            window=window,
+            methods=names,
+            **method_options,
+        )
     io.write_rgb_png(output, scanline_figure(data, width=width, height=height))
     pairs = sum(len(p) for p in data["features"].values())
     click.echo(f"row {row}: {', '.join(names)}, {pairs} feature pairs -> {output}")
