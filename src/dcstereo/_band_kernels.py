@@ -1512,27 +1512,21 @@ def _cells_codegen(five, guarded=False, pinning=False):
                     ir.Constant(_VEC_I64, list(range(BAND_ROWS))),
                 )
 
-                def gather(array, offset):
-                    return _gather_lanes(builder, array, builder.add(anchor, offset))
+                def gather(array, start=None, blocks=0):
+                    # array[start + anchor + blocks * R] of each lane
+                    index = builder.add(anchor, _vector_of(blocks * BAND_ROWS, _VEC_I64))
+                    if start is not None:
+                        index = builder.add(index, _broadcast(builder, start, _VEC_I64))
+                    return _gather_lanes(builder, array, index)
 
-                def offset(value):
-                    return _broadcast(builder, value, _VEC_I64)
-
-                up = _vector_of(BAND_ROWS, _VEC_I64)
-                down = _vector_of(-BAND_ROWS, _VEC_I64)
-                h2 = builder.fmul(two, gather(cost, offset(o_here)))
-                c = builder.fadd(gather(prev, _vector_of(0, _VEC_I64)), h2)
-                u = builder.fadd(builder.fadd(h2, gather(cost, offset(o_left))), slant2_vec)
-                d = builder.fadd(
-                    builder.fadd(gather(prev, up), gather(cost, builder.add(offset(o_here), up))),
-                    u,
-                )
-                e2 = gather(prev2, down)
+                h2 = builder.fmul(two, gather(cost, o_here))
+                c = builder.fadd(gather(prev), h2)
+                u = builder.fadd(builder.fadd(h2, gather(cost, o_left)), slant2_vec)
+                d = builder.fadd(builder.fadd(gather(prev, None, 1), gather(cost, o_here, 1)), u)
+                e2 = gather(prev2, None, -1)
                 if guarded:
                     e2 = builder.fadd(e2, e_off_vec)
-                e = builder.fadd(
-                    builder.fadd(e2, gather(cost, builder.add(offset(o_left), down))), u
-                )
+                e = builder.fadd(builder.fadd(e2, gather(cost, o_left, -1)), u)
                 match_steps = [c, d, e]
             _store_anchors(context, builder, sig, args, match_steps, pinned_lanes)
         return context.get_dummy_value()
@@ -1541,21 +1535,28 @@ def _cells_codegen(five, guarded=False, pinning=False):
 
 
 def _gather_lanes(builder, data, index):
-    """Return ``<R x double>`` of ``data[index[r]]`` for each lane ``r`` (a gather)."""
-    element = data.type
-    pointers_type = ir.VectorType(element, BAND_ROWS)
+    """Return ``<R x double>`` of ``data[index[r]]`` for each lane ``r`` (a gather).
+
+    ``data`` points to float64 values; ``index`` is ``<R x i64>``. On AVX2 LLVM makes it
+    scalar loads (its gathers cost more there).
+    """
+    size = _element_bytes(_VEC_F64)
+    pointers_type = ir.VectorType(data.type, BAND_ROWS)
     base = _broadcast(builder, builder.ptrtoint(data, _I64), _VEC_I64)
-    addresses = builder.add(base, builder.mul(index, _vector_of(8, _VEC_I64)))
-    pointers = builder.inttoptr(addresses, pointers_type)
+    addresses = builder.add(base, builder.mul(index, _vector_of(size, _VEC_I64)))
     mask_type = ir.VectorType(ir.IntType(1), BAND_ROWS)
     gather = cgutils.get_or_insert_function(
         builder.module,
         ir.FunctionType(_VEC_F64, [pointers_type, ir.IntType(32), mask_type, _VEC_F64]),
         f"llvm.masked.gather.v{BAND_ROWS}f64.v{BAND_ROWS}p0",
     )
-    every = ir.Constant(mask_type, [1] * BAND_ROWS)
-    undef = ir.Constant(_VEC_F64, ir.Undefined)
-    return builder.call(gather, [pointers, ir.Constant(ir.IntType(32), 8), every, undef])
+    arguments = [
+        builder.inttoptr(addresses, pointers_type),
+        ir.Constant(ir.IntType(32), size),  # the alignment
+        ir.Constant(mask_type, [1] * BAND_ROWS),  # every lane
+        ir.Constant(_VEC_F64, ir.Undefined),
+    ]
+    return builder.call(gather, arguments)
 
 
 def _store_anchors(context, builder, sig, args, match_steps, pinned_lanes):

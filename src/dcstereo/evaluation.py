@@ -19,11 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import params
 from .datasets import StereoScene, find_scenes, load_scene, scene_layout
 from .metrics import DEFAULT_THRESHOLDS, bad_key, evaluate
 from .opencv import OPENCV_METHODS
-from .params import METHODS, check_method_options, options_for
+from .params import BT_SUFFIX, METHODS, check_method_options, options_for
 from .result import DisparityResult
 
 #: Order of the masks in reports.
@@ -89,10 +88,6 @@ def parse_methods(text: str | None) -> list[str]:
     if not names:
         raise ValueError("no method given")
     return names
-
-
-#: Suffix of a method name that runs it with ``cost="bt"`` (``"dsi5+bt"``) in bench.
-BT_SUFFIX = params.BT_SUFFIX
 
 
 def _bt_method(name: str) -> bool:
