@@ -1373,18 +1373,18 @@ def _wide_vectors():
 #: venus, teddy). Tests exercise the branch of the host they run on.
 _CARRY = _wide_vectors()
 
-#: Whether the cells' vector code keeps the match steps (c, d, e) of each pinned lane's
-#: anchor cell as the loop passes it (three selects a block, three values of ``R`` lanes
-#: carried; AVX-512), or gathers the anchor cells' inputs from the arrays after the loop
-#: and makes them again, in the same operations (AVX2). With AVX2's 16 registers the three
-#: carried values (six registers) made the pinned columns' loop spill to the stack and load
-#: back 25-34 times a block (7-9 now). The stack's page offset is random from process to
-#: process (address-space randomization), and where the spill slots met the page offsets
-#: of the loop's arrays, loads waited on unrelated stores (see ``PLACE_STEP``): about one
-#: process in six ran dc's forward pass up to 70 % slower (venus 4.4 -> 7.5 ms), every
-#: call. Costs 2-3 % of dc's time on tsukuba and venus in the other processes
-#: (docs/SPEED.md).
-_ANCHORS_IN_LOOP = _wide_vectors()
+#: Whether ``band_forward`` makes the anchors inside the five-step cells' vector code (the
+#: pinned forms of ``_cells5_chain``: the e-step guard, the column's restart at the anchor
+#: and the anchor's match steps, each a select or an addition a block; AVX-512), or runs the
+#: plain cells in every column and then, for each pinned lane, makes the anchor's value and
+#: step from its neighbours and stores the column's restart and the guard (scalar code, a
+#: store per cell of that lane; AVX2). With AVX-512's 32 registers the vector form was
+#: 0.93-0.99 of dc's time (docs/SPEED.md, stop 30). With AVX2's 16, where each value of
+#: ``R`` lanes takes two, the pinned forms spilled to the stack every block, and the
+#: columns switched between four forms: the scalar form is 0.85-0.94 of dc's time there
+#: (docs/SPEED.md, stop 44). Tests exercise the branch of the host they run on; the pinned
+#: forms themselves are tested against their twin on every host.
+_PINS_IN_LOOP = _wide_vectors()
 
 
 def _cells_codegen(five, guarded=False, pinning=False):
@@ -1427,10 +1427,9 @@ def _cells_codegen(five, guarded=False, pinning=False):
             pinned_lanes = builder.fcmp_ordered(">=", pin_k_vec, _vector_of(0.0, _VEC_F64))
             inf_vec = _vector_of(float("inf"), _VEC_F64)
             zero_vec = _vector_of(0.0, _VEC_F64)
-            if _ANCHORS_IN_LOOP:
-                # the match steps c, d, e of each pinned lane's anchor cell, kept as the
-                # loop passes it (a select each), for the anchor's value and step after it
-                at_anchor = [cgutils.alloca_once_value(builder, inf_vec) for _ in range(3)]
+            # the match steps c, d, e of each pinned lane's anchor cell, kept as the loop
+            # passes it (a select each), for the anchor's value and step after the loop
+            at_anchor = [cgutils.alloca_once_value(builder, inf_vec) for _ in range(3)]
         if five:
             slant2_vec = _broadcast(builder, slant2, _VEC_F64)
             prev_up = cgutils.alloca_once_value(builder, _load_vector(builder, prev, above))
@@ -1468,9 +1467,8 @@ def _cells_codegen(five, guarded=False, pinning=False):
                     k_here = builder.sub(builder.udiv(p, width), ir.Constant(_I64, 1))
                     k_vec = _broadcast(builder, builder.sitofp(k_here, ir.DoubleType()), _VEC_F64)
                     at = builder.fcmp_ordered("==", pin_k_vec, k_vec)
-                    if _ANCHORS_IN_LOOP:
-                        for slot, step_value in zip(at_anchor, (c, d, e), strict=True):
-                            builder.store(builder.select(at, step_value, builder.load(slot)), slot)
+                    for slot, step_value in zip(at_anchor, (c, d, e), strict=True):
+                        builder.store(builder.select(at, step_value, builder.load(slot)), slot)
                     pin_value = builder.select(at, zero_vec, inf_vec)
                     cell = builder.select(pinned_lanes, pin_value, cell)
             else:
@@ -1493,70 +1491,11 @@ def _cells_codegen(five, guarded=False, pinning=False):
                 builder.store(left_below, left_here)
             builder.store(prev_below, prev_here)
         if pinning:
-            if _ANCHORS_IN_LOOP:
-                match_steps = [builder.load(s) for s in at_anchor]
-            else:
-                # the anchor cells' inputs, gathered lane by lane (block ``k + 1`` of each
-                # pinned lane's ``k``; the others read block k_hi + 1, inside the column),
-                # and their c, d, e by the loop's operations in the loop's order
-                k_lanes = builder.select(
-                    pinned_lanes,
-                    builder.fptosi(pin_k_vec, _VEC_I64),
-                    _broadcast(builder, k_hi, _VEC_I64),
-                )
-                anchor = builder.add(
-                    builder.mul(
-                        builder.add(k_lanes, _vector_of(1, _VEC_I64)),
-                        _vector_of(BAND_ROWS, _VEC_I64),
-                    ),
-                    ir.Constant(_VEC_I64, list(range(BAND_ROWS))),
-                )
-
-                def gather(array, start=None, blocks=0):
-                    # array[start + anchor + blocks * R] of each lane
-                    index = builder.add(anchor, _vector_of(blocks * BAND_ROWS, _VEC_I64))
-                    if start is not None:
-                        index = builder.add(index, _broadcast(builder, start, _VEC_I64))
-                    return _gather_lanes(builder, array, index)
-
-                h2 = builder.fmul(two, gather(cost, o_here))
-                c = builder.fadd(gather(prev), h2)
-                u = builder.fadd(builder.fadd(h2, gather(cost, o_left)), slant2_vec)
-                d = builder.fadd(builder.fadd(gather(prev, None, 1), gather(cost, o_here, 1)), u)
-                e2 = gather(prev2, None, -1)
-                if guarded:
-                    e2 = builder.fadd(e2, e_off_vec)
-                e = builder.fadd(builder.fadd(e2, gather(cost, o_left, -1)), u)
-                match_steps = [c, d, e]
+            match_steps = [builder.load(slot) for slot in at_anchor]
             _store_anchors(context, builder, sig, args, match_steps, pinned_lanes)
         return context.get_dummy_value()
 
     return codegen
-
-
-def _gather_lanes(builder, data, index):
-    """Return ``<R x double>`` of ``data[index[r]]`` for each lane ``r`` (a gather).
-
-    ``data`` points to float64 values; ``index`` is ``<R x i64>``. On AVX2 LLVM makes it
-    scalar loads (its gathers cost more there).
-    """
-    size = _element_bytes(_VEC_F64)
-    pointers_type = ir.VectorType(data.type, BAND_ROWS)
-    base = _broadcast(builder, builder.ptrtoint(data, _I64), _VEC_I64)
-    addresses = builder.add(base, builder.mul(index, _vector_of(size, _VEC_I64)))
-    mask_type = ir.VectorType(ir.IntType(1), BAND_ROWS)
-    gather = cgutils.get_or_insert_function(
-        builder.module,
-        ir.FunctionType(_VEC_F64, [pointers_type, ir.IntType(32), mask_type, _VEC_F64]),
-        f"llvm.masked.gather.v{BAND_ROWS}f64.v{BAND_ROWS}p0",
-    )
-    arguments = [
-        builder.inttoptr(addresses, pointers_type),
-        ir.Constant(ir.IntType(32), size),  # the alignment
-        ir.Constant(mask_type, [1] * BAND_ROWS),  # every lane
-        ir.Constant(_VEC_F64, ir.Undefined),
-    ]
-    return builder.call(gather, arguments)
 
 
 def _store_anchors(context, builder, sig, args, match_steps, pinned_lanes):
@@ -1633,8 +1572,8 @@ def _cells3_vector(typingctx, cur, prev, cost, o_here, steps, o_steps, k_lo, k_h
     return signature, _cells_codegen(False)
 
 
-# inlined in numba's IR (a small function: one intrinsic): with the gathers after the
-# loop, LLVM no longer inlined the pinned forms into band_forward, a call a column
+# inlined in numba's IR (a small function: one intrinsic): LLVM's inliner had left the
+# larger pinned forms out of band_forward, a call a column
 @overload(_cells5_chain, inline="always")
 def _cells5_compiled(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2,
                      slant2, e_off=None, pin_k=None, pin_total=None, pin_steps=None,
@@ -1707,16 +1646,17 @@ def band_forward(
     an anchor then holds only the anchor (0) and the b steps below it (their step bits are
     not read: the backtrack ends a segment on reaching the anchor's column,
     ``band_backtrack_row``);
-    the e step over an anchor, from column ``x - 2`` to ``x``, reads inf. With the five
-    steps, the cells' vector code does both (``_cells5_chain``'s ``pin_k`` and ``e_off``,
-    in the columns that need them), instead of a strided store per cell of each pinned
-    row: ``dc`` 0.93-0.99 of its time on tsukuba and venus, 0.97-1.03 on teddy and cones,
-    0.83 on the 3000 x 2000 x 256 pair (A/B in one process, docs/SPEED.md). It also
-    makes the anchors' values and steps (``pin_total``, ``pin_steps``: a select per block
-    of the three match steps, masked stores after the column) instead of a scalar pass
-    over the pinned rows that read the anchor cell's neighbours again: ``dc`` 0.97 of its
-    time on tsukuba and venus, 1.00-1.01 on teddy and cones. The three-step DP and the
-    first column do both in scalar code, as before.
+    the e step over an anchor, from column ``x - 2`` to ``x``, reads inf. Where
+    ``_PINS_IN_LOOP`` (AVX-512), the five-step cells' vector code does both
+    (``_cells5_chain``'s ``pin_k`` and ``e_off``, in the columns that need them) and makes
+    the anchors' values and steps (a select per block of the three match steps, masked
+    stores after the column): ``dc`` 0.93-0.99 of its time on tsukuba and venus against
+    the scalar form, 0.83 on the 3000 x 2000 x 256 pair (docs/SPEED.md, stop 30).
+    Otherwise (AVX2), and for the three-step DP and the first column, every column runs
+    the plain cells, and then each pinned row's anchor is made from its neighbours by the
+    same operations and its cells of the column are stored; with the five steps its cells
+    of column ``x - 1`` are then set to inf (the guard: only column ``x + 1``'s e step
+    reads them from there on).
     """
     nr = BAND_ROWS
     nk = (ndisp + 2) * nr
@@ -1768,7 +1708,7 @@ def band_forward(
         k_lo = max(0, x - (width - 1) - dmin)
         k_hi = min(ndisp - 1, x - dmin)
         pin_here = anchored and pinned[x]
-        guard = anchored and five and x >= 1 and pinned[x - 1]  # (the e step's)
+        guard = _PINS_IN_LOOP and anchored and five and x >= 1 and pinned[x - 1]
         if guard:
             # rows pinned at x - 1: no e step from x - 2 over the anchor
             for r in range(nr):
@@ -1776,7 +1716,8 @@ def band_forward(
         if pin_here:
             for r in range(nr):
                 j = pins[x * nr + r]
-                pin_k[r] = np.float64(x - j - dmin) if j >= 0 else -1.0  # the anchor's k
+                if _PINS_IN_LOOP:
+                    pin_k[r] = np.float64(x - j - dmin) if j >= 0 else -1.0  # the anchor's k
                 if j >= 0:
                     free[r] = False
         if k_lo > k_hi:
@@ -1793,22 +1734,23 @@ def band_forward(
                 cur[(k_virtual + 1) * nr + r] = 0.0 if free[r] else inf
         if k_lo <= k_hi:
             slant_ok = five and x >= 1
-            # the pins in the cells' vector code: four compiled forms, each column the one
-            # it needs (e_off, pin_k or both cost a vector operation or three per block).
-            # Four spelled-out calls: the arguments passed as one tuple (*cells) made dc
-            # 1.06-1.09x slower on tsukuba and venus (A/B in one process)
+            in_loop = _PINS_IN_LOOP and slant_ok
+            # with the pins in the cells' vector code: four compiled forms, each column the
+            # one it needs (e_off, pin_k or both cost a vector operation or three per
+            # block). Four spelled-out calls: the arguments passed as one tuple (*cells)
+            # made dc 1.06-1.09x slower on tsukuba and venus (A/B in one process)
             o_pin = np.int64(x * nr)
-            if slant_ok and guard and pin_here:
+            if in_loop and guard and pin_here:
                 _cells5_chain(
                     cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2,
                     slant2, e_off, pin_k, anchor_total, anchor_steps, o_pin,
                 )  # fmt: skip
-            elif slant_ok and guard:
+            elif in_loop and guard:
                 _cells5_chain(
                     cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2,
                     slant2, e_off,
                 )  # fmt: skip
-            elif slant_ok and pin_here:
+            elif in_loop and pin_here:
                 _cells5_chain(
                     cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2,
                     slant2, None, pin_k, anchor_total, anchor_steps, o_pin,
@@ -1820,19 +1762,34 @@ def band_forward(
                 )  # fmt: skip
             else:
                 _cells3_chain(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2)
-            if pin_here and not slant_ok:
-                # the three-step cells (and the first column): the pins in scalar code (the
-                # five-step vector code makes the anchors and the restart itself)
+            if pin_here and not in_loop:
+                # the pins in scalar code, after the column's cells (every column on AVX2;
+                # the three-step cells and the first column): each pinned row's cells of
+                # this column are replaced, and its anchor made from the columns before
                 for r in range(nr):
                     j = pins[x * nr + r]
                     if j < 0:
                         continue
-                    # the anchor ends a segment: its value by the match step c, the only
-                    # one of the three steps (no a, no b), from the column before ...
+                    # the anchor ends a segment: its value by a match step (c, d, e; no a,
+                    # no b: those of _cells5_chain's, the same operations in the same
+                    # order), and the first of them that reaches it ...
                     k_a = x - j - dmin
                     p = int((k_a + 1) * nr + r)  # an int: np.uint64 + np.int64 is float
-                    anchor_total[x * nr + r] = prev[p] + 2.0 * cost[o_here + p]
-                    anchor_steps[x * nr + r] = STEP_C
+                    h2 = 2.0 * cost[o_here + p]
+                    c = prev[p] + h2
+                    best = c
+                    step = STEP_C
+                    if slant_ok:
+                        # (an e step over an anchor at x - 1 reads the inf stored below)
+                        u = h2 + cost[o_left + p] + slant2
+                        d = prev[p + nr] + cost[o_here + p + nr] + u
+                        e = prev2[p - nr] + cost[o_left + p - nr] + u
+                        best = min(min(c, d), e)
+                        step = STEP_E if e == best else STEP_NONE
+                        step = STEP_D if d == best else step
+                        step = STEP_C if c == best else step
+                    anchor_total[x * nr + r] = best
+                    anchor_steps[x * nr + r] = step
                     # ... and starts the next one: the column holds only the anchor (0)
                     # and the b steps below it (the values of clearing it and running the
                     # b-chain), which the backtrack of that segment takes without reading
@@ -1841,6 +1798,12 @@ def band_forward(
                         cur[(k + 1) * nr + r] = b_run[k_a - k]
                     for k in range(k_a + 1, k_hi + 1):
                         cur[(k + 1) * nr + r] = inf
+                    if five and not _PINS_IN_LOOP:
+                        # the e-step guard: column x - 1, which only column x + 1's e step
+                        # reads from here on, is inf in this row, so that no e step jumps
+                        # over the anchor (e_off's inf in the vector form)
+                        for i in range(ndisp + 2):
+                            prev[i * nr + r] = inf
         # the free end's nodes: j == width - 1 before the last column, then the last column
         k_end = x - (width - 1) - dmin
         if x < width - 1 and 0 <= k_end < ndisp:
