@@ -593,11 +593,13 @@ def test_lane_variance_of_wide_windows_equals_the_integer_one(radius):
     # n * sq can leave float64's exact integers (side 153 is the first where it can on a
     # signal of 4080), and then the numerators are made again in int64: the values of
     # window_variance_row on windows below it (75) and past it (76, 80: they do),
-    # summed afresh and moved down a row
+    # summed afresh and moved down a row; and the search's variance of a window from its
+    # integer sums (_window_variance), which makes the numerator in int64 at every size
     rng = np.random.default_rng(40 + radius)
     nr = _band_kernels.BAND_ROWS
     win = 2 * radius + 1
     assert 151**4 * 4080**2 < 2**53 <= 153**4 * 4080**2
+    window_sums = _compiled(_band_kernels._window_ssd)
     width, height = 24, win + 2
     signal = np.where(rng.random((height + 1, width)) < 0.99, 4080, rng.integers(0, 4081))
     signal_p = padded(signal.astype(np.int32), radius)
@@ -626,6 +628,13 @@ def test_lane_variance_of_wide_windows_equals_the_integer_one(radius):
             _kernels.window_variance_row(signal_p, r + t, radius, 16, col_row[0], col_row[1],
                                          var_row, False)  # fmt: skip
             assert var.reshape(width, nr)[:, r].tobytes() == var_row.tobytes(), (t, r)
+            # the search's right-view variance: from the SSD's sums of the window
+            n, norm = win * win, float(win * win) ** 2 * 16.0**2
+            for x in range(width):
+                _, sm, sq = window_sums(signal_p, signal_p, r + t, x, x, radius)
+                assert _band_kernels._window_variance(sm, sq, n, norm) == var_row[x], (t, r, x)
+    _, sm, sq = _band_kernels._window_ssd(signal_p, signal_p, 1, 3, 3, radius)  # the twin
+    assert (sm, sq) == tuple(window_sums(signal_p, signal_p, 1, 3, 3, radius)[1:])
 
 
 def lane_cost_scratch(width, ndisp, radius):
@@ -966,9 +975,10 @@ def test_floor_log2_compiled_equals_its_twin():
 
 @pytest.mark.parametrize("seed", range(3))
 def test_window_ssd_vector_code_equals_its_twin_and_numpy(seed):
-    # windows of one to 25 pixels a side (a row of more than R pixels takes several masked
-    # loads), against the image's edges (nothing past the window is read: a read past the
-    # array's end could fault), on signals whose squares need 64 bits
+    # the SSD and the right window's sum and sum of squares; windows of one to 25 pixels a
+    # side (a row of more than R pixels takes several masked loads), against the image's
+    # edges (nothing past the window is read: a read past the array's end could fault), on
+    # signals whose squares need 64 bits
     rng = np.random.default_rng(900 + seed)
     compiled = _compiled(_band_kernels._window_ssd)
     for radius in range(13):
@@ -982,10 +992,19 @@ def test_window_ssd_vector_code_equals_its_twin_and_numpy(seed):
              int(rng.integers(0, width - win + 1)))
             for _ in range(5)
         ]:  # fmt: skip
-            diff = left[y : y + win, x : x + win].astype(np.int64) - right[y : y + win, j : j + win]
-            expected = float((diff * diff).sum())
-            assert _band_kernels._window_ssd(left, right, y, x, j, radius) == expected
-            assert compiled(left, right, y, x, j, radius) == expected
+            right_window = right[y : y + win, j : j + win].astype(np.int64)
+            diff = left[y : y + win, x : x + win].astype(np.int64) - right_window
+            expected = (
+                float((diff * diff).sum()),
+                int(right_window.sum()),
+                int((right_window * right_window).sum()),
+            )
+            for got in (
+                _band_kernels._window_ssd(left, right, y, x, j, radius),
+                compiled(left, right, y, x, j, radius),
+            ):
+                assert tuple(got) == expected
+                assert isinstance(got[0], float)
 
 
 def _transposer(n):

@@ -2407,19 +2407,38 @@ def _sparse_best(values, sparse, lo, hi):
 
 
 def _window_ssd(left_p, right_p, y, x, j, radius):
-    """Window sum of squared signal differences of the pair ``x <-> j`` of padded row ``y``.
+    """Return ``(ssd, sm, sq)`` of the pair ``x <-> j`` of padded row ``y``.
 
-    Both windows inside the image (every feature candidate): exact integers, the value of
-    ``_kernels.window_ssd``. Compiled code runs ``_window_ssd_vector`` (the same sum for
-    int32 signals below 2**30 in magnitude).
+    ``ssd`` (float64) is the window sum of squared signal differences, ``sm`` and ``sq``
+    (int64) the right window's sum and sum of squares, from which the search makes the
+    right pixel's window variance (``_window_variance``): the right view's variance is
+    read only at the candidates' matches, so it is made there, from the loads of the SSD.
+    Both windows inside the image (every feature candidate): exact integers, ``ssd`` the
+    value of ``_kernels.window_ssd``. Compiled code runs ``_window_ssd_vector`` (the same
+    sums for int32 signals below 2**30 in magnitude).
     """
     win = 2 * radius + 1
     si = 0
+    sm = 0
+    sq = 0
     for t in range(win):
         for c in range(win):
-            di = np.int64(left_p[y + t, x + c]) - np.int64(right_p[y + t, j + c])
+            right = np.int64(right_p[y + t, j + c])
+            di = np.int64(left_p[y + t, x + c]) - right
             si += di * di
-    return float(si)
+            sm += right
+            sq += right * right
+    return float(si), sm, sq
+
+
+@nb.njit(cache=True, inline="always")
+def _window_variance(sm, sq, n, norm):
+    """Return a window's variance from its integer sum ``sm`` and sum of squares ``sq``.
+
+    ``n`` pixels, ``norm`` the float64 ``(n * steps)**2``: the value of
+    ``band_lane_variance`` (and ``_kernels.window_variance_row``), bit for bit.
+    """
+    return float(n * sq - sm * sm) / norm
 
 
 # The window's rows are short (5 pixels by default), too short for numba's loop
@@ -2430,7 +2449,8 @@ def _window_ssd(left_p, right_p, y, x, j, radius):
 # sums as 64-bit ones, one sum at the end: the same integer, so the same float. A square
 # of a sign-extended 32-bit value is one ``vpmuldq``; the difference of two 64-bit values
 # was a full 64-bit product, which AVX2 lacks (three ``vpmuludq`` and shifts per four
-# lanes): the SSD took about 35 ns on AVX2.
+# lanes): the SSD took about 35 ns on AVX2. The right rows' values are summed, and their
+# squares, on the way (two additions and a ``vpmuldq`` a row).
 
 
 @intrinsic
@@ -2439,7 +2459,9 @@ def _window_ssd_vector(typingctx, left_p, right_p, y, x, j, radius):
         all(_contiguous(a, types.int32, 2) for a in (left_p, right_p)) and _words(y, x, j, radius)
     ):
         return None
-    signature = types.float64(left_p, right_p, y, x, j, radius)
+    signature = types.Tuple((types.float64, types.int64, types.int64))(
+        left_p, right_p, y, x, j, radius
+    )
 
     def codegen(context, builder, sig, args):
         y_v, x_v, j_v, radius_v = args[2:]
@@ -2455,6 +2477,8 @@ def _window_ssd_vector(typingctx, left_p, right_p, y, x, j, radius):
             f"llvm.masked.load.v{BAND_ROWS}i32.p0",
         )
         total = cgutils.alloca_once_value(builder, _vector_of(0, _VEC_I64))
+        right_sum = cgutils.alloca_once_value(builder, _vector_of(0, _VEC_I64))
+        right_squares = cgutils.alloca_once_value(builder, _vector_of(0, _VEC_I64))
         # the pieces of R pixels outside, the rows inside: a window row of at most R
         # pixels (the common case) is one loop of one masked load per view and row
         with cgutils.for_range(builder, pieces) as piece:
@@ -2483,17 +2507,22 @@ def _window_ssd_vector(typingctx, left_p, right_p, y, x, j, radius):
 
             left_first, right_first = corner(views[0], x_v), corner(views[1], j_v)
             with cgutils.for_range(builder, win) as rows:
-                d32 = builder.sub(
-                    window_row(*left_first, rows.index), window_row(*right_first, rows.index)
-                )
+                right32 = window_row(*right_first, rows.index)
+                d32 = builder.sub(window_row(*left_first, rows.index), right32)
                 d = builder.sext(d32, _VEC_I64)
                 builder.store(builder.add(builder.load(total), builder.mul(d, d)), total)
+                right64 = builder.sext(right32, _VEC_I64)
+                builder.store(builder.add(builder.load(right_sum), right64), right_sum)
+                squares = builder.mul(right64, right64)
+                builder.store(builder.add(builder.load(right_squares), squares), right_squares)
         reduce_add = cgutils.get_or_insert_function(
             builder.module,
             ir.FunctionType(_I64, [_VEC_I64]),
             f"llvm.vector.reduce.add.v{BAND_ROWS}i64",
         )
-        return builder.sitofp(builder.call(reduce_add, [builder.load(total)]), ir.DoubleType())
+        ssd = builder.sitofp(builder.call(reduce_add, [builder.load(total)]), ir.DoubleType())
+        sums = [builder.call(reduce_add, [builder.load(v)]) for v in (right_sum, right_squares)]
+        return context.make_tuple(builder, sig.return_type, [ssd, *sums])
 
     return signature, codegen
 
@@ -2733,7 +2762,6 @@ def band_row_features(
     right_p,
     y,
     var_l,
-    var_r,
     wta_k,
     keep,
     tests,
@@ -2747,9 +2775,10 @@ def band_row_features(
     """Find the reliable feature pairs of band row ``r`` (image row ``y``), as ``divide_row``.
 
     ``cost`` and ``wta_k`` are the band's (``band_lane_costs``, ``band_block_match``);
-    ``left_p``/``right_p`` the padded signals; ``var_l``/``var_r`` the window variances of
-    the band in both views (``band_lane_variance``: the right view's stored right to
-    left). ``tests`` is ``(ser_min, vs_max, vs_relative, var_floor, lr_check, uniqueness,
+    ``left_p``/``right_p`` the padded signals; ``var_l`` the window variances of the band
+    in the left view (``band_lane_variance``); the right view's are made at the matches
+    from the sums of the SSD's loads (``_window_ssd``, ``_window_variance``: the same
+    values). ``tests`` is ``(ser_min, vs_max, vs_relative, var_floor, lr_check, uniqueness,
     edge_guard, signal_steps)`` (``uniqueness > 0``; no limit on the tries). The up-front
     tests of ``divide_row`` pick the candidates: ``keep`` (``band_feature_mask``) holds
     the outcome of the variance floor, uniqueness, range and guard tests, and VS and SER
@@ -2795,32 +2824,33 @@ def band_row_features(
     ordered = not lr_check
     j_last = -1
     n = 0
+    n_win = (2 * radius + 1) ** 2
+    norm = float(n_win) * float(n_win) * float(steps) * float(steps)
     for q in range(m):
         p = cand_x[q]
         v_l = var_l[p * nr + r]
         best_k = wta_k[p * nr + r]
         j = p - dmin - best_k
-        v_r = var_r[(width - 1 - j) * nr + r]
+        # the SSD and the right window's sums, from one pass over the two windows; VS and
+        # SER of every candidate, kept without branches (each writes the next entry, and
+        # only one that passes both keeps it)
+        ssd, sm, sq = _window_ssd(left_p, right_p, y, p, j, radius)
+        v_r = _window_variance(sm, sq, n_win, norm)
         vs = _variance_similarity(v_l, v_r, vs_relative)
-        if not vs <= vs_max:
-            continue
-        ssd = _window_ssd(left_p, right_p, y, p, j, radius)
         total = v_l + v_r
         if exact_scale:
             ser = (total * scale) / ssd if ssd > 0 else np.inf
         else:
-            ssd = ssd / scale
-            ser = total / ssd if ssd > 0 else np.inf
-        if not ser >= ser_min:
-            continue
+            ser = total / (ssd / scale) if ssd > 0 else np.inf
+        passed = (vs <= vs_max) & (ser >= ser_min)
         cand_x[n] = p
         cand_k[n] = best_k
         cand_ser[n] = ser
         cand_vs[n] = vs
         cand_var[n] = v_l
-        ordered &= j > j_last
-        j_last = j
-        n += 1
+        ordered &= (j > j_last) | (not passed)
+        j_last = j if passed else j_last
+        n += passed
     if ordered:
         # then the search accepts every candidate, and none is tried twice: each is the
         # strongest of the interval between the stronger pairs around it, whose right
@@ -3251,10 +3281,10 @@ def match_band_rows(
         wta_ratio = _placed(nwork * nr, np.float64, 18)
         keep = _placed(nwork * nr, np.uint8, 19)
         nvar = width_p * nr if search else 1
-        colsum = _placed(2 * nvar, np.float64, 20).reshape((2, nvar))
-        colsq = _placed(2 * nvar, np.float64, 21).reshape((2, nvar))
+        colsum = _placed(nvar, np.float64, 20)
+        colsq = _placed(nvar, np.float64, 21)
         hwork = _placed(2 * nwork * nr, np.float64, 22).reshape((2, nwork * nr))
-        var_band = _placed(2 * nwork * nr, np.float64, 23).reshape((2, nwork * nr))
+        var_band = _placed(nwork * nr, np.float64, 23)
         steps = 1 if tests is None else tests[7]
         levels = 1
         while (1 << (levels - 1)) < width:
@@ -3291,17 +3321,12 @@ def match_band_rows(
                 mark = _clock_add(clock, ch, _CLOCK_COSTS, mark)
             if tests is not None and search:
                 band_lane_variance(
-                    left_t, width, radius, steps, t > 0, colsum[0], colsq[0], hwork[0], hwork[1],
-                    var_band[0],
+                    left_t, width, radius, steps, t > 0, colsum, colsq, hwork[0], hwork[1],
+                    var_band,
                 )  # fmt: skip
-                if gcp is None:  # the points need no right-view variance
-                    band_lane_variance(
-                        right_t, width, radius, steps, t > 0, colsum[1], colsq[1], hwork[0],
-                        hwork[1], var_band[1],
-                    )  # fmt: skip
                 mark = _clock_add(clock, ch, _CLOCK_VARIANCES, mark)
                 # the block match only where the feature tests read it
-                band_strong_counts(var_band[0], width, tests[3], strong)
+                band_strong_counts(var_band, width, tests[3], strong)
                 wanted = (strong, _guard_columns(tests[6]))
                 if made:
                     band_block_match(
@@ -3315,7 +3340,7 @@ def match_band_rows(
                         wanted, done,
                     )  # fmt: skip
                 mark = _clock_add(clock, ch, _CLOCK_BLOCK, mark)
-                band_feature_mask(var_band[0], wta_k, wta_ratio, width, dmin, radius, tests, keep)
+                band_feature_mask(var_band, wta_k, wta_ratio, width, dmin, radius, tests, keep)
                 mark = _clock_add(clock, ch, _CLOCK_MASK, mark)
                 for i in range(width * nr):
                     pins[i] = -1
@@ -3343,8 +3368,7 @@ def match_band_rows(
                         left_p,
                         right_p,
                         y,
-                        var_band[0],
-                        var_band[1],
+                        var_band,
                         wta_k,
                         keep,
                         tests,
