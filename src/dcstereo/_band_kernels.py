@@ -1374,16 +1374,17 @@ def _wide_vectors():
 _CARRY = _wide_vectors()
 
 #: Whether ``band_forward`` makes the anchors inside the five-step cells' vector code (the
-#: pinned forms of ``_cells5_chain``: the e-step guard, the column's restart at the anchor
-#: and the anchor's match steps, each a select or an addition a block; AVX-512), or runs the
-#: plain cells in every column and then, for each pinned lane, makes the anchor's value and
-#: step from its neighbours and stores the column's restart and the guard (scalar code, a
-#: store per cell of that lane; AVX2). With AVX-512's 32 registers the vector form was
-#: 0.93-0.99 of dc's time (docs/SPEED.md, stop 30). With AVX2's 16, where each value of
-#: ``R`` lanes takes two, the pinned forms spilled to the stack every block, and the
-#: columns switched between four forms: the scalar form is 0.85-0.94 of dc's time there
-#: (docs/SPEED.md, stop 44). Tests exercise the branch of the host they run on; the pinned
-#: forms themselves are tested against their twin on every host.
+#: pinned forms of ``_cells5_chain``: the column's restart at the anchor and the anchor's
+#: match steps, a select or two a block; AVX-512), or, after the column's cells, makes each
+#: pinned row's anchor from its neighbours and stores the row's restart (scalar code, a
+#: store per cell of that row; AVX2). The e-step guard (``e_off``, an addition a block) is
+#: in the vector code on both. With AVX-512's 32 registers the vector form was 0.93-0.99
+#: of dc's time (docs/SPEED.md, stop 30). With AVX2's 16, where each value of ``R`` lanes
+#: takes two, the pinned forms spilled to the stack every block: the scalar form is
+#: 0.88-0.95 of dc's time on the Middlebury scenes there, and about as fast where nearly
+#: every pixel is a pair (docs/SPEED.md, stop 44). Tests exercise the branch of the host
+#: they run on (and the plain-Python one both); the pinned forms are tested against their
+#: twin on every host.
 _PINS_IN_LOOP = _wide_vectors()
 
 
@@ -1652,11 +1653,9 @@ def band_forward(
     the anchors' values and steps (a select per block of the three match steps, masked
     stores after the column): ``dc`` 0.93-0.99 of its time on tsukuba and venus against
     the scalar form, 0.83 on the 3000 x 2000 x 256 pair (docs/SPEED.md, stop 30).
-    Otherwise (AVX2), and for the three-step DP and the first column, every column runs
-    the plain cells, and then each pinned row's anchor is made from its neighbours by the
-    same operations and its cells of the column are stored; with the five steps its cells
-    of column ``x - 1`` are then set to inf (the guard: only column ``x + 1``'s e step
-    reads them from there on).
+    Otherwise (AVX2), and for the three-step DP and the first column, the columns run the
+    plain cells (or the guard's form), and then each pinned row's anchor is made from its
+    neighbours by the same operations and its cells of the column are stored.
     """
     nr = BAND_ROWS
     nk = (ndisp + 2) * nr
@@ -1708,7 +1707,7 @@ def band_forward(
         k_lo = max(0, x - (width - 1) - dmin)
         k_hi = min(ndisp - 1, x - dmin)
         pin_here = anchored and pinned[x]
-        guard = _PINS_IN_LOOP and anchored and five and x >= 1 and pinned[x - 1]
+        guard = anchored and five and x >= 1 and pinned[x - 1]  # (the e step's)
         if guard:
             # rows pinned at x - 1: no e step from x - 2 over the anchor
             for r in range(nr):
@@ -1735,25 +1734,26 @@ def band_forward(
         if k_lo <= k_hi:
             slant_ok = five and x >= 1
             in_loop = _PINS_IN_LOOP and slant_ok
-            # with the pins in the cells' vector code: four compiled forms, each column the
-            # one it needs (e_off, pin_k or both cost a vector operation or three per
-            # block). Four spelled-out calls: the arguments passed as one tuple (*cells)
-            # made dc 1.06-1.09x slower on tsukuba and venus (A/B in one process)
+            # the pins in the cells' vector code: a compiled form for each set of them,
+            # each column the one it needs (e_off, pin_k or both cost a vector operation or
+            # three per block; without in_loop, e_off only). Spelled-out calls: the
+            # arguments passed as one tuple (*cells) made dc 1.06-1.09x slower on tsukuba
+            # and venus (A/B in one process)
             o_pin = np.int64(x * nr)
             if in_loop and guard and pin_here:
                 _cells5_chain(
                     cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2,
                     slant2, e_off, pin_k, anchor_total, anchor_steps, o_pin,
                 )  # fmt: skip
-            elif in_loop and guard:
-                _cells5_chain(
-                    cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2,
-                    slant2, e_off,
-                )  # fmt: skip
             elif in_loop and pin_here:
                 _cells5_chain(
                     cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2,
                     slant2, None, pin_k, anchor_total, anchor_steps, o_pin,
+                )  # fmt: skip
+            elif slant_ok and guard:
+                _cells5_chain(
+                    cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2,
+                    slant2, e_off,
                 )  # fmt: skip
             elif slant_ok:
                 _cells5_chain(
@@ -1765,7 +1765,8 @@ def band_forward(
             if pin_here and not in_loop:
                 # the pins in scalar code, after the column's cells (every column on AVX2;
                 # the three-step cells and the first column): each pinned row's cells of
-                # this column are replaced, and its anchor made from the columns before
+                # this column are replaced, and its anchor made from the columns before (an
+                # e step over an anchor at x - 1 adds e_off's inf, as the vector code does)
                 for r in range(nr):
                     j = pins[x * nr + r]
                     if j < 0:
@@ -1780,10 +1781,12 @@ def band_forward(
                     best = c
                     step = STEP_C
                     if slant_ok:
-                        # (an e step over an anchor at x - 1 reads the inf stored below)
                         u = h2 + cost[o_left + p] + slant2
                         d = prev[p + nr] + cost[o_here + p + nr] + u
-                        e = prev2[p - nr] + cost[o_left + p - nr] + u
+                        e2 = prev2[p - nr]
+                        if guard:
+                            e2 += e_off[r]  # inf: an anchor at x - 1 (0: e2 itself)
+                        e = e2 + cost[o_left + p - nr] + u
                         best = min(min(c, d), e)
                         step = STEP_E if e == best else STEP_NONE
                         step = STEP_D if d == best else step
@@ -1798,12 +1801,6 @@ def band_forward(
                         cur[(k + 1) * nr + r] = b_run[k_a - k]
                     for k in range(k_a + 1, k_hi + 1):
                         cur[(k + 1) * nr + r] = inf
-                    if five and not _PINS_IN_LOOP:
-                        # the e-step guard: column x - 1, which only column x + 1's e step
-                        # reads from here on, is inf in this row, so that no e step jumps
-                        # over the anchor (e_off's inf in the vector form)
-                        for i in range(ndisp + 2):
-                            prev[i * nr + r] = inf
         # the free end's nodes: j == width - 1 before the last column, then the last column
         k_end = x - (width - 1) - dmin
         if x < width - 1 and 0 <= k_end < ndisp:
