@@ -1381,7 +1381,7 @@ _CARRY = _wide_vectors()
 #: in the vector code on both. With AVX-512's 32 registers the vector form was 0.93-0.99
 #: of dc's time (docs/SPEED.md, stop 30). With AVX2's 16, where each value of ``R`` lanes
 #: takes two, the pinned forms spilled to the stack every block: the scalar form is
-#: 0.88-0.95 of dc's time on the Middlebury scenes there, and about as fast where nearly
+#: 0.91-0.94 of dc's time on the Middlebury scenes there, and about as fast where nearly
 #: every pixel is a pair (docs/SPEED.md, stop 44). Tests exercise the branch of the host
 #: they run on (and the plain-Python one both); the pinned forms are tested against their
 #: twin on every host.
@@ -1573,8 +1573,9 @@ def _cells3_vector(typingctx, cur, prev, cost, o_here, steps, o_steps, k_lo, k_h
     return signature, _cells_codegen(False)
 
 
-# inlined in numba's IR (a small function: one intrinsic): LLVM's inliner had left the
-# larger pinned forms out of band_forward, a call a column
+# inlined in numba's IR (a small function: one intrinsic), not left to LLVM's inliner,
+# which at stop 43 kept the larger pinned forms of that time out of band_forward (a call a
+# column)
 @overload(_cells5_chain, inline="always")
 def _cells5_compiled(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2,
                      slant2, e_off=None, pin_k=None, pin_total=None, pin_steps=None,
