@@ -259,7 +259,7 @@ def test_pins_at_the_row_ends_adjacent_and_at_the_band_edges(five):
     partner[0, 0] = 1  # x = 0, k = 0 (d = -1)
     partner[1, 13] = 10  # the last pixel, k = ndisp - 1
     partner[2, [3, 4, 5]] = [4, 5, 6]  # adjacent, each at k = 0
-    partner[3, [3, 4]] = [0, 4]  # adjacent: k = 4, then k = 0
+    partner[3, [3, 4]] = [0, 4]  # adjacent: k = 4, then k = 1
     partner[4, [0, 13]] = [0, 13]  # both ends
     partner[5, [6, 7]] = [3, 4]  # adjacent at k = ndisp - 1
     partner[6] = np.arange(width) + 1  # every pixel, k = 0 (the last one leaves the image)
@@ -268,10 +268,15 @@ def test_pins_at_the_row_ends_adjacent_and_at_the_band_edges(five):
     # row 8: none
     assert all(0 <= x - j - dmin < ndisp for y, x in zip(*np.nonzero(partner >= 0), strict=True)
                for j in [partner[y, x]])  # fmt: skip
-    for occ2, slant2 in ((0.0, 0.0), (500.0, 300.0), (4000.0, 2500.0)):
-        expected = segmented(left, right, dmin, ndisp, radius, occ2, five, slant2, partner)
-        got = banded(left, right, dmin, ndisp, radius, occ2, five, slant2, partner)
-        assert_same(expected, got)
+    # and a flat pair (every cost 0): at row 3's second anchor the c step from the anchor
+    # before costs 3 occ2 and an e step over that anchor only slant2, so the e-step guard
+    # decides the anchor's value (the scalar anchor of AVX2 adds e_off as the vector code)
+    flat = np.full((height, width), 7, dtype=np.int32)
+    for pair in ((left, right), (flat, flat)):
+        for occ2, slant2 in ((0.0, 0.0), (500.0, 300.0), (4000.0, 2500.0), (4000.0, 10.0)):
+            expected = segmented(*pair, dmin, ndisp, radius, occ2, five, slant2, partner)
+            got = banded(*pair, dmin, ndisp, radius, occ2, five, slant2, partner)
+            assert_same(expected, got)
 
 
 def test_pins_of_the_ground_control_points_give_gcp_row(tmp_path):
