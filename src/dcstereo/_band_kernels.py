@@ -1134,6 +1134,17 @@ def _cost_column(
                     out[o + r] = out[o + r] * win / used
 
 
+@nb.njit(cache=True, inline="always")
+def _window_variance(sm, sq, n, norm):
+    """Return a window's variance from its integer sum ``sm`` and sum of squares ``sq``.
+
+    ``n`` pixels, ``norm`` the float64 ``(n * steps)**2``: the int64 numerator of
+    ``_kernels.window_variance_row``, bit for bit (``band_lane_variance``'s float64 one
+    equals it wherever it is taken; the search makes the right view's from the SSD's sums).
+    """
+    return float(n * sq - sm * sm) / norm
+
+
 @nb.njit(cache=True)
 def band_lane_variance(sig_t, width, radius, steps, incremental, colsum, colsq, hsum, hsq, out):
     """Window variance of every pixel of the band's rows, in one view's band layout.
@@ -1209,8 +1220,7 @@ def band_lane_variance(sig_t, width, radius, steps, incremental, colsum, colsq, 
         out[i] = (top - sm * sm) / norm
     if over:
         for i in range(np.uint64(width * nr)):
-            sm = np.int64(hsum[i])
-            out[i] = float(n * np.int64(hsq[i]) - sm * sm) / norm
+            out[i] = _window_variance(np.int64(hsum[i]), np.int64(hsq[i]), n, norm)
 
 
 # --------------------------------------------------------------------------- DP
@@ -1267,6 +1277,20 @@ def _set_cell_steps(steps, o, r, c, d, e, a):
     steps[o] = (steps[o] & np.uint32(0xFFFFFFFF ^ (STEP_LANE << r))) | np.uint32(word)
 
 
+@nb.njit(cache=True, inline="always")
+def _anchor_step(c, d, e):
+    """Return ``(value, step)`` of an anchor cell from its match steps c, d and e.
+
+    The value is ``min(min(c, d), e)``; the step the first of c, d, e that reaches it
+    (``STEP_NONE`` if none does). Of ``_cells5_chain``'s pinned lanes and of
+    ``band_forward``'s anchors in scalar code.
+    """
+    best = min(min(c, d), e)
+    step = STEP_E if e == best else STEP_NONE
+    step = STEP_D if d == best else step
+    return best, STEP_C if c == best else step
+
+
 def _cells5_chain(
     cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2, slant2, e_off=None,
     pin_k=None, pin_total=None, pin_steps=None, o_pin=0,
@@ -1316,11 +1340,7 @@ def _cells5_chain(
             at = pin_k[p % nr] == np.float64(p // nr - 1)
             if at:
                 i_pin = int(o_pin) + int(p % nr)  # ints: np.int64 + np.uint64 is float
-                best = min(min(c, d), e)
-                pin_total[i_pin] = best
-                step = STEP_E if e == best else STEP_NONE
-                step = STEP_D if d == best else step
-                pin_steps[i_pin] = STEP_C if c == best else step
+                pin_total[i_pin], pin_steps[i_pin] = _anchor_step(c, d, e)
             cell = 0.0 if at else np.inf
         v = min(cell, cur[p + nr] + occ2)
         cur[p] = v
@@ -1788,10 +1808,7 @@ def band_forward(
                         if guard:
                             e2 += e_off[r]  # inf: an anchor at x - 1 (0: e2 itself)
                         e = e2 + cost[o_left + p - nr] + u
-                        best = min(min(c, d), e)
-                        step = STEP_E if e == best else STEP_NONE
-                        step = STEP_D if d == best else step
-                        step = STEP_C if c == best else step
+                        best, step = _anchor_step(c, d, e)
                     anchor_total[x * nr + r] = best
                     anchor_steps[x * nr + r] = step
                     # ... and starts the next one: the column holds only the anchor (0)
@@ -2427,16 +2444,6 @@ def _window_ssd(left_p, right_p, y, x, j, radius):
             sm += right
             sq += right * right
     return float(si), sm, sq
-
-
-@nb.njit(cache=True, inline="always")
-def _window_variance(sm, sq, n, norm):
-    """Return a window's variance from its integer sum ``sm`` and sum of squares ``sq``.
-
-    ``n`` pixels, ``norm`` the float64 ``(n * steps)**2``: the value of
-    ``band_lane_variance`` (and ``_kernels.window_variance_row``), bit for bit.
-    """
-    return float(n * sq - sm * sm) / norm
 
 
 # The window's rows are short (5 pixels by default), too short for numba's loop

@@ -22,7 +22,7 @@ import numpy as np
 from .datasets import StereoScene, find_scenes, load_scene, scene_layout
 from .metrics import DEFAULT_THRESHOLDS, bad_key, evaluate
 from .opencv import OPENCV_METHODS
-from .params import BT_SUFFIX, METHODS, check_method_options, options_for
+from .params import BT_SUFFIX, METHODS, base_method, check_method_options, options_for
 from .result import DisparityResult
 
 #: Order of the masks in reports.
@@ -92,7 +92,7 @@ def parse_methods(text: str | None) -> list[str]:
 
 def _bt_method(name: str) -> bool:
     """Whether ``name`` is a method of ours (not redert) with :data:`BT_SUFFIX`."""
-    base = name.removesuffix(BT_SUFFIX)
+    base = base_method(name)
     return name.endswith(BT_SUFFIX) and base in METHODS and base != "redert"
 
 
@@ -127,7 +127,7 @@ def run_method(
     from .api import match
 
     if _bt_method(method):
-        method = method.removesuffix(BT_SUFFIX)
+        method = base_method(method)
         options = {**options, "cost": "bt"}
     return match(left, right, max_disparity=max_disparity, method=method, **options)
 

@@ -76,7 +76,7 @@ METHOD_OPTIONS = {
 BT_SUFFIX = "+bt"
 
 
-def _base_method(method: str) -> str:
+def base_method(method: str) -> str:
     """Return ``method`` without :data:`BT_SUFFIX`."""
     return method.removesuffix(BT_SUFFIX)
 
@@ -88,7 +88,7 @@ def options_for(method: str, options: dict) -> dict:
     ``dc`` and ``dc-linear``, not to ``dsi3``); ``method`` may carry a ``+bt`` suffix, and
     OpenCV's methods read none.
     """
-    base = _base_method(method)
+    base = base_method(method)
     return {
         name: value
         for name, value in options.items()
@@ -104,7 +104,7 @@ def check_method_options(names, methods, label=str) -> None:
     ``+bt`` suffix (others, OpenCV's, read none); ``label``: how the message names an
     option (the command line: by its flag).
     """
-    bases = [_base_method(method) for method in methods]
+    bases = [base_method(method) for method in methods]
     for name in names:
         readers = METHOD_OPTIONS.get(name)
         if readers is None or any(base in readers for base in bases):

@@ -9,7 +9,13 @@ import click
 from numba.core import event as numba_event
 
 from .. import params as _params
-from ..params import DEFAULT_OCCLUSION_COST, MAX_MEDIAN, METHODS, SUBPIXEL_FITS
+from ..params import (
+    DEFAULT_OCCLUSION_COST,
+    MAX_MEDIAN,
+    METHOD_OPTIONS,
+    METHODS,
+    SUBPIXEL_FITS,
+)
 from ..viz import PREVIEW_STYLES
 
 #: Methods whose result carries feature pairs.
@@ -125,9 +131,6 @@ _METHOD_OPTION_TABLE = {
         {"type": int},
     ),
 }
-
-#: The methods that read each option of :data:`_METHOD_OPTION_TABLE`.
-METHOD_OPTIONS = _params.METHOD_OPTIONS
 
 
 def _method_option_list():
