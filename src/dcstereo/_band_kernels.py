@@ -1685,10 +1685,14 @@ def band_forward(
     free = np.ones(nr, dtype=np.bool_)  # the virtual start: before a row's first anchor
     e_off = np.zeros(nr)
     pin_k = np.full(nr, -1.0)
-    # b_run[m]: the cell m b steps below an anchor (0 + occ2 + ... + occ2, in that order)
-    b_run = np.empty(ndisp + 1)
-    b_run[0] = 0.0
-    for m in range(1, ndisp + 1):
+    # the cells of an anchor's column, from b_run[ndisp + 1 + k_a - k]: inf above the
+    # anchor (k > k_a), then the anchor (0) and the cells m b steps below it (0 + occ2 +
+    # ... + occ2, in that order), so that one loop of fixed length stores a column
+    b_run = np.empty(2 * ndisp + 2)
+    for m in range(ndisp + 1):
+        b_run[m] = inf
+    b_run[ndisp + 1] = 0.0
+    for m in range(ndisp + 2, 2 * ndisp + 2):
         b_run[m] = b_run[m - 1] + occ2
     cur = ring[0]
     prev = ring[1]  # column -1, the virtual start
@@ -1728,7 +1732,11 @@ def band_forward(
         k_lo = max(0, x - (width - 1) - dmin)
         k_hi = min(ndisp - 1, x - dmin)
         pin_here = anchored and pinned[x]
-        guard = anchored and five and x >= 1 and pinned[x - 1]  # (the e step's)
+        # the e step's guard: on AVX2 every column after the first takes it (e_off 0 in
+        # the rows not pinned at x - 1; e2 + 0.0 is e2), one form of the cells instead of
+        # a branch on the pins of x - 1 that the processor could not predict (dc 0.97 of
+        # its time, docs/SPEED.md, stop 45)
+        guard = anchored and five and x >= 1 and (not _PINS_IN_LOOP or pinned[x - 1])
         if guard:
             # rows pinned at x - 1: no e step from x - 2 over the anchor
             for r in range(nr):
@@ -1815,10 +1823,11 @@ def band_forward(
                     # and the b steps below it (the values of clearing it and running the
                     # b-chain), which the backtrack of that segment takes without reading
                     # their steps
-                    for k in range(k_lo, k_a + 1):
-                        cur[(k + 1) * nr + r] = b_run[k_a - k]
-                    for k in range(k_a + 1, k_hi + 1):
-                        cur[(k + 1) * nr + r] = inf
+                    # (one loop whose length is the column's, not two that end at the
+                    # anchor: an exit the processor predicts)
+                    o_run = ndisp + 1 + k_a
+                    for k in range(k_lo, k_hi + 1):
+                        cur[(k + 1) * nr + r] = b_run[o_run - k]
         # the free end's nodes: j == width - 1 before the last column, then the last column
         k_end = x - (width - 1) - dmin
         if x < width - 1 and 0 <= k_end < ndisp:
