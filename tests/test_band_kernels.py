@@ -605,6 +605,7 @@ def test_lane_variance_of_wide_windows_equals_the_integer_one(radius):
     win = 2 * radius + 1
     assert 151**4 * 4080**2 < 2**53 <= 153**4 * 4080**2
     window_sums = _compiled(_band_kernels._window_ssd)
+    wide = _band_kernels.SSD_WIDE
     width, height = 24, win + 2
     signal = np.where(rng.random((height + 1, width)) < 0.99, 4080, rng.integers(0, 4081))
     signal_p = padded(signal.astype(np.int32), radius)
@@ -636,10 +637,10 @@ def test_lane_variance_of_wide_windows_equals_the_integer_one(radius):
             # the search's right-view variance: from the SSD's sums of the window
             n, norm = win * win, float(win * win) ** 2 * 16.0**2
             for x in range(width):
-                _, sm, sq = window_sums(signal_p, signal_p, r + t, x, x, radius)
+                _, sm, sq = window_sums(signal_p, signal_p, r + t, x, x, radius, wide)
                 assert _band_kernels._window_variance(sm, sq, n, norm) == var_row[x], (t, r, x)
-    _, sm, sq = _band_kernels._window_ssd(signal_p, signal_p, 1, 3, 3, radius)  # the twin
-    assert (sm, sq) == tuple(window_sums(signal_p, signal_p, 1, 3, 3, radius)[1:])
+    _, sm, sq = _band_kernels._window_ssd(signal_p, signal_p, 1, 3, 3, radius, wide)  # twin
+    assert (sm, sq) == tuple(window_sums(signal_p, signal_p, 1, 3, 3, radius, wide)[1:])
 
 
 def lane_cost_scratch(width, ndisp, radius):
@@ -1004,12 +1005,58 @@ def test_window_ssd_vector_code_equals_its_twin_and_numpy(seed):
                 int(right_window.sum()),
                 int((right_window * right_window).sum()),
             )
+            bound = max(abs(int(left.min())), abs(int(left.max())), high)
+            narrow = bool(_band_kernels._narrow_sums(2 * high, bound, radius))
+            assert narrow == (high == 4081 and radius <= 2)  # 25 * (2 * 4081)**2 < 2**31
+            short = win <= _band_kernels.BAND_ROWS and narrow  # the short form's windows
+            forms = [_band_kernels.SSD_WIDE] + [_band_kernels.SSD_SHORT] * short
+            assert len(forms) == 1 + (radius <= 2 and high == 4081)
             for got in (
-                _band_kernels._window_ssd(left, right, y, x, j, radius),
-                compiled(left, right, y, x, j, radius),
+                _band_kernels._window_ssd(left, right, y, x, j, radius, 0),
+                *(compiled(left, right, y, x, j, radius, form) for form in forms),
             ):
                 assert tuple(got) == expected
                 assert isinstance(got[0], float)
+
+
+@pytest.mark.parametrize("radius", [0, 1, 2, 3])
+def test_narrow_window_ssd_holds_sums_up_to_its_bound(radius):
+    # the search's SSD in 32-bit lanes (SSD_SHORT, windows of at most R pixels a side)
+    # where _narrow_sums says the sums fit: at the largest signal that fits (the SSD and the
+    # right window's sum of squares just below 2**31) the sums are exact; one more and it
+    # says no
+    win = 2 * radius + 1
+    top = int(np.sqrt((2**31 - 1) / win**2))
+    while win * win * top * top >= 2**31:
+        top -= 1
+    assert win * win * (top + 1) ** 2 >= 2**31
+    assert _band_kernels._narrow_sums(top, top, radius)
+    assert not _band_kernels._narrow_sums(top + 1, top, radius)
+    assert not _band_kernels._narrow_sums(top, top + 1, radius)
+    assert not _band_kernels._narrow_sums(-1, 0, radius)
+    assert not _band_kernels._narrow_sums(2**40, 2**40, radius)  # no int64 overflow
+    compiled = _compiled(_band_kernels._window_ssd)
+    width = win + 9
+    rng = np.random.default_rng(70 + radius)
+    for fill in ("full", "mixed"):
+        left = np.zeros((win + 2, width), dtype=np.int32)
+        right = np.full((win + 2, width), top, dtype=np.int32)
+        if fill == "mixed":
+            right[rng.random(right.shape) < 0.3] = 0
+        for y, x, j in ((0, 0, 0), (2, 3, 9), (1, 9, 4)):
+            right_window = right[y : y + win, j : j + win].astype(np.int64)
+            diff = left[y : y + win, x : x + win].astype(np.int64) - right_window
+            expected = (
+                float((diff * diff).sum()),
+                int(right_window.sum()),
+                int((right_window * right_window).sum()),
+            )
+            for form in (_band_kernels.SSD_SHORT, _band_kernels.SSD_WIDE):
+                assert tuple(compiled(left, right, y, x, j, radius, form)) == expected
+        if fill == "full":
+            # the sums at the bound: one more in the signal would pass 2**31
+            assert expected[0] == expected[2] == win * win * top * top
+            assert expected[2] + win * win * (2 * top + 1) >= 2**31
 
 
 def _transposer(n):
@@ -1294,20 +1341,23 @@ def test_keys_fit_says_whether_every_key_is_below_two_to_the_31():
 
 
 @pytest.mark.parametrize("seed", range(4))
-def test_signal_span_is_the_two_views_max_minus_min(seed):
-    # dc's keys are used only where the views' span lets them fit (_keys_fit); the span is
-    # the largest value of both views minus the least, wherever each lies
+def test_signal_bounds_are_the_two_views_min_and_max(seed):
+    # dc's keys are used only where the views' span lets them fit (_keys_fit), and its
+    # search's SSD in 32-bit lanes where the span and the largest magnitude let the sums fit
+    # (_narrow_sums); the bounds are the least and largest value of both views, wherever
+    # each lies
     rng = np.random.default_rng(4200 + seed)
     for shape in ((1, 1), (3, 7), (40, 57)):
         low, high = sorted(rng.integers(-5000, 70000, 2))
         left = rng.integers(low, high + 1, shape).astype(np.int32)
         right = rng.integers(low, high + 1, shape).astype(np.int32)
         for a, b in ((left, right), (right, left), (left, left)):
-            expected = int(max(a.max(), b.max())) - int(min(a.min(), b.min()))
-            assert _band_kernels._signal_span(a, b) == expected
+            expected = (int(min(a.min(), b.min())), int(max(a.max(), b.max())))
+            assert _band_kernels._signal_bounds(a, b) == expected
     extreme = np.array([[np.iinfo(np.int32).min]], dtype=np.int32)
     top = np.array([[np.iinfo(np.int32).max]], dtype=np.int32)
-    assert _band_kernels._signal_span(extreme, top) == 2**32 - 1  # int64: no overflow
+    low, high = _band_kernels._signal_bounds(extreme, top)
+    assert high - low == 2**32 - 1  # int64: no overflow
 
 
 def test_lane_costs_match_the_columns_they_move():

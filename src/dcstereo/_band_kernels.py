@@ -2430,7 +2430,14 @@ def _sparse_best(values, sparse, lo, hi):
     return _better(values, sparse[level, lo], sparse[level, hi - (1 << level) + 1])
 
 
-def _window_ssd(left_p, right_p, y, x, j, radius):
+#: The forms of ``_window_ssd``'s compiled code (its ``form``, a constant where it is
+#: called): the sums in 64-bit lanes, a window row in pieces of ``R`` pixels (any window);
+#: in 32-bit lanes, a window of at most ``R`` pixels a side whose sums fit them
+#: (``_narrow_sums``; on the matching signal of any image, 0..4080, every such window).
+SSD_WIDE, SSD_SHORT = 0, 1
+
+
+def _window_ssd(left_p, right_p, y, x, j, radius, form):
     """Return ``(ssd, sm, sq)`` of the pair ``x <-> j`` of padded row ``y``.
 
     ``ssd`` (float64) is the window sum of squared signal differences, ``sm`` and ``sq``
@@ -2438,8 +2445,11 @@ def _window_ssd(left_p, right_p, y, x, j, radius):
     right pixel's window variance (``_window_variance``): the right view's variance is
     read only at the candidates' matches, so it is made there, from the loads of the SSD.
     Both windows inside the image (every feature candidate): exact integers, ``ssd`` the
-    value of ``_kernels.window_ssd``. Compiled code runs ``_window_ssd_vector`` (the same
-    sums for int32 signals below 2**30 in magnitude).
+    value of ``_kernels.window_ssd``. Compiled code runs the vector code of ``form``
+    (``SSD_WIDE``, ``SSD_SHORT``: the same sums for int32 signals below 2**30 in
+    magnitude, where the form's conditions hold), chosen as it is compiled where ``form``
+    is a constant, else as it runs (the tests); here ``form`` is not read, the sums are
+    Python's integers.
     """
     win = 2 * radius + 1
     si = 0
@@ -2464,18 +2474,25 @@ def _window_ssd(left_p, right_p, y, x, j, radius):
 # of a sign-extended 32-bit value is one ``vpmuldq``; the difference of two 64-bit values
 # was a full 64-bit product, which AVX2 lacks (three ``vpmuludq`` and shifts per four
 # lanes): the SSD took about 35 ns on AVX2. The right rows' values are summed, and their
-# squares, on the way (two additions and a ``vpmuldq`` a row).
+# squares, on the way (two additions and a ``vpmuldq`` a row). A window of at most ``R``
+# pixels a side (the default 5, up to 7) whose sums fit 32 bits (``_narrow_sums``: on the
+# matching signal of any image) takes the short form, ``SSD_SHORT``: no loop over pieces
+# of a row, one masked load per view and row, the sums in 32-bit lanes without the sign
+# extensions. Timed alone on 5 x 5 windows (AMD EPYC, AVX2): 60 cycles an SSD with the
+# pieces' loop, 43 without it in 64-bit lanes, 24 in 32-bit ones; with the search's SSD in
+# a loop of its own, tsukuba's search stage took 0.66 ms against 0.92 (docs/SPEED.md,
+# stop 45).
 
 
-@intrinsic
-def _window_ssd_vector(typingctx, left_p, right_p, y, x, j, radius):
-    if not (
-        all(_contiguous(a, types.int32, 2) for a in (left_p, right_p)) and _words(y, x, j, radius)
-    ):
-        return None
-    signature = types.Tuple((types.float64, types.int64, types.int64))(
-        left_p, right_p, y, x, j, radius
-    )
+def _window_ssd_codegen(short):
+    """Return the code of ``_window_ssd`` in form ``SSD_SHORT`` (``short``) or ``SSD_WIDE``.
+
+    ``short``: for windows of at most ``R`` pixels a side whose sums fit 32 bits (the
+    caller checks), one load of a window row per view and row, without the loop over
+    pieces of ``R`` pixels, the sums in 32-bit lanes. Else in 64-bit lanes.
+    """
+    lanes_type = _VEC_I32 if short else _VEC_I64
+    sum_type = ir.IntType(32 if short else 64)
 
     def codegen(context, builder, sig, args):
         y_v, x_v, j_v, radius_v = args[2:]
@@ -2490,13 +2507,12 @@ def _window_ssd_vector(typingctx, left_p, right_p, y, x, j, radius):
             ir.FunctionType(_VEC_I32, [_VEC_I32.as_pointer(), ir.IntType(32), mask_type, _VEC_I32]),
             f"llvm.masked.load.v{BAND_ROWS}i32.p0",
         )
-        total = cgutils.alloca_once_value(builder, _vector_of(0, _VEC_I64))
-        right_sum = cgutils.alloca_once_value(builder, _vector_of(0, _VEC_I64))
-        right_squares = cgutils.alloca_once_value(builder, _vector_of(0, _VEC_I64))
-        # the pieces of R pixels outside, the rows inside: a window row of at most R
-        # pixels (the common case) is one loop of one masked load per view and row
-        with cgutils.for_range(builder, pieces) as piece:
-            c = builder.mul(piece.index, width)
+        total = cgutils.alloca_once_value(builder, _vector_of(0, lanes_type))
+        right_sum = cgutils.alloca_once_value(builder, _vector_of(0, lanes_type))
+        right_squares = cgutils.alloca_once_value(builder, _vector_of(0, lanes_type))
+
+        def add_piece(c):
+            # the window's columns c .. c + R - 1 (those of the window: the mask)
             mask = builder.icmp_unsigned(
                 "<",
                 builder.add(_broadcast(builder, c, _VEC_I64), lanes),
@@ -2523,31 +2539,92 @@ def _window_ssd_vector(typingctx, left_p, right_p, y, x, j, radius):
             with cgutils.for_range(builder, win) as rows:
                 right32 = window_row(*right_first, rows.index)
                 d32 = builder.sub(window_row(*left_first, rows.index), right32)
-                d = builder.sext(d32, _VEC_I64)
+                d = d32 if short else builder.sext(d32, _VEC_I64)
                 builder.store(builder.add(builder.load(total), builder.mul(d, d)), total)
-                right64 = builder.sext(right32, _VEC_I64)
-                builder.store(builder.add(builder.load(right_sum), right64), right_sum)
-                squares = builder.mul(right64, right64)
+                right = right32 if short else builder.sext(right32, _VEC_I64)
+                builder.store(builder.add(builder.load(right_sum), right), right_sum)
+                squares = builder.mul(right, right)
                 builder.store(builder.add(builder.load(right_squares), squares), right_squares)
+
+        # a short window is one piece; else the pieces of R pixels outside, the rows inside
+        if short:
+            add_piece(ir.Constant(_I64, 0))
+        else:
+            with cgutils.for_range(builder, pieces) as piece:
+                add_piece(builder.mul(piece.index, width))
         reduce_add = cgutils.get_or_insert_function(
             builder.module,
-            ir.FunctionType(_I64, [_VEC_I64]),
-            f"llvm.vector.reduce.add.v{BAND_ROWS}i64",
+            ir.FunctionType(sum_type, [lanes_type]),
+            f"llvm.vector.reduce.add.v{BAND_ROWS}i{sum_type.width}",
         )
         ssd = builder.sitofp(builder.call(reduce_add, [builder.load(total)]), ir.DoubleType())
         sums = [builder.call(reduce_add, [builder.load(v)]) for v in (right_sum, right_squares)]
+        if short:
+            sums = [builder.sext(v, _I64) for v in sums]
         return context.make_tuple(builder, sig.return_type, [ssd, *sums])
 
-    return signature, codegen
+    return codegen
 
 
-@overload(_window_ssd)
-def _window_ssd_compiled(left_p, right_p, y, x, j, radius):
+def _window_ssd_signature(left_p, right_p, y, x, j, radius):
+    """``_window_ssd_vector``'s signature, None for the arguments it does not take."""
+    if not (
+        all(_contiguous(a, types.int32, 2) for a in (left_p, right_p)) and _words(y, x, j, radius)
+    ):
+        return None
+    return types.Tuple((types.float64, types.int64, types.int64))(left_p, right_p, y, x, j, radius)
+
+
+@intrinsic
+def _window_ssd_vector(typingctx, left_p, right_p, y, x, j, radius):
+    signature = _window_ssd_signature(left_p, right_p, y, x, j, radius)
+    return None if signature is None else (signature, _window_ssd_codegen(False))
+
+
+@intrinsic
+def _window_ssd_short(typingctx, left_p, right_p, y, x, j, radius):
+    signature = _window_ssd_signature(left_p, right_p, y, x, j, radius)
+    return None if signature is None else (signature, _window_ssd_codegen(True))
+
+
+@overload(_window_ssd, prefer_literal=True)
+def _window_ssd_compiled(left_p, right_p, y, x, j, radius, form):
     if not all(_contiguous(a, types.int32, 2) for a in (left_p, right_p)):
         return _window_ssd  # other signals (the tests' int64 ones): the loop
-    return lambda left_p, right_p, y, x, j, radius: _window_ssd_vector(
-        left_p, right_p, y, x, j, radius
-    )
+    if isinstance(form, types.IntegerLiteral):
+        # one form compiled: a choice made as the code runs, in the search's loop, took
+        # the SSD from 24 to 44 cycles (docs/SPEED.md, stop 45)
+        vector = {SSD_WIDE: _window_ssd_vector, SSD_SHORT: _window_ssd_short}[form.literal_value]
+        return lambda left_p, right_p, y, x, j, radius, form: vector(
+            left_p, right_p, y, x, j, radius
+        )
+
+    def any_form(left_p, right_p, y, x, j, radius, form):
+        if form == SSD_SHORT:
+            return _window_ssd_short(left_p, right_p, y, x, j, radius)
+        return _window_ssd_vector(left_p, right_p, y, x, j, radius)
+
+    return any_form
+
+
+@nb.njit(cache=True, inline="always")
+def _narrow_sums(span, magnitude, radius):
+    """Whether ``_window_ssd``'s sums fit 32-bit lanes (``band_row_features``' ``narrow``).
+
+    ``span`` bounds the absolute difference of two signal values, ``magnitude`` a value's
+    absolute value (int64, at least 0). The SSD is at most ``win**2 * span**2``, the right
+    window's sum of squares ``win**2 * magnitude**2`` (and its sum no more in magnitude):
+    both below 2**31, and no partial sum past its total's bound (the terms of the two
+    sums of squares are never negative), so the 32-bit lanes hold every sum exactly. On an
+    8-bit image's signal (0..4080) windows up to 11 pixels a side fit (the 32-bit form,
+    ``SSD_SHORT``, takes windows of at most ``R`` pixels a side).
+    """
+    win = 2 * radius + 1
+    limit = np.int64(46340)  # 46340**2 < 2**31: the products below cannot overflow int64
+    if not (0 <= span <= limit and 0 <= magnitude <= limit and win <= limit):
+        return False
+    top = np.int64(1) << 31
+    return win * win * span * span < top and win * win * magnitude * magnitude < top
 
 
 @nb.njit(cache=True, inline="always")
@@ -2764,6 +2841,19 @@ def band_row_gcps(
     return n
 
 
+@nb.njit(cache=True, inline="always")
+def _candidate_sums(left_p, right_p, y, r, dmin, radius, cand_x, wta_k, m, ssd, sm, sq, form):
+    """``_window_ssd`` of candidates ``cand_x[:m]`` of band row ``r`` with their matches.
+
+    To ``ssd[:m]``, ``sm[:m]`` and ``sq[:m]``, in ``form`` (a constant at each call: one
+    form compiled in each loop).
+    """
+    for q in range(m):
+        p = cand_x[q]
+        j = p - dmin - wta_k[p * BAND_ROWS + r]
+        ssd[q], sm[q], sq[q] = _window_ssd(left_p, right_p, y, p, j, radius, form)
+
+
 @nb.njit(cache=True)
 def band_row_features(
     cost,
@@ -2779,6 +2869,7 @@ def band_row_features(
     wta_k,
     keep,
     tests,
+    narrow,
     iwork,
     fwork,
     stack,
@@ -2791,9 +2882,10 @@ def band_row_features(
     ``cost`` and ``wta_k`` are the band's (``band_lane_costs``, ``band_block_match``);
     ``left_p``/``right_p`` the padded signals; ``var_l`` the window variances of the band
     in the left view (``band_lane_variance``); the right view's are made at the matches
-    from the sums of the SSD's loads (``_window_ssd``, ``_window_variance``: the same
-    values). ``tests`` is ``(ser_min, vs_max, vs_relative, var_floor, lr_check, uniqueness,
-    edge_guard, signal_steps)`` (``uniqueness > 0``; no limit on the tries). The up-front
+    from the sums of the SSD's loads (``_window_ssd``, in 32-bit lanes where ``narrow``,
+    ``_narrow_sums``; ``_window_variance``: the same values). ``tests`` is ``(ser_min,
+    vs_max, vs_relative, var_floor, lr_check, uniqueness, edge_guard, signal_steps)``
+    (``uniqueness > 0``; no limit on the tries). The up-front
     tests of ``divide_row`` pick the candidates: ``keep`` (``band_feature_mask``) holds
     the outcome of the variance floor, uniqueness, range and guard tests, and VS and SER
     are tested here, on the survivors. The search takes the strongest candidate of each
@@ -2840,28 +2932,42 @@ def band_row_features(
     n = 0
     n_win = (2 * radius + 1) ** 2
     norm = float(n_win) * float(n_win) * float(steps) * float(steps)
+    # the SSD and the right window's sums of every candidate, in a pass of their own (many
+    # candidates' loads in flight) and in the form the window and the signals allow (sums
+    # to cand_live, lr_below and lr_above, scratch until the search)
+    if narrow and 2 * radius + 1 <= nr:
+        _candidate_sums(left_p, right_p, y, r, dmin, radius, cand_x, wta_k, m, cand_live,
+                        lr_below, lr_above, SSD_SHORT)  # fmt: skip
+    else:
+        _candidate_sums(left_p, right_p, y, r, dmin, radius, cand_x, wta_k, m, cand_live,
+                        lr_below, lr_above, SSD_WIDE)  # fmt: skip
+    # VS and SER of every candidate, without branches (whether each passes to held) ...
     for q in range(m):
-        p = cand_x[q]
-        v_l = var_l[p * nr + r]
-        best_k = wta_k[p * nr + r]
-        j = p - dmin - best_k
-        # the SSD and the right window's sums, from one pass over the two windows; VS and
-        # SER of every candidate, kept without branches (each writes the next entry, and
-        # only one that passes both keeps it)
-        ssd, sm, sq = _window_ssd(left_p, right_p, y, p, j, radius)
-        v_r = _window_variance(sm, sq, n_win, norm)
+        v_l = var_l[cand_x[q] * nr + r]
+        v_r = _window_variance(lr_below[q], lr_above[q], n_win, norm)
         vs = _variance_similarity(v_l, v_r, vs_relative)
         total = v_l + v_r
+        ssd = cand_live[q]
         if exact_scale:
             ser = (total * scale) / ssd if ssd > 0 else np.inf
         else:
             ser = total / (ssd / scale) if ssd > 0 else np.inf
-        passed = (vs <= vs_max) & (ser >= ser_min)
+        cand_ser[q] = ser
+        cand_vs[q] = vs
+        cand_var[q] = v_l
+        held[q] = (vs <= vs_max) & (ser >= ser_min)
+    # ... and those that pass, moved to the front in order (each writes the next entry, and
+    # only one that passes keeps it)
+    for q in range(m):
+        p = cand_x[q]
+        best_k = wta_k[p * nr + r]
+        j = p - dmin - best_k
+        passed = held[q] != 0
         cand_x[n] = p
         cand_k[n] = best_k
-        cand_ser[n] = ser
-        cand_vs[n] = vs
-        cand_var[n] = v_l
+        cand_ser[n] = cand_ser[q]
+        cand_vs[n] = cand_vs[q]
+        cand_var[n] = cand_var[q]
         ordered &= (j > j_last) | (not passed)
         j_last = j if passed else j_last
         n += passed
@@ -3147,8 +3253,8 @@ def _chunk_bounds(count, nchunks, c):
 
 
 @nb.njit(cache=True)
-def _signal_span(left_p, right_p):
-    """Return the largest value of the two views minus their least (int64).
+def _signal_bounds(left_p, right_p):
+    """Return the least and the largest value of the two views (int64).
 
     Indexed loops in the views' own type: vector minima and maxima (on tsukuba's padded
     pair 19 us, against 36 us for the parallel reductions this replaced and 113 us for a
@@ -3161,7 +3267,7 @@ def _signal_span(left_p, right_p):
         for i in range(flat.size):
             low = min(low, flat[i])
             high = max(high, flat[i])
-    return np.int64(high) - np.int64(low)
+    return np.int64(low), np.int64(high)
 
 
 @nb.njit(parallel=True, cache=True)
@@ -3259,12 +3365,15 @@ def match_band_rows(
     # row), where the 32-bit keys hold every cost
     key_shift = _key_shift(ndisp + 2)
     fused_hi = x_int_lo  # none
+    narrow = False  # the search's SSD in 32-bit lanes (_narrow_sums: short windows only)
     if tests is not None and (pin_mode == 2 or pin_mode == 3):
         # a loop, not the views' max() and min(): numba makes each array expression of a
         # parallel function a parallel loop of its own, seconds of compile
-        span = _signal_span(left_p, right_p)
+        low, high = _signal_bounds(left_p, right_p)
+        span = high - low
         if _keys_fit(span, radius, key_shift):
             fused_hi = x_int_hi
+        narrow = _narrow_sums(span, max(abs(low), abs(high)), radius)
     for ch in nb.prange(nchunks):
         # the chunk's rows; lane r takes rows y_a + r * run + t at band step t
         y_a, n, run = _chunk_lanes(height, nchunks, ch)
@@ -3386,6 +3495,7 @@ def match_band_rows(
                         wta_k,
                         keep,
                         tests,
+                        narrow,
                         iwork,
                         fwork,
                         stack,
