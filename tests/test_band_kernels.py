@@ -979,6 +979,17 @@ def test_floor_log2_compiled_equals_its_twin():
         assert _band_kernels._floor_log2(n) == expected == compiled(np.int64(n)), n
 
 
+def numpy_window_sums(left, right, y, x, j, win):
+    """``_window_ssd``'s ``(ssd, sm, sq)`` of windows ``(y, x)`` and ``(y, j)``, by numpy."""
+    right_window = right[y : y + win, j : j + win].astype(np.int64)
+    diff = left[y : y + win, x : x + win].astype(np.int64) - right_window
+    return (
+        float((diff * diff).sum()),
+        int(right_window.sum()),
+        int((right_window * right_window).sum()),
+    )
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_window_ssd_vector_code_equals_its_twin_and_numpy(seed):
     # the SSD and the right window's sum and sum of squares; windows of one to 25 pixels a
@@ -998,13 +1009,7 @@ def test_window_ssd_vector_code_equals_its_twin_and_numpy(seed):
              int(rng.integers(0, width - win + 1)))
             for _ in range(5)
         ]:  # fmt: skip
-            right_window = right[y : y + win, j : j + win].astype(np.int64)
-            diff = left[y : y + win, x : x + win].astype(np.int64) - right_window
-            expected = (
-                float((diff * diff).sum()),
-                int(right_window.sum()),
-                int((right_window * right_window).sum()),
-            )
+            expected = numpy_window_sums(left, right, y, x, j, win)
             bound = max(abs(int(left.min())), abs(int(left.max())), high)
             narrow = bool(_band_kernels._narrow_sums(2 * high, bound, radius))
             assert narrow == (high == 4081 and radius <= 2)  # 25 * (2 * 4081)**2 < 2**31
@@ -1044,13 +1049,7 @@ def test_narrow_window_ssd_holds_sums_up_to_its_bound(radius):
         if fill == "mixed":
             right[rng.random(right.shape) < 0.3] = 0
         for y, x, j in ((0, 0, 0), (2, 3, 9), (1, 9, 4)):
-            right_window = right[y : y + win, j : j + win].astype(np.int64)
-            diff = left[y : y + win, x : x + win].astype(np.int64) - right_window
-            expected = (
-                float((diff * diff).sum()),
-                int(right_window.sum()),
-                int((right_window * right_window).sum()),
-            )
+            expected = numpy_window_sums(left, right, y, x, j, win)
             for form in (_band_kernels.SSD_SHORT, _band_kernels.SSD_WIDE):
                 assert tuple(compiled(left, right, y, x, j, radius, form)) == expected
         if fill == "full":
