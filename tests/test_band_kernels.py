@@ -604,8 +604,7 @@ def test_lane_variance_of_wide_windows_equals_the_integer_one(radius):
     nr = _band_kernels.BAND_ROWS
     win = 2 * radius + 1
     assert 151**4 * 4080**2 < 2**53 <= 153**4 * 4080**2
-    window_sums = _compiled(_band_kernels._window_ssd)
-    wide = _band_kernels.SSD_WIDE
+    window_sums = ssd_in_form(_band_kernels.SSD_WIDE)
     width, height = 24, win + 2
     signal = np.where(rng.random((height + 1, width)) < 0.99, 4080, rng.integers(0, 4081))
     signal_p = padded(signal.astype(np.int32), radius)
@@ -637,10 +636,11 @@ def test_lane_variance_of_wide_windows_equals_the_integer_one(radius):
             # the search's right-view variance: from the SSD's sums of the window
             n, norm = win * win, float(win * win) ** 2 * 16.0**2
             for x in range(width):
-                _, sm, sq = window_sums(signal_p, signal_p, r + t, x, x, radius, wide)
+                _, sm, sq = window_sums(signal_p, signal_p, r + t, x, x, radius)
                 assert _band_kernels._window_variance(sm, sq, n, norm) == var_row[x], (t, r, x)
+    wide = _band_kernels.SSD_WIDE
     _, sm, sq = _band_kernels._window_ssd(signal_p, signal_p, 1, 3, 3, radius, wide)  # twin
-    assert (sm, sq) == tuple(window_sums(signal_p, signal_p, 1, 3, 3, radius, wide)[1:])
+    assert (sm, sq) == tuple(window_sums(signal_p, signal_p, 1, 3, 3, radius)[1:])
 
 
 def lane_cost_scratch(width, ndisp, radius):
@@ -979,6 +979,16 @@ def test_floor_log2_compiled_equals_its_twin():
         assert _band_kernels._floor_log2(n) == expected == compiled(np.int64(n)), n
 
 
+def ssd_in_form(form):
+    """Compiled: ``_window_ssd`` in ``form``, a constant there (as the search calls it)."""
+
+    @numba.njit
+    def window_ssd(left_p, right_p, y, x, j, radius):
+        return _band_kernels._window_ssd(left_p, right_p, y, x, j, radius, form)
+
+    return window_ssd
+
+
 def numpy_window_sums(left, right, y, x, j, win):
     """``_window_ssd``'s ``(ssd, sm, sq)`` of windows ``(y, x)`` and ``(y, j)``, by numpy."""
     right_window = right[y : y + win, j : j + win].astype(np.int64)
@@ -997,7 +1007,7 @@ def test_window_ssd_vector_code_equals_its_twin_and_numpy(seed):
     # edges (nothing past the window is read: a read past the array's end could fault), on
     # signals whose squares need 64 bits
     rng = np.random.default_rng(900 + seed)
-    compiled = _compiled(_band_kernels._window_ssd)
+    wide, short = (ssd_in_form(f) for f in (_band_kernels.SSD_WIDE, _band_kernels.SSD_SHORT))
     for radius in range(13):
         win = 2 * radius + 1
         height, width = win + int(rng.integers(0, 3)), win + int(rng.integers(0, 20))
@@ -1013,12 +1023,11 @@ def test_window_ssd_vector_code_equals_its_twin_and_numpy(seed):
             bound = max(abs(int(left.min())), abs(int(left.max())), high)
             narrow = bool(_band_kernels._narrow_sums(2 * high, bound, radius))
             assert narrow == (high == 4081 and radius <= 2)  # 25 * (2 * 4081)**2 < 2**31
-            short = win <= _band_kernels.BAND_ROWS and narrow  # the short form's windows
-            forms = [_band_kernels.SSD_WIDE] + [_band_kernels.SSD_SHORT] * short
+            forms = [wide] + [short] * (narrow and win <= _band_kernels.BAND_ROWS)
             assert len(forms) == 1 + (radius <= 2 and high == 4081)
             for got in (
-                _band_kernels._window_ssd(left, right, y, x, j, radius, 0),
-                *(compiled(left, right, y, x, j, radius, form) for form in forms),
+                _band_kernels._window_ssd(left, right, y, x, j, radius, _band_kernels.SSD_WIDE),
+                *(form(left, right, y, x, j, radius) for form in forms),
             ):
                 assert tuple(got) == expected
                 assert isinstance(got[0], float)
@@ -1040,7 +1049,7 @@ def test_narrow_window_ssd_holds_sums_up_to_its_bound(radius):
     assert not _band_kernels._narrow_sums(top, top + 1, radius)
     assert not _band_kernels._narrow_sums(-1, 0, radius)
     assert not _band_kernels._narrow_sums(2**40, 2**40, radius)  # no int64 overflow
-    compiled = _compiled(_band_kernels._window_ssd)
+    forms = [ssd_in_form(f) for f in (_band_kernels.SSD_SHORT, _band_kernels.SSD_WIDE)]
     width = win + 9
     rng = np.random.default_rng(70 + radius)
     for fill in ("full", "mixed"):
@@ -1050,8 +1059,8 @@ def test_narrow_window_ssd_holds_sums_up_to_its_bound(radius):
             right[rng.random(right.shape) < 0.3] = 0
         for y, x, j in ((0, 0, 0), (2, 3, 9), (1, 9, 4)):
             expected = numpy_window_sums(left, right, y, x, j, win)
-            for form in (_band_kernels.SSD_SHORT, _band_kernels.SSD_WIDE):
-                assert tuple(compiled(left, right, y, x, j, radius, form)) == expected
+            for form in forms:
+                assert tuple(form(left, right, y, x, j, radius)) == expected
         if fill == "full":
             # the sums at the bound: one more in the signal would pass 2**31
             assert expected[0] == expected[2] == win * win * top * top

@@ -1398,13 +1398,13 @@ _CARRY = _wide_vectors()
 #: match steps, a select or two a block; AVX-512), or, after the column's cells, makes each
 #: pinned row's anchor from its neighbours and stores the row's restart (scalar code, a
 #: store per cell of that row; AVX2). The e-step guard (``e_off``, an addition a block) is
-#: in the vector code on both. With AVX-512's 32 registers the vector form was 0.93-0.99
-#: of dc's time (docs/SPEED.md, stop 30). With AVX2's 16, where each value of ``R`` lanes
-#: takes two, the pinned forms spilled to the stack every block: the scalar form is
-#: 0.91-0.94 of dc's time on the Middlebury scenes there, and about as fast where nearly
-#: every pixel is a pair (docs/SPEED.md, stop 44). Tests exercise the branch of the host
-#: they run on (and the plain-Python one both); the pinned forms are tested against their
-#: twin on every host.
+#: in the vector code on both (on AVX2 in every column after the first, without a branch).
+#: With AVX-512's 32 registers the vector form was 0.93-0.99 of dc's time (docs/SPEED.md,
+#: stop 30). With AVX2's 16, where each value of ``R`` lanes takes two, the pinned forms
+#: spilled to the stack every block: the scalar form is 0.91-0.94 of dc's time on the
+#: Middlebury scenes there, and about as fast where nearly every pixel is a pair
+#: (docs/SPEED.md, stop 44). Tests exercise the branch of the host they run on (and the
+#: plain-Python one both); the pinned forms are tested against their twin on every host.
 _PINS_IN_LOOP = _wide_vectors()
 
 
@@ -1685,15 +1685,15 @@ def band_forward(
     free = np.ones(nr, dtype=np.bool_)  # the virtual start: before a row's first anchor
     e_off = np.zeros(nr)
     pin_k = np.full(nr, -1.0)
-    # the cells of an anchor's column, from b_run[ndisp + 1 + k_a - k]: inf above the
+    # the cells of an anchor's column, from restart[ndisp + 1 + k_a - k]: inf above the
     # anchor (k > k_a), then the anchor (0) and the cells m b steps below it (0 + occ2 +
     # ... + occ2, in that order), so that one loop of fixed length stores a column
-    b_run = np.empty(2 * ndisp + 2)
+    restart = np.empty(2 * ndisp + 2)
     for m in range(ndisp + 1):
-        b_run[m] = inf
-    b_run[ndisp + 1] = 0.0
+        restart[m] = inf
+    restart[ndisp + 1] = 0.0
     for m in range(ndisp + 2, 2 * ndisp + 2):
-        b_run[m] = b_run[m - 1] + occ2
+        restart[m] = restart[m - 1] + occ2
     cur = ring[0]
     prev = ring[1]  # column -1, the virtual start
     prev2 = ring[2]  # column -2
@@ -1825,9 +1825,9 @@ def band_forward(
                     # their steps
                     # (one loop whose length is the column's, not two that end at the
                     # anchor: an exit the processor predicts)
-                    o_run = ndisp + 1 + k_a
+                    o_restart = ndisp + 1 + k_a
                     for k in range(k_lo, k_hi + 1):
-                        cur[(k + 1) * nr + r] = b_run[o_run - k]
+                        cur[(k + 1) * nr + r] = restart[o_restart - k]
         # the free end's nodes: j == width - 1 before the last column, then the last column
         k_end = x - (width - 1) - dmin
         if x < width - 1 and 0 <= k_end < ndisp:
@@ -2447,9 +2447,8 @@ def _window_ssd(left_p, right_p, y, x, j, radius, form):
     Both windows inside the image (every feature candidate): exact integers, ``ssd`` the
     value of ``_kernels.window_ssd``. Compiled code runs the vector code of ``form``
     (``SSD_WIDE``, ``SSD_SHORT``: the same sums for int32 signals below 2**30 in
-    magnitude, where the form's conditions hold), chosen as it is compiled where ``form``
-    is a constant, else as it runs (the tests); here ``form`` is not read, the sums are
-    Python's integers.
+    magnitude, where the form's conditions hold), which must be a constant where it is
+    called: one form compiled; here ``form`` is not read, the sums are Python's integers.
     """
     win = 2 * radius + 1
     si = 0
@@ -2499,7 +2498,6 @@ def _window_ssd_codegen(short):
         views = [context.make_array(sig.args[i])(context, builder, args[i]) for i in (0, 1)]
         win = builder.add(builder.mul(radius_v, ir.Constant(_I64, 2)), ir.Constant(_I64, 1))
         width = ir.Constant(_I64, BAND_ROWS)
-        pieces = builder.udiv(builder.add(win, ir.Constant(_I64, BAND_ROWS - 1)), width)
         lanes = ir.Constant(_VEC_I64, list(range(BAND_ROWS)))
         mask_type = ir.VectorType(ir.IntType(1), BAND_ROWS)
         masked_load = cgutils.get_or_insert_function(
@@ -2550,6 +2548,7 @@ def _window_ssd_codegen(short):
         if short:
             add_piece(ir.Constant(_I64, 0))
         else:
+            pieces = builder.udiv(builder.add(win, ir.Constant(_I64, BAND_ROWS - 1)), width)
             with cgutils.for_range(builder, pieces) as piece:
                 add_piece(builder.mul(piece.index, width))
         reduce_add = cgutils.get_or_insert_function(
@@ -2567,7 +2566,7 @@ def _window_ssd_codegen(short):
 
 
 def _window_ssd_signature(left_p, right_p, y, x, j, radius):
-    """``_window_ssd_vector``'s signature, None for the arguments it does not take."""
+    """Return the signature of ``_window_ssd``'s forms, None for arguments they refuse."""
     if not (
         all(_contiguous(a, types.int32, 2) for a in (left_p, right_p)) and _words(y, x, j, radius)
     ):
@@ -2591,25 +2590,17 @@ def _window_ssd_short(typingctx, left_p, right_p, y, x, j, radius):
 def _window_ssd_compiled(left_p, right_p, y, x, j, radius, form):
     if not all(_contiguous(a, types.int32, 2) for a in (left_p, right_p)):
         return _window_ssd  # other signals (the tests' int64 ones): the loop
-    if isinstance(form, types.IntegerLiteral):
-        # one form compiled: a choice made as the code runs, in the search's loop, took
-        # the SSD from 24 to 44 cycles (docs/SPEED.md, stop 45)
-        vector = {SSD_WIDE: _window_ssd_vector, SSD_SHORT: _window_ssd_short}[form.literal_value]
-        return lambda left_p, right_p, y, x, j, radius, form: vector(
-            left_p, right_p, y, x, j, radius
-        )
-
-    def any_form(left_p, right_p, y, x, j, radius, form):
-        if form == SSD_SHORT:
-            return _window_ssd_short(left_p, right_p, y, x, j, radius)
-        return _window_ssd_vector(left_p, right_p, y, x, j, radius)
-
-    return any_form
+    if not isinstance(form, types.IntegerLiteral):
+        # a choice made as the code runs, in the search's loop, took the SSD from 24 to 44
+        # cycles (docs/SPEED.md, stop 45): a constant form only
+        return None
+    vector = {SSD_WIDE: _window_ssd_vector, SSD_SHORT: _window_ssd_short}[form.literal_value]
+    return lambda left_p, right_p, y, x, j, radius, form: vector(left_p, right_p, y, x, j, radius)
 
 
 @nb.njit(cache=True, inline="always")
 def _narrow_sums(span, magnitude, radius):
-    """Whether ``_window_ssd``'s sums fit 32-bit lanes (``band_row_features``' ``narrow``).
+    """Whether ``_window_ssd``'s sums fit 32-bit lanes (``band_row_features``' ``short_ssd``).
 
     ``span`` bounds the absolute difference of two signal values, ``magnitude`` a value's
     absolute value (int64, at least 0). The SSD is at most ``win**2 * span**2``, the right
@@ -2869,7 +2860,7 @@ def band_row_features(
     wta_k,
     keep,
     tests,
-    narrow,
+    short_ssd,
     iwork,
     fwork,
     stack,
@@ -2882,8 +2873,8 @@ def band_row_features(
     ``cost`` and ``wta_k`` are the band's (``band_lane_costs``, ``band_block_match``);
     ``left_p``/``right_p`` the padded signals; ``var_l`` the window variances of the band
     in the left view (``band_lane_variance``); the right view's are made at the matches
-    from the sums of the SSD's loads (``_window_ssd``, in 32-bit lanes where ``narrow``,
-    ``_narrow_sums``; ``_window_variance``: the same values). ``tests`` is ``(ser_min,
+    from the sums of the SSD's loads (``_window_ssd``, in the form ``SSD_SHORT`` where
+    ``short_ssd``; ``_window_variance``: the same values). ``tests`` is ``(ser_min,
     vs_max, vs_relative, var_floor, lr_check, uniqueness, edge_guard, signal_steps)``
     (``uniqueness > 0``; no limit on the tries). The up-front
     tests of ``divide_row`` pick the candidates: ``keep`` (``band_feature_mask``) holds
@@ -2935,7 +2926,7 @@ def band_row_features(
     # the SSD and the right window's sums of every candidate, in a pass of their own (many
     # candidates' loads in flight) and in the form the window and the signals allow (sums
     # to cand_live, lr_below and lr_above, scratch until the search)
-    if narrow and 2 * radius + 1 <= nr:
+    if short_ssd:
         _candidate_sums(left_p, right_p, y, r, dmin, radius, cand_x, wta_k, m, cand_live,
                         lr_below, lr_above, SSD_SHORT)  # fmt: skip
     else:
@@ -3365,7 +3356,7 @@ def match_band_rows(
     # row), where the 32-bit keys hold every cost
     key_shift = _key_shift(ndisp + 2)
     fused_hi = x_int_lo  # none
-    narrow = False  # the search's SSD in 32-bit lanes (_narrow_sums: short windows only)
+    short_ssd = False  # the search's SSD in its short form (SSD_SHORT)
     if tests is not None and (pin_mode == 2 or pin_mode == 3):
         # a loop, not the views' max() and min(): numba makes each array expression of a
         # parallel function a parallel loop of its own, seconds of compile
@@ -3373,7 +3364,7 @@ def match_band_rows(
         span = high - low
         if _keys_fit(span, radius, key_shift):
             fused_hi = x_int_hi
-        narrow = _narrow_sums(span, max(abs(low), abs(high)), radius)
+        short_ssd = 2 * radius + 1 <= nr and _narrow_sums(span, max(abs(low), abs(high)), radius)
     for ch in nb.prange(nchunks):
         # the chunk's rows; lane r takes rows y_a + r * run + t at band step t
         y_a, n, run = _chunk_lanes(height, nchunks, ch)
@@ -3495,7 +3486,7 @@ def match_band_rows(
                         wta_k,
                         keep,
                         tests,
-                        narrow,
+                        short_ssd,
                         iwork,
                         fwork,
                         stack,
