@@ -9,11 +9,12 @@ Convention: a left pixel ``(x, y)`` matches the right pixel ``(x - d, y)``, ``d 
 
 from . import _memory  # noqa: F401  (sets the allocator's thresholds once; see there)
 from .api import match
-from .params import METHODS, MatchParams
+from .params import DEFAULT_METHOD, METHODS, MatchParams
 from .result import (
     FLAG_BORDER,
     FLAG_FEATURE,
     FLAG_FILLED,
+    FLAG_MISMATCH,
     FLAG_OCCLUDED,
     DisparityResult,
     fill_occlusions,
@@ -23,7 +24,9 @@ __all__ = [
     "FLAG_BORDER",
     "FLAG_FEATURE",
     "FLAG_FILLED",
+    "FLAG_MISMATCH",
     "FLAG_OCCLUDED",
+    "DEFAULT_METHOD",
     "METHODS",
     "DisparityResult",
     "MatchParams",

@@ -6,10 +6,11 @@ import numba
 import numpy as np
 
 from . import _band_kernels, _kernels
-from .params import MatchParams
+from .params import DEFAULT_METHOD, MatchParams
 from .postfilter import median_filter
 from .redert import match_redert as _match_redert
 from .result import FLAG_FEATURE, DisparityResult
+from .sgm import match_sgm as _match_sgm
 from .signal import SIGNAL_STEPS, check_pair, padded_signal
 from .subpixel import refine_subpixel
 
@@ -20,7 +21,7 @@ def match(
     *,
     max_disparity: int,
     min_disparity: int = 0,
-    method: str = "dc",
+    method: str = DEFAULT_METHOD,
     **options,
 ) -> DisparityResult:
     """Estimate the disparity of the left image of a rectified stereo pair.
@@ -87,7 +88,7 @@ def match(
             f"out of memory matching {height} x {width} images over "
             f"{params.num_disparities} disparities with method {params.method!r}"
         ) from err
-    if params.subpixel is not None:
+    if params.subpixel is not None and params.method != "sgm":  # sgm fits its own costs
         result = refine_subpixel(result, left, right, fit=params.subpixel)
     if params.median:
         result = median_filter(result, params.median)
@@ -502,6 +503,7 @@ def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
 
 
 _METHODS: dict[str, Callable[[np.ndarray, np.ndarray, MatchParams], DisparityResult]] = {
+    "sgm": _match_sgm,
     "block": _match_block,
     "dsi3": _match_dsi,
     "dsi5": _match_dsi,

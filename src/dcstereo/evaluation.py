@@ -121,9 +121,10 @@ def run_method(
     if method in OPENCV_METHODS:
         from .opencv import match_opencv
 
-        return match_opencv(
-            left, right, max_disparity=max_disparity, method=OPENCV_METHODS[method], **options
-        )
+        settings = dict(OPENCV_METHODS[method])
+        if settings["method"] == "sgbm":
+            settings["colour"] = np.ndim(left) == 3 and np.ndim(right) == 3
+        return match_opencv(left, right, max_disparity=max_disparity, **settings, **options)
     from .api import match
 
     if _bt_method(method):

@@ -24,8 +24,14 @@ from ._checks import is_integer
 from .result import FLAG_OCCLUDED, DisparityResult
 from .signal import check_pair, intensity
 
-#: OpenCV methods, by the names the benchmark uses.
-OPENCV_METHODS = {"opencv-sgbm": "sgbm", "opencv-bm": "bm"}
+#: OpenCV methods, by the names the benchmark uses: the arguments of :func:`match_opencv`
+#: each stands for (SGBM in its default mode and in ``MODE_HH``, the full eight-path one).
+#: The tools run SGBM on the colour images when both are colour (``colour=True``).
+OPENCV_METHODS = {
+    "opencv-sgbm": {"method": "sgbm"},
+    "opencv-hh": {"method": "sgbm", "mode": "hh"},
+    "opencv-bm": {"method": "bm"},
+}
 
 _MODES = ("sgbm", "hh", "sgbm3way", "hh4")
 
@@ -61,6 +67,8 @@ class OpenCVParams:
         (``MODE_HH``, 8 directions), ``"sgbm3way"``, ``"hh4"``; ``""`` for BM.
     uniqueness_ratio, disp12_max_diff, speckle_window, speckle_range, pre_filter_cap : int
         Passed to OpenCV as they are.
+    colour : bool
+        Whether OpenCV was given the colour images (``cn = 3``) or gray ones.
     fill : bool
         Always False: fill with :meth:`DisparityResult.filled`.
     """
@@ -78,6 +86,7 @@ class OpenCVParams:
     speckle_window: int
     speckle_range: int
     pre_filter_cap: int
+    colour: bool = False
     fill: bool = False
 
 
@@ -89,6 +98,18 @@ def _import_cv2():
             'OpenCV is not installed; install the extra: pip install "dcstereo[opencv]"'
         ) from err
     return cv2
+
+
+def _bgr8(image: np.ndarray) -> np.ndarray:
+    """An RGB(A) image of any supported dtype as 8-bit BGR (OpenCV's channel order)."""
+    rgb = np.asarray(image)[:, :, :3]
+    if rgb.dtype == np.uint8:
+        scaled = rgb
+    elif rgb.dtype == np.uint16:
+        scaled = np.rint(rgb / 257.0)
+    else:
+        scaled = np.rint(rgb * 255.0)
+    return np.ascontiguousarray(np.clip(scaled, 0, 255).astype(np.uint8)[:, :, ::-1])
 
 
 def match_opencv(
@@ -107,11 +128,13 @@ def match_opencv(
     speckle_window: int = 100,
     speckle_range: int = 2,
     pre_filter_cap: int | None = None,
+    colour: bool = False,
 ) -> DisparityResult:
     """Disparity of the left image with OpenCV's semi-global or block matcher.
 
-    Both images are turned into 8-bit gray with the project's luma (so OpenCV sees what
-    :func:`dcstereo.match` sees; ``cn = 1`` below).
+    Both images are turned into 8-bit gray with the project's luma (``cn = 1`` below), or
+    with ``colour`` (SGBM only, two colour images) into 8-bit BGR, OpenCV's channel order
+    (``cn = 3``).
 
     Parameters
     ----------
@@ -140,6 +163,9 @@ def match_opencv(
         at most ``speckle_range`` are invalidated; default 100 and 2 (0 disables).
     pre_filter_cap : int, optional
         Clip of the x-derivative prefilter; default 63 (SGBM), 31 (BM).
+    colour : bool
+        SGBM on the colour images (both must have three or four channels; the defaults of
+        ``p1`` and ``p2`` then take ``cn = 3``); default gray.
 
     Returns
     -------
@@ -220,11 +246,19 @@ def match_opencv(
         )
     cv2 = _import_cv2()
 
-    gray_left = np.clip(np.rint(intensity(left)), 0, 255).astype(np.uint8)
-    gray_right = np.clip(np.rint(intensity(right)), 0, 255).astype(np.uint8)
+    if colour:
+        if method != "sgbm":
+            raise ValueError("colour=True is for OpenCV's SGBM; its block matcher takes gray")
+        if left.ndim != 3 or right.ndim != 3:
+            raise ValueError("colour=True needs two colour images (H, W, 3|4)")
+        gray_left, gray_right = _bgr8(left), _bgr8(right)
+    else:
+        gray_left = np.clip(np.rint(intensity(left)), 0, 255).astype(np.uint8)
+        gray_right = np.clip(np.rint(intensity(right)), 0, 255).astype(np.uint8)
+    cn = 3 if colour else 1
     if method == "sgbm":
-        p1 = 8 * window * window if p1 is None else int(p1)
-        p2 = 32 * window * window if p2 is None else int(p2)
+        p1 = 8 * cn * window * window if p1 is None else int(p1)
+        p2 = 32 * cn * window * window if p2 is None else int(p2)
         uniqueness_ratio = 10 if uniqueness_ratio is None else int(uniqueness_ratio)
         pre_filter_cap = 63 if pre_filter_cap is None else int(pre_filter_cap)
         modes = {
@@ -282,6 +316,7 @@ def match_opencv(
         speckle_window=int(speckle_window),
         speckle_range=int(speckle_range),
         pre_filter_cap=pre_filter_cap,
+        colour=bool(colour),
     )
     path_cost = np.full(disparity.shape[0], np.nan)
     return DisparityResult(disparity, flags, params, path_cost)

@@ -5,8 +5,13 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from ._checks import is_integer, is_number
+
 #: Methods understood by :func:`dcstereo.match`, in the order the docs present them.
-METHODS = ("dc", "dc-linear", "dsi5", "dsi3", "dsi3-gcp", "redert", "block")
+METHODS = ("sgm", "dc", "dc-linear", "dsi5", "dsi3", "dsi3-gcp", "redert", "block")
+
+#: The method :func:`dcstereo.match` runs when none is named.
+DEFAULT_METHOD = "sgm"
 
 #: Default occlusion cost per pixel, in gray levels of mean absolute difference.
 DEFAULT_OCCLUSION_COST = 10.0
@@ -37,8 +42,36 @@ MAX_WINDOW = 725
 MAX_BT_WINDOW = 513
 
 #: Matching costs: the paper's windowed SAD (eq. 4) and Birchfield-Tomasi's
-#: sampling-insensitive dissimilarity summed over the same window.
-COSTS = ("sad", "bt")
+#: sampling-insensitive dissimilarity summed over the same window (the scanline methods);
+#: the census transform, alone or with a truncated colour difference (``sgm``).
+COSTS = ("sad", "bt", "census", "census-ad")
+
+#: The costs each method takes.
+METHOD_COSTS = {
+    "sgm": ("census", "census-ad"),
+    "redert": ("sad",),
+}
+_SCANLINE_COSTS = ("sad", "bt")
+
+#: Method defaults of the options whose default depends on the method (``None`` given or
+#: left out: the method's value). ``sgm`` returns a filled, median-filtered map; the
+#: scanline methods of the paper the raw one.
+METHOD_DEFAULTS = {
+    "sgm": {"window": 3, "cost": "census-ad", "fill": True, "median": 5},
+    None: {"window": 5, "cost": "sad", "fill": False, "median": 0},
+}
+
+#: ``sgm`` defaults (measured on the 21 development scenes, ``scripts/tune_sgm.py``).
+DEFAULT_CENSUS_WINDOW = (5, 5)
+DEFAULT_AD_TRUNCATION = 20
+DEFAULT_P1 = 40
+DEFAULT_P2 = 240
+DEFAULT_P2_GRADIENT = 8.0
+DEFAULT_PATHS = 8
+DEFAULT_LR_TOLERANCE = 1
+
+#: ``sgm``: the largest census window (its bits, one per pixel but the centre, fill 64).
+MAX_CENSUS_BITS = 64
 
 #: ``subpixel``: the fits of :func:`dcstereo.subpixel.refine_subpixel`.
 SUBPIXEL_FITS = ("equiangular", "parabola")
@@ -53,6 +86,7 @@ _DC = ("dc", "dc-linear")
 #: each. Given to any other method (a value other than the default), they are refused:
 #: an option a method does not read would change nothing, silently.
 METHOD_OPTIONS = {
+    "occlusion_cost": ("dc", "dc-linear", "dsi5", "dsi3", "dsi3-gcp", "redert"),
     "slant_cost": ("dsi5", *_DC, "redert"),
     "ser_min": _DC,
     "vs_max": _DC,
@@ -68,6 +102,13 @@ METHOD_OPTIONS = {
     "orientation_cost": ("redert",),
     "occlusion_discount": ("redert",),
     "occlusion_discount_pixels": ("redert",),
+    "census_window": ("sgm",),
+    "ad_truncation": ("sgm",),
+    "p1": ("sgm",),
+    "p2": ("sgm",),
+    "p2_gradient": ("sgm",),
+    "paths": ("sgm",),
+    "lr_tolerance": ("sgm",),
 }
 
 
@@ -280,10 +321,10 @@ class MatchParams:
 
     max_disparity: int
     min_disparity: int = 0
-    method: str = "dc"
-    window: int = 5
+    method: str = DEFAULT_METHOD
+    window: int | None = None
     occlusion_cost: float = DEFAULT_OCCLUSION_COST
-    fill: bool = False
+    fill: bool | None = None
     slant_cost: float | None = None
     ser_min: float = DEFAULT_SER_MIN
     vs_max: float = DEFAULT_VS_MAX
@@ -297,17 +338,30 @@ class MatchParams:
     orientation_cost: float = DEFAULT_ORIENTATION_COST
     occlusion_discount: float = DEFAULT_OCCLUSION_DISCOUNT
     occlusion_discount_pixels: int = DEFAULT_OCCLUSION_DISCOUNT_PIXELS
-    cost: str = "sad"
+    cost: str | None = None
     gcp_uniqueness: float = DEFAULT_GCP_UNIQUENESS
     gcp_variance_floor: float = DEFAULT_GCP_VARIANCE_FLOOR
     subpixel: str | None = None
-    median: int = 0
+    median: int | None = None
+    census_window: tuple[int, int] = DEFAULT_CENSUS_WINDOW
+    ad_truncation: int = DEFAULT_AD_TRUNCATION
+    p1: int = DEFAULT_P1
+    p2: int = DEFAULT_P2
+    p2_gradient: float = DEFAULT_P2_GRADIENT
+    paths: int = DEFAULT_PATHS
+    lr_tolerance: int | None = DEFAULT_LR_TOLERANCE
 
     def __post_init__(self):
         for field in fields(self):  # numpy scalars (np.int64(4), np.True_): the Python value
             value = getattr(self, field.name)
             if isinstance(value, np.generic):
                 object.__setattr__(self, field.name, value.item())
+        if self.method not in METHODS:
+            raise ValueError(f"unknown method {self.method!r}; choose one of {', '.join(METHODS)}")
+        defaults = METHOD_DEFAULTS.get(self.method, METHOD_DEFAULTS[None])
+        for name, value in defaults.items():
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, value)
         for name in ("fill", "vs_relative", "lr_check"):
             value = getattr(self, name)
             if not isinstance(value, bool):
@@ -324,8 +378,6 @@ class MatchParams:
                 f"min_disparity={self.min_disparity} is larger than "
                 f"max_disparity={self.max_disparity}"
             )
-        if self.method not in METHODS:
-            raise ValueError(f"unknown method {self.method!r}; choose one of {', '.join(METHODS)}")
         if self.window < 1 or self.window % 2 == 0:
             raise ValueError(f"window must be a positive odd integer, got {self.window}")
         if self.window > MAX_WINDOW:
@@ -340,6 +392,12 @@ class MatchParams:
             raise ValueError(f"occlusion_cost must be positive, got {cost}")
         if self.cost not in COSTS:
             raise ValueError(f"unknown cost {self.cost!r}; choose one of {', '.join(COSTS)}")
+        accepted = METHOD_COSTS.get(self.method, _SCANLINE_COSTS)
+        if self.cost not in accepted:
+            raise ValueError(
+                f"cost={self.cost!r} is not supported by {self.method} "
+                f"(it takes {', '.join(repr(c) for c in accepted)})"
+            )
         if self.subpixel is not None and self.subpixel not in SUBPIXEL_FITS:
             raise ValueError(
                 f"subpixel must be None or one of {', '.join(SUBPIXEL_FITS)}, got {self.subpixel!r}"
@@ -350,8 +408,7 @@ class MatchParams:
                 f"window={self.window} is larger than {MAX_BT_WINDOW}, the largest whose "
                 "Birchfield-Tomasi window sums fit the kernels' 32-bit integers"
             )
-        if self.cost == "bt" and self.method == "redert":
-            raise ValueError("cost='bt' is not supported by redert (its window is sheared)")
+        self._check_sgm()
         for name in (
             "ser_min",
             "vs_max",
@@ -390,6 +447,54 @@ class MatchParams:
             if field.name in METHOD_OPTIONS and getattr(self, field.name) != field.default
         ]
         check_method_options(given, [self.method])
+
+    def _check_sgm(self):
+        """Validate the ``sgm`` parameters (census window, truncation, penalties, paths)."""
+        window = self.census_window
+        if (
+            not isinstance(window, (tuple, list))
+            or len(window) != 2
+            or not all(is_integer(v) for v in window)
+        ):
+            raise ValueError(
+                f"census_window must be (rows, cols), two odd integers, got {window!r}"
+            )
+        rows, cols = (int(v) for v in window)
+        if rows < 1 or cols < 1 or rows % 2 == 0 or cols % 2 == 0:
+            raise ValueError(f"census_window must hold two odd positive integers, got {window!r}")
+        if not 2 <= rows * cols - 1 <= MAX_CENSUS_BITS:
+            raise ValueError(
+                f"census_window={window!r} gives {rows * cols - 1} bits; a census takes "
+                f"2 to {MAX_CENSUS_BITS} (for example (5, 5), (7, 7), (7, 9))"
+            )
+        object.__setattr__(self, "census_window", (rows, cols))
+        for name, lowest in (("ad_truncation", 0), ("p1", 0), ("p2", 0), ("paths", 4)):
+            value = getattr(self, name)
+            if isinstance(value, float) and value.is_integer():
+                value = int(value)
+                object.__setattr__(self, name, value)
+            if not is_integer(value) or value < lowest:
+                raise ValueError(f"{name} must be an integer of at least {lowest}, got {value!r}")
+        if self.paths not in (4, 8):
+            raise ValueError(f"paths must be 4 or 8, got {self.paths}")
+        if self.p2 < self.p1:
+            raise ValueError(f"p2 ({self.p2}) must be at least p1 ({self.p1})")
+        if self.ad_truncation > 255:
+            raise ValueError(
+                f"ad_truncation must be at most 255 gray levels, got {self.ad_truncation}"
+            )
+        gradient = self.p2_gradient
+        if not is_number(gradient) or not math.isfinite(gradient) or gradient < 0:
+            raise ValueError(f"p2_gradient must be a non-negative number, got {gradient!r}")
+        tolerance = self.lr_tolerance
+        if tolerance is not None:
+            if isinstance(tolerance, float) and tolerance.is_integer():
+                tolerance = int(tolerance)
+                object.__setattr__(self, "lr_tolerance", tolerance)
+            if not is_integer(tolerance) or tolerance < 0:
+                raise ValueError(
+                    f"lr_tolerance must be None (no check) or a non-negative integer, got {tolerance!r}"
+                )
 
     def _check_orientations(self):
         """Validate the ``redert`` parameters (orientations, their cost, the discount)."""

@@ -15,6 +15,10 @@ FLAG_BORDER = 2
 FLAG_FILLED = 4
 #: A reliable feature pair of the divide-and-conquer methods (an anchor of the path).
 FLAG_FEATURE = 8
+#: The left-right check of ``sgm`` removed the estimate, and the pixel is not occluded: the
+#: right view's choice at its partner is a farther surface (a wrong match, not a hidden
+#: pixel).
+FLAG_MISMATCH = 16
 
 
 @dataclass(frozen=True)
@@ -28,7 +32,7 @@ class DisparityResult:
         values come from the e steps of the five-step model.
     flags : ndarray of uint8, shape (H, W)
         Bit flags: :data:`FLAG_OCCLUDED`, :data:`FLAG_BORDER`, :data:`FLAG_FILLED`,
-        :data:`FLAG_FEATURE`.
+        :data:`FLAG_FEATURE`, :data:`FLAG_MISMATCH`.
     params : MatchParams
         The parameters of the run.
     path_cost : ndarray of float64, shape (H,)
@@ -78,6 +82,11 @@ class DisparityResult:
     def occluded(self) -> np.ndarray:
         """Left pixels without a partner: occluded in the DP, or beyond the image border."""
         return (self.flags & (FLAG_OCCLUDED | FLAG_BORDER)) != 0
+
+    @property
+    def mismatched(self) -> np.ndarray:
+        """Pixels whose estimate the left-right check removed as a wrong match (``sgm``)."""
+        return (self.flags & FLAG_MISMATCH) != 0
 
     @property
     def valid(self) -> np.ndarray:

@@ -10,8 +10,11 @@ from numba.core import event as numba_event
 
 from .. import params as _params
 from ..params import (
+    COSTS,
+    DEFAULT_METHOD,
     DEFAULT_OCCLUSION_COST,
     MAX_MEDIAN,
+    METHOD_DEFAULTS,
     METHOD_OPTIONS,
     METHODS,
     SUBPIXEL_FITS,
@@ -21,8 +24,9 @@ from ..viz import PREVIEW_STYLES
 #: Methods whose result carries feature pairs.
 FEATURE_METHODS = ("dc", "dc-linear", "dsi3-gcp")
 
-#: The keyword arguments of :func:`dcstereo.match` that :func:`matching_options` collects.
-MATCH_OPTIONS = ("method", "window", "occlusion_cost", "cost", "fill", "subpixel", "median")
+#: The keyword arguments of :func:`dcstereo.match` that :func:`matching_options` collects
+#: (those not given on the command line are left out: the method's defaults apply).
+MATCH_OPTIONS = ("method", "window", "cost", "fill", "subpixel", "median")
 
 #: The two flags of the on/off options of :data:`METHOD_OPTIONS`.
 _SWITCHES = {"vs_relative": "--vs-relative/--vs-absolute", "lr_check": "--lr-check/--no-lr-check"}
@@ -46,6 +50,23 @@ def _slopes(ctx, param, value):
 
 
 _DEFAULT_SLOPES = ",".join(f"{v:g}" for v in _params.DEFAULT_ORIENTATIONS)
+
+
+def _census_window(ctx, param, value):
+    """Parse ``--census-window`` (``ROWSxCOLS`` or one odd side) into ``(rows, cols)``."""
+    if value is None:
+        return None
+    parts = value.lower().replace(",", "x").split("x")
+    try:
+        sides = tuple(int(part) for part in parts)
+    except ValueError:
+        sides = ()
+    if len(sides) == 1:
+        sides = sides * 2
+    if len(sides) != 2:
+        raise click.BadParameter(f"expected ROWSxCOLS such as 5x5 or 7x9, got {value!r}")
+    return sides
+
 
 #: The methods' own parameters (keyword arguments of :func:`dcstereo.match`) that
 #: :func:`matching_options` adds: each one's ``--help`` text and ``click.option`` settings
@@ -109,6 +130,47 @@ _METHOD_OPTION_TABLE = {
         "Least window variance of a ground control point (default "
         f"{_params.DEFAULT_GCP_VARIANCE_FLOOR:g}).",
         {"type": float},
+    ),
+    "occlusion_cost": (
+        "Cost of one occluded pixel, in gray levels of mean absolute difference (default "
+        f"{DEFAULT_OCCLUSION_COST:g}).",
+        {"type": float},
+    ),
+    "census_window": (
+        "The census window, ROWSxCOLS, odd sides, at most 64 bits "
+        f"(default {_params.DEFAULT_CENSUS_WINDOW[0]}x{_params.DEFAULT_CENSUS_WINDOW[1]}).",
+        {"callback": _census_window, "metavar": "ROWSxCOLS"},
+    ),
+    "ad_truncation": (
+        "--cost census-ad: the colour difference's truncation, in gray levels of mean "
+        f"absolute difference (default {_params.DEFAULT_AD_TRUNCATION}).",
+        {"type": int},
+    ),
+    "p1": (
+        "Penalty of a one-pixel disparity step between neighbours on a path, in cost units "
+        f"(a census bit costs 96 / bits; default {_params.DEFAULT_P1}).",
+        {"type": int},
+    ),
+    "p2": (
+        f"Penalty of a larger disparity jump, in cost units (default {_params.DEFAULT_P2}).",
+        {"type": int},
+    ),
+    "p2_gradient": (
+        "Lower --p2 across intensity edges: p2 / (1 + |dI| / this), dI in gray levels "
+        f"(default {_params.DEFAULT_P2_GRADIENT:g}; 0: a constant p2).",
+        {"type": float},
+    ),
+    "paths": (
+        f"Aggregation paths: 4 or 8 (default {_params.DEFAULT_PATHS}).",
+        {
+            "type": click.Choice(["4", "8"]),
+            "callback": lambda c, p, v: None if v is None else int(v),
+        },
+    ),
+    "lr_tolerance": (
+        "Left-right check: the largest difference, in pixels, between a pixel's disparity "
+        f"and its right pixel's (default {_params.DEFAULT_LR_TOLERANCE}; -1: no check).",
+        {"type": int, "callback": lambda c, p, v: v if v is None or v >= 0 else "off"},
     ),
     "orientations": (
         "Comma-separated surface slopes (px of disparity per px), each of 0, +-0.0625, "
@@ -360,44 +422,39 @@ def matching_options(func):
         click.option(
             "--method",
             type=click.Choice(METHODS),
-            default="dc",
+            default=DEFAULT_METHOD,
             show_default=True,
             help="Matching method.",
         ),
         click.option(
             "--window",
             type=int,
-            default=5,
-            show_default=True,
-            help="Odd side of the square SAD window.",
-        ),
-        click.option(
-            "--occlusion-cost",
-            type=float,
-            default=DEFAULT_OCCLUSION_COST,
-            show_default=True,
-            help="Cost of one occluded pixel, in gray levels of mean absolute difference.",
+            default=None,
+            help="Odd side of the square matching window: the SAD window of the scanline "
+            "methods, the box averaging sgm's costs (default: "
+            f"{METHOD_DEFAULTS[None]['window']}; sgm {METHOD_DEFAULTS['sgm']['window']}).",
         ),
         click.option(
             "--cost",
-            type=click.Choice(["sad", "bt"]),
-            default="sad",
-            show_default=True,
-            help="Matching cost: windowed SAD (the paper's eq. 4) or Birchfield-Tomasi "
-            "(sampling-insensitive, summed over the same window).",
+            type=click.Choice(COSTS),
+            default=None,
+            help="Matching cost: windowed SAD (the paper's eq. 4) or Birchfield-Tomasi for the "
+            "scanline methods (default sad); census or census-ad (census plus a truncated "
+            "colour difference) for sgm (default census-ad).",
         ),
         click.option(
             "--fill/--no-fill",
-            default=False,
-            show_default=True,
-            help="Fill occluded pixels with the background disparity (dense map).",
+            default=None,
+            help="Fill the pixels without an estimate (dense map; default: on for sgm, off "
+            "for the others).",
         ),
         click.option(
             "--subpixel",
             type=click.Choice(SUBPIXEL_FITS),
             default=None,
             help="Refine each whole-pixel disparity to a fraction of a pixel by this fit "
-            "through the window costs at d - 1, d, d + 1 (before --fill; default: off).",
+            "through the costs at d - 1, d, d + 1 (sgm: its aggregated costs; before "
+            "--fill; default: off).",
         ),
         median_option,
         click.option(
@@ -414,6 +471,9 @@ def matching_options(func):
         # them
         check_method_options(method_options, [kwargs["match_options"]["method"]])
         kwargs["match_options"].update(method_options)
+        kwargs["match_options"] = {
+            k: v for k, v in kwargs["match_options"].items() if v is not None or k == "subpixel"
+        }
         return func(*args, **kwargs)
 
     return _option_group(
@@ -432,7 +492,10 @@ def add_method_options(func):
     @functools.wraps(func)
     def collect(*args, **kwargs):
         given = {name: kwargs.pop(name) for name in METHOD_OPTIONS}
-        kwargs["method_options"] = {k: v for k, v in given.items() if v is not None}
+        given = {k: v for k, v in given.items() if v is not None}
+        if given.get("lr_tolerance") == "off":  # -1 on the command line: no check
+            given["lr_tolerance"] = None
+        kwargs["method_options"] = given
         return func(*args, **kwargs)
 
     for option in reversed(_method_option_list()):
@@ -457,11 +520,11 @@ def check_method_options(given, methods):
 median_option = click.option(
     "--median",
     type=int,
-    default=0,
-    show_default=True,
+    default=None,
     help="Median post-filter: every estimate but the feature pairs' takes the median of "
     f"the estimates in this odd square around it, 3 to {MAX_MEDIAN} (after --subpixel, "
-    "before --fill; 0: off).",
+    f"before --fill, sgm: after its fill; 0: off; default {METHOD_DEFAULTS['sgm']['median']} "
+    "for sgm, 0 for the others).",
 )
 
 

@@ -1,0 +1,212 @@
+"""Matching costs of the semi-global method: the census transform and its cost volume.
+
+The census transform (Zabih and Woodfill, ECCV 1994) replaces each pixel by a bit string:
+one bit per pixel of a window around it, set where that pixel is darker than the centre.
+Two pixels are compared by the Hamming distance of their strings (a popcount), which does
+not change when either view's brightness changes by any increasing function: a gain, an
+offset, a gamma. ``cost="census-ad"`` adds the absolute difference of the colours,
+truncated, as a weak second term (Mei et al., *On building an accurate stereo matching
+system on graphics hardware*, 2011, combine the two; Hirschmueller and Scharstein, CVPR
+2007, found census the most robust single cost).
+
+All values are integers, so the volume is exact and its sums do not depend on the order of
+evaluation. The cost of left pixel ``x`` at disparity ``d = dmin + k`` compares it with
+right pixel ``x - d``; a right pixel outside the image is replaced by the nearest one inside
+(the right rows are padded by repetition), so every cell holds a cost and the aggregation
+runs over full rows. ``tests/naive_sgm.py`` holds the slow twins.
+"""
+
+import numba as nb
+import numpy as np
+from llvmlite import ir
+from numba.core import cgutils, types
+from numba.extending import intrinsic, overload
+
+
+@nb.njit(cache=True, parallel=True)
+def census_transform(padded, rows, cols, out):
+    """Census codes over a ``rows x cols`` window into ``out`` (uint64, ``(H, W)``).
+
+    ``padded`` is the int32 intensity padded by ``rows // 2`` rows and ``cols // 2``
+    columns on each side, repeating its edges (``signal.padded_signal``). Bit order: the
+    window in raster order, the centre left out, the first pixel in the highest bit used;
+    a bit is 1 where that pixel is darker (smaller) than the centre. ``rows * cols - 1``
+    must be at most 64.
+    """
+    height, width = out.shape
+    ry, rx = rows // 2, cols // 2
+    for y in nb.prange(height):
+        code = out[y]
+        centre = padded[y + ry, rx : rx + width]
+        for x in range(width):
+            code[x] = 0
+        for dy in range(rows):
+            for dx in range(cols):
+                if dy == ry and dx == rx:
+                    continue
+                other = padded[y + dy, dx : dx + width]
+                for x in range(width):
+                    code[x] = (code[x] << np.uint64(1)) | np.uint64(other[x] < centre[x])
+
+
+def popcount(value):
+    """Number of set bits of a ``uint64`` (compiled: one ``llvm.ctpop``)."""
+    return bin(int(value)).count("1")
+
+
+@intrinsic
+def _ctpop(typingctx, value):
+    if not (isinstance(value, types.Integer) and value.bitwidth == 64):
+        return None
+
+    def codegen(context, builder, sig, args):
+        fn = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(ir.IntType(64), [ir.IntType(64)]), "llvm.ctpop.i64"
+        )
+        return builder.call(fn, [args[0]])
+
+    return types.int64(value), codegen
+
+
+@overload(popcount)
+def _popcount_compiled(value):
+    return lambda value: _ctpop(value)
+
+
+@nb.njit(cache=True)
+def pixel_cost_row(codes_l, codes_r, colour_l, colour_r, y, dmin, ndisp, bit_cost, ad_max, ad, out):
+    """One row of per-pixel costs: ``out[x, k]`` for ``d = dmin + k``, ``k < ndisp``.
+
+    In units of ``1 / C`` for ``C`` channels of ``colour_l`` (``(C, H, W)``, 0..255):
+    ``C * bit_cost * popcount(L ^ R)`` of the census codes of left pixel ``x`` and right
+    pixel ``x - d``, plus, where ``ad_max > 0``, ``min(AD, C * ad_max)``, ``AD`` the sum of
+    the channels' absolute differences (so the mean absolute difference of the channels
+    counts one unit per gray level). The right view (``codes_r``, ``colour_r``) is padded
+    by repetition (``max(0, max_disparity)`` columns on the left, ``max(0, -dmin)`` on the
+    right) and then reversed: right pixel ``x - d`` of row ``y`` is at ``[.., y, width - 1
+    - x + dmin + max(0, -dmin) + k]``, so that the disparities of a left pixel run forward
+    in memory. ``ad`` is an int16 scratch row of ``ndisp``.
+    """
+    width = codes_l.shape[1]
+    channels = colour_l.shape[0]
+    after = max(0, -dmin)
+    census = np.int16(channels * bit_cost)
+    limit = np.int16(channels * ad_max)
+    for x in range(width):
+        start = width - 1 - x + dmin + after
+        code = codes_l[y, x]
+        right = codes_r[y, start : start + ndisp]
+        row = out[x]
+        for k in range(ndisp):
+            row[k] = np.int16(census * np.int16(popcount(code ^ right[k])))
+        if ad_max > 0:
+            for k in range(ndisp):
+                ad[k] = 0
+            for c in range(channels):
+                value = colour_l[c, y, x]
+                other = colour_r[c, y, start : start + ndisp]
+                for k in range(ndisp):
+                    ad[k] += np.int16(abs(np.int16(value - other[k])))
+            for k in range(ndisp):
+                row[k] += min(ad[k], limit)
+
+
+@nb.njit(cache=True, parallel=True)
+def cost_volume(
+    codes_l, codes_r, colour_l, colour_r, dmin, ndisp, bit_cost, ad_max, box, reciprocal,
+    pad_cost, y_begin, out,
+):  # fmt: skip
+    """The box-averaged cost volume of rows ``y_begin..``: ``out[y - y_begin, x, k]``, int16.
+
+    ``out`` is ``(rows, W, Dp)``. Each cell is the mean, rounded down, of the per-pixel
+    costs (``pixel_cost_row``) over the ``box x box`` square around ``(y, x)`` at the same
+    disparity, pixels beyond the image repeating its edge: the sum times ``reciprocal``, a
+    float32 just above ``1 / box**2``, truncated (``box_reciprocal``: exact for every sum
+    the caller allows). The lanes ``k >= ndisp`` up to ``Dp`` (the vector padding) hold
+    ``pad_cost``. Rows in parallel, in chunks of 32 (each chunk makes the ``box - 1``
+    per-pixel rows around it again).
+    """
+    height, width = codes_l.shape
+    rows = out.shape[0]
+    radius = box // 2
+    chunk = 32
+    nchunks = (rows + chunk - 1) // chunk
+    for c in nb.prange(nchunks):
+        y0 = y_begin + c * chunk
+        y1 = min(y_begin + rows, y0 + chunk)
+        ring = np.empty((box, width, ndisp), dtype=np.int16)
+        vertical = np.empty((width + box - 1) * ndisp, dtype=np.int16)
+        sums = np.empty(width * ndisp, dtype=np.int16)
+        ad = np.empty(ndisp, dtype=np.int16)
+        for t in range(box - 1):  # rows y0 - radius .. y0 + radius - 1
+            yy = min(max(y0 - radius + t, 0), height - 1)
+            pixel_cost_row(
+                codes_l, codes_r, colour_l, colour_r, yy, dmin, ndisp, bit_cost, ad_max, ad,
+                ring[(y0 - radius + t) % box],
+            )  # fmt: skip
+        for y in range(y0, y1):
+            yy = min(y + radius, height - 1)
+            pixel_cost_row(
+                codes_l, codes_r, colour_l, colour_r, yy, dmin, ndisp, bit_cost, ad_max, ad,
+                ring[(y + radius) % box],
+            )  # fmt: skip
+            _box_row(
+                ring, width, ndisp, box, reciprocal, vertical, sums, out[y - y_begin], pad_cost
+            )
+
+
+@nb.njit(cache=True)
+def _box_row(ring, width, ndisp, box, reciprocal, vertical, sums, out_row, pad_cost):
+    """``out_row[x, k]``: the mean over the ring's rows and ``box`` columns around ``x``.
+
+    ``vertical`` and ``sums`` are int16 scratch rows of ``(width + box - 1) * ndisp``: the
+    column sums, with ``box // 2`` repeated edge columns on each side, then the box sums.
+    Each sum is one flat loop over ``(x, k)``.
+    """
+    radius = box // 2
+    lanes = out_row.shape[1]
+    n = width * ndisp
+    body = vertical[radius * ndisp : radius * ndisp + n]
+    first = ring[0].reshape(n)
+    for i in range(n):
+        body[i] = first[i]
+    for t in range(1, box):
+        other = ring[t].reshape(n)
+        for i in range(n):
+            body[i] += other[i]
+    for e in range(radius):  # the repeated edge columns
+        for k in range(ndisp):
+            vertical[e * ndisp + k] = body[k]
+            vertical[(radius + width + e) * ndisp + k] = body[n - ndisp + k]
+    total = sums[:n]
+    for i in range(n):
+        total[i] = vertical[i]
+    for dx in range(1, box):
+        shifted = vertical[dx * ndisp : dx * ndisp + n]
+        for i in range(n):
+            total[i] += shifted[i]
+    for x in range(width):
+        dst = out_row[x]
+        src = total[x * ndisp : (x + 1) * ndisp]
+        for k in range(ndisp):
+            dst[k] = np.int16(np.float32(src[k]) * reciprocal)
+        for k in range(ndisp, lanes):
+            dst[k] = pad_cost
+
+
+def box_reciprocal(box: int, largest: int) -> np.float32:
+    """Return the float32 ``r`` nearest above ``1 / box**2``, checked to give the floor of
+    ``s / box**2`` as ``int(float32(s) * r)`` for every sum ``0 <= s <= largest``.
+
+    Raises ``ValueError`` when it does not (costs too large for the box, or a sum past the
+    int16 box sums).
+    """
+    area = box * box
+    r = np.float32(1.0 / area)
+    if float(r) * area < 1.0:
+        r = np.nextafter(r, np.float32(1.0))
+    sums = np.arange(largest + 1, dtype=np.int64)
+    exact = np.array_equal((sums.astype(np.float32) * r).astype(np.int64), sums // area)
+    if largest > 32767 or not exact:
+        raise ValueError(f"costs up to {largest} are too large to average over a {box} x {box} box")
+    return r

@@ -1,0 +1,204 @@
+"""``sgm``: census costs, semi-global aggregation, a left-right check and an edge-aware fill.
+
+The accurate pipeline of :func:`dcstereo.match` (its default method). Each stage is a
+function of arrays with its parameters in :class:`~dcstereo.params.MatchParams`:
+
+1. costs (:mod:`dcstereo.kernels.census`): the census transform of each view's intensity
+   over ``census_window``, compared by Hamming distance, plus (``cost="census-ad"``) the
+   absolute difference of the colours, truncated at ``ad_truncation`` gray levels; each
+   averaged over a ``window x window`` box;
+2. aggregation (:mod:`dcstereo.kernels.sgm`): semi-global matching along ``paths`` 1-D
+   paths (Hirschmueller 2008) with penalties ``p1`` for a step of one pixel of disparity
+   and ``p2`` for a larger jump, ``p2`` lowered across intensity edges
+   (``p2_gradient``);
+3. the disparity of least aggregated cost (winner-take-all), refined to a fraction of a
+   pixel by a fit through its neighbours (``subpixel``);
+4. a left-right check: a left pixel whose right pixel prefers another disparity loses its
+   estimate, flagged occluded (:data:`~dcstereo.result.FLAG_OCCLUDED`) or mismatched
+   (:data:`~dcstereo.result.FLAG_MISMATCH`);
+5. with ``fill`` (on by default): occluded pixels take the background (the smaller
+   neighbouring disparity of their row), mismatched ones the estimate of the nearest
+   pixel of the most similar colour along eight directions
+   (:mod:`dcstereo.consistency`);
+6. the median post-filter (``median``, by :func:`dcstereo.match`).
+
+Memory: the volumes of a strip of rows (costs and two sums of paths, 6 bytes per pixel and
+disparity, the disparities rounded up to a multiple of 16). Images whose volumes would
+pass :data:`VOLUME_BYTES` run in strips of rows, each with :data:`STRIP_MARGIN` rows of
+context above and below; paths then start at the strip's edge, so such a result differs
+(slightly, near the strips' seams) from the whole-image one.
+"""
+
+import numpy as np
+
+from .consistency import fill_inconsistent
+from .kernels import census as census_kernels
+from .kernels import sgm as sgm_kernels
+from .kernels.sgm_simd import HIGH, LANES
+from .params import MatchParams
+from .result import FLAG_MISMATCH, DisparityResult
+from .signal import SIGNAL_STEPS, padded_signal
+
+assert FLAG_MISMATCH == sgm_kernels.FLAG_MISMATCH
+
+#: The most memory (bytes) the volumes of one strip take; larger images run in strips.
+VOLUME_BYTES = 768 * 2**20
+
+#: Rows of context above and below each strip of a large image.
+STRIP_MARGIN = 32
+
+#: The census term's largest value: a census of ``n`` bits costs ``round(CENSUS_SPAN / n)``
+#: a differing bit, so the term spans about the same range for every window.
+CENSUS_SPAN = 96
+
+_SUBPIXEL = {
+    None: sgm_kernels.SUBPIXEL_NONE,
+    "parabola": sgm_kernels.SUBPIXEL_PARABOLA,
+    "equiangular": sgm_kernels.SUBPIXEL_EQUIANGULAR,
+}
+
+
+def census_bit_cost(window: tuple[int, int]) -> int:
+    """Cost of one differing census bit for a ``(rows, cols)`` window."""
+    bits = window[0] * window[1] - 1
+    return max(1, round(CENSUS_SPAN / bits))
+
+
+def largest_pixel_cost(params: MatchParams) -> int:
+    """The largest per-pixel cost of ``params``' cost (before the box average)."""
+    rows, cols = params.census_window
+    ad = params.ad_truncation if params.cost == "census-ad" else 0
+    return census_bit_cost(params.census_window) * (rows * cols - 1) + int(ad)
+
+
+def check_sgm_bounds(params: MatchParams, channels: int = 3) -> None:
+    """Raise ``ValueError`` when the costs and penalties could pass the kernels' 16 bits.
+
+    The kernels count in units of ``1 / channels`` (``pixel_cost_row``).
+    """
+    largest = largest_pixel_cost(params)
+    census_kernels.box_reciprocal(params.window, channels * largest * params.window**2)
+    if params.paths * channels * (largest + params.p2) >= HIGH:
+        most = HIGH // (params.paths * channels) - largest - 1
+        raise ValueError(
+            f"p2={params.p2} is too large for {params.paths} paths of costs up to {largest}: "
+            f"the sums must fit 16 bits (p2 at most {most})"
+        )
+
+
+def colour_channels(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The two views' channels on the 0..255 scale as ``(C, H, W)`` int16, rounded.
+
+    Colour views give their three channels (an alpha channel is ignored); where either is
+    gray, both give their intensity (luma), so the two always have as many channels.
+    """
+
+    def scaled(image):
+        image = np.asarray(image)
+        if image.dtype == np.uint8:
+            return image.astype(np.float64)
+        if image.dtype == np.uint16:
+            return image.astype(np.float64) / 257.0
+        return image.astype(np.float64) * 255.0
+
+    colour = left.ndim == 3 and right.ndim == 3 and min(left.shape[2], right.shape[2]) >= 3
+    out = []
+    for image in (left, right):
+        if colour:
+            channels = np.moveaxis(scaled(image[:, :, :3]), 2, 0)
+        else:
+            channels = padded_signal(image, 0)[np.newaxis] / float(SIGNAL_STEPS)
+        out.append(np.ascontiguousarray(np.clip(np.rint(channels), 0, 255).astype(np.int16)))
+    return out[0], out[1]
+
+
+def p2_table(params: MatchParams) -> np.ndarray:
+    """``P2`` by the absolute intensity difference of a path's two pixels (1/16 gray levels).
+
+    ``p2 / (1 + g / p2_gradient)`` for a difference of ``g`` gray levels, truncated, and
+    never below ``p1 + 1``; ``p2_gradient`` 0 keeps ``p2`` everywhere.
+    """
+    steps = np.arange(255 * SIGNAL_STEPS + 1, dtype=np.float64) / SIGNAL_STEPS
+    if params.p2_gradient > 0:
+        values = params.p2 / (1.0 + steps / params.p2_gradient)
+    else:
+        values = np.full_like(steps, float(params.p2))
+    return np.maximum(np.floor(values), params.p1 + 1).astype(np.int64)
+
+
+def _reversed_right(array: np.ndarray, before: int, after: int) -> np.ndarray:
+    """The right view's ``array`` (``(..., H, W)``) for the cost kernel: padded along its
+    last axis by ``before`` and ``after`` repeated edge columns, then reversed.
+    """
+    widths = [(0, 0)] * (array.ndim - 1) + [(before, after)]
+    return np.ascontiguousarray(np.pad(array, widths, mode="edge")[..., ::-1])
+
+
+def _census(image: np.ndarray, rows: int, cols: int, out: np.ndarray) -> None:
+    """The census codes of ``image``'s intensity (``census_transform``) into ``out``."""
+    signal = padded_signal(image, 0)
+    padded = np.pad(signal, ((rows // 2, rows // 2), (cols // 2, cols // 2)), mode="edge")
+    census_kernels.census_transform(padded, rows, cols, out)
+
+
+def match_sgm(left: np.ndarray, right: np.ndarray, params: MatchParams) -> DisparityResult:
+    """Run the ``sgm`` pipeline up to the fill (the median is :func:`dcstereo.match`'s)."""
+    height, width = left.shape[:2]
+    dmin, ndisp = params.min_disparity, params.num_disparities
+    lanes = -(-ndisp // LANES) * LANES
+    rows, cols = params.census_window
+    codes_l = np.empty((height, width), dtype=np.uint64)
+    codes_r = np.empty((height, width), dtype=np.uint64)
+    _census(left, rows, cols, codes_l)
+    _census(right, rows, cols, codes_r)
+    luma_l = padded_signal(left, 0)
+    colour_l, colour_r = colour_channels(left, right)
+    if params.cost == "census":
+        colour_l = colour_l[:1, :1, :1]  # unread (ad_max 0); one unit a cost unit
+        colour_r = colour_r[:1, :1, :1]
+    pad = max(0, params.max_disparity)
+    after = max(0, -dmin)
+    codes_r = _reversed_right(codes_r, pad, after)
+    if params.cost == "census-ad":
+        colour_r = _reversed_right(colour_r, pad, after)
+    channels = colour_l.shape[0]  # the kernels count in units of 1 / channels
+    check_sgm_bounds(params, channels)
+    largest = channels * largest_pixel_cost(params)
+    reciprocal = census_kernels.box_reciprocal(params.window, largest * params.window**2)
+    pad_cost = largest + channels * params.p2 + 1
+    table = channels * p2_table(params)
+    p1 = channels * params.p1
+    ad_max = params.ad_truncation if params.cost == "census-ad" else 0
+    bit_cost = census_bit_cost(params.census_window)
+    diagonals = params.paths == 8
+
+    disparity = np.empty((height, width), dtype=np.float32)
+    flags = np.empty((height, width), dtype=np.uint8)
+    per_row = width * lanes * 2 * 3
+    strip = max(1, VOLUME_BYTES // per_row - 2 * STRIP_MARGIN)
+    for s0 in range(0, height, strip):
+        s1 = min(height, s0 + strip)
+        m0, m1 = (
+            (0, height)
+            if strip >= height
+            else (max(0, s0 - STRIP_MARGIN), min(height, s1 + STRIP_MARGIN))
+        )
+        n = m1 - m0
+        volume = np.empty((n, width, lanes), dtype=np.int16)
+        census_kernels.cost_volume(
+            codes_l, codes_r, colour_l, colour_r, dmin, ndisp, bit_cost, ad_max, params.window,
+            reciprocal, pad_cost, m0, volume,
+        )  # fmt: skip
+        cost = volume.reshape(-1)
+        down = np.empty_like(cost)
+        up = np.empty_like(cost)
+        luma = np.ascontiguousarray(luma_l[m0:m1])
+        sgm_kernels.vertical_passes(cost, luma, p1, table, diagonals, down, up)
+        sgm_kernels.final_pass(
+            cost, luma, down, up, s0 - m0, s1 - m0, dmin, ndisp, p1, table,
+            _SUBPIXEL[params.subpixel], -1 if params.lr_tolerance is None else params.lr_tolerance, disparity[s0:s1], flags[s0:s1],
+        )  # fmt: skip
+    result = DisparityResult(disparity, flags, params, np.full(height, np.nan))
+    if params.fill:
+        result = fill_inconsistent(result, left)
+    return result

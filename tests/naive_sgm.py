@@ -1,0 +1,134 @@
+"""Slow, obviously correct twins of the ``sgm`` kernels (census, costs, paths, checks).
+
+Plain Python and numpy, one definition at a time, on small images; the tests hold the
+compiled pipeline to these bit for bit.
+"""
+
+import numpy as np
+
+#: The eight path directions (dx, dy): a path in direction (dx, dy) reaches (x, y) from
+#: (x - dx, y - dy). The first four are the four-path set.
+DIRECTIONS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, 1), (1, -1), (-1, -1))
+
+
+def census(signal, rows, cols):
+    """Census codes: bit per window pixel (raster order, centre skipped), 1 where darker."""
+    height, width = signal.shape
+    out = np.zeros((height, width), dtype=np.uint64)
+    for y in range(height):
+        for x in range(width):
+            bits = []
+            for dy in range(-(rows // 2), rows // 2 + 1):
+                for dx in range(-(cols // 2), cols // 2 + 1):
+                    if dy == 0 and dx == 0:
+                        continue
+                    yy = min(max(y + dy, 0), height - 1)
+                    xx = min(max(x + dx, 0), width - 1)
+                    bits.append(1 if signal[yy, xx] < signal[y, x] else 0)
+            code = 0
+            for bit in bits:
+                code = code * 2 + bit
+            out[y, x] = code
+    return out
+
+
+def pixel_costs(codes_l, codes_r, colour_l, colour_r, dmin, ndisp, bit_cost, ad_max):
+    """Per-pixel costs ``(H, W, ndisp)`` in units of 1 / channels; right pixel clamped."""
+    height, width = codes_l.shape
+    channels = colour_l.shape[0]
+    out = np.zeros((height, width, ndisp), dtype=np.int64)
+    for y in range(height):
+        for x in range(width):
+            for k in range(ndisp):
+                xr = min(max(x - dmin - k, 0), width - 1)
+                bits = bin(int(codes_l[y, x]) ^ int(codes_r[y, xr])).count("1")
+                cost = channels * bit_cost * bits
+                if ad_max > 0:
+                    ad = sum(
+                        abs(int(colour_l[c, y, x]) - int(colour_r[c, y, xr]))
+                        for c in range(channels)
+                    )
+                    cost += min(ad, channels * ad_max)
+                out[y, x, k] = cost
+    return out
+
+
+def box_mean(costs, box):
+    """The floor of the mean over the ``box x box`` square (edges repeated), per disparity."""
+    height, width, _ = costs.shape
+    radius = box // 2
+    out = np.zeros_like(costs)
+    for y in range(height):
+        for x in range(width):
+            total = 0
+            for dy in range(-radius, radius + 1):
+                for dx in range(-radius, radius + 1):
+                    total = total + costs[min(max(y + dy, 0), height - 1), min(max(x + dx, 0), width - 1)]
+            out[y, x] = total // (box * box)
+    return out
+
+
+def path_values(costs, luma, direction, p1, p2_table):
+    """``L_r(p, d)`` of Hirschmueller's eq. 13 for one direction, every pixel."""
+    height, width, ndisp = costs.shape
+    dx, dy = direction
+    values = np.zeros_like(costs)
+    order_y = range(height) if dy >= 0 else range(height - 1, -1, -1)
+    order_x = range(width) if dx >= 0 else range(width - 1, -1, -1)
+    for y in order_y:
+        for x in order_x:
+            qx, qy = x - dx, y - dy
+            if not (0 <= qx < width and 0 <= qy < height):
+                values[y, x] = costs[y, x]
+                continue
+            prev = values[qy, qx]
+            least = prev.min()
+            p2 = p2_table[abs(int(luma[y, x]) - int(luma[qy, qx]))]
+            for k in range(ndisp):
+                options = [prev[k], least + p2]
+                if k > 0:
+                    options.append(prev[k - 1] + p1)
+                if k < ndisp - 1:
+                    options.append(prev[k + 1] + p1)
+                values[y, x, k] = costs[y, x, k] + min(options) - least
+    return values
+
+
+def aggregate(costs, luma, p1, p2_table, paths):
+    """The sum of the path values over ``paths`` (4 or 8) directions."""
+    return sum(path_values(costs, luma, d, p1, p2_table) for d in DIRECTIONS[:paths])
+
+
+def choose(sums, dmin, tolerance, subpixel):
+    """Winner-take-all, the left-right check and the sub-pixel fit of ``final_pass``.
+
+    Returns ``(disparity, flags)`` with flags 1 occluded, 2 border, 16 mismatch.
+    """
+    height, width, ndisp = sums.shape
+    disparity = np.full((height, width), np.nan, dtype=np.float32)
+    flags = np.zeros((height, width), dtype=np.uint8)
+    for y in range(height):
+        best = [int(np.argmin(sums[y, x])) for x in range(width)]  # first least
+        right_best, right_d = {}, {}
+        for x in range(width):
+            value = sums[y, x, best[x]]
+            xr = x - dmin - best[x]
+            if 0 <= xr < width and (xr not in right_best or value < right_best[xr]):
+                right_best[xr] = value
+                right_d[xr] = dmin + best[x]
+        for x in range(width):
+            k = best[x]
+            d = dmin + k
+            xr = x - d
+            if not 0 <= xr < width:
+                flags[y, x] = 2
+            elif tolerance is not None and abs(right_d[xr] - d) > tolerance:
+                flags[y, x] = 1 if right_d[xr] > d else 16
+            else:
+                offset = 0.0
+                if subpixel and 0 < k < ndisp - 1:
+                    a, b, c = (float(v) for v in sums[y, x, k - 1 : k + 2])
+                    den = a - 2 * b + c if subpixel == "parabola" else max(a, c) - b
+                    offset = (a - c) / (2 * den) if den > 0 else 0.0
+                disparity[y, x] = np.float32(d + offset)
+    return disparity, flags

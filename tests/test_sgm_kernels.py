@@ -1,0 +1,212 @@
+"""The sgm kernels against their naive twins (tests/naive_sgm.py), bit for bit."""
+
+import numpy as np
+import pytest
+
+import naive_sgm
+from dcstereo import sgm
+from dcstereo.kernels import census as census_kernels
+from dcstereo.kernels import sgm_simd
+from dcstereo.params import MatchParams
+from dcstereo.signal import padded_signal
+
+LANES = sgm_simd.LANES
+
+
+# --------------------------------------------------------------------------- vector code
+
+
+def _path_inputs(rng, n):
+    cost = rng.integers(0, 1000, 3 * n + 8).astype(np.int16)
+    prev = rng.integers(0, 3000, 3 * n + 8).astype(np.int16)
+    prev[3] = prev[3 + n + 1] = 16383  # the pads
+    return cost, prev
+
+
+@pytest.mark.parametrize("n", [LANES, 2 * LANES, 5 * LANES])
+def test_path_step_vector_form_equals_plain_form(n):
+    rng = np.random.default_rng(n)
+    for _ in range(40):
+        cost, prev = _path_inputs(rng, n)
+        pmin = int(prev[4 : 4 + n].min())
+        p1, p2 = int(rng.integers(0, 600)), int(rng.integers(0, 4000))
+        plain, vector = np.zeros(3 * n, np.int16), np.zeros(3 * n, np.int16)
+        expected = sgm_simd.path_step(cost, 5, prev, 3, plain, 7, n, p1, p2, pmin)
+        got = sgm_simd.compiled_path_step(cost, 5, prev, 3, vector, 7, n, p1, p2, pmin)
+        assert got == expected
+        np.testing.assert_array_equal(vector, plain)
+
+
+def test_path_step_by_hand():
+    # C = (3, 1, 4), L(q) = (0, 5, 2), P1 = 1, P2 = 3, min L(q) = 0:
+    # k0: 3 + min(0, 5 + 1, 0 + 3) = 3; k1: 1 + min(5, 0 + 1, 2 + 1, 3) = 2;
+    # k2: 4 + min(2, 5 + 1, 3) = 6; the padding lanes (cost 9000) stay above.
+    cost = np.full(LANES, 9000, np.int16)
+    cost[:3] = (3, 1, 4)
+    prev = np.full(LANES + 2, 9000, np.int16)
+    prev[0] = prev[-1] = 16383
+    prev[1:4] = (0, 5, 2)
+    for step in (sgm_simd.path_step, sgm_simd.compiled_path_step):
+        cur = np.zeros(LANES + 2, np.int16)
+        assert step(cost, 0, prev, 0, cur, 0, LANES, 1, 3, 0) == 2
+        assert list(cur[1:4]) == [3, 2, 6]
+
+
+def test_path_step_saturates_at_int16():
+    n = LANES
+    cost = np.zeros(n, np.int16)
+    prev = np.full(n + 2, 32000, np.int16)
+    for step in (sgm_simd.path_step, sgm_simd.compiled_path_step):
+        cur = np.zeros(n + 2, np.int16)
+        step(cost, 0, prev, 0, cur, 0, n, 5000, 5000, 32000)
+        assert (cur[1:-1] == 0).all()  # min(32000, 32767 (saturated), 32767) - 32000
+
+
+def test_path_start_add_and_first_min_vector_forms():
+    rng = np.random.default_rng(3)
+    for n in (LANES, 3 * LANES):
+        for _ in range(20):
+            cost = rng.integers(-500, 500, 4 * n).astype(np.int16)
+            a, b = np.zeros(4 * n, np.int16), np.zeros(4 * n, np.int16)
+            assert sgm_simd.path_start(cost, 3, a, 5, n) == sgm_simd.compiled_path_start(
+                cost, 3, b, 5, n
+            )
+            np.testing.assert_array_equal(a, b)
+            x = rng.integers(-32768, 32768, 4 * n).astype(np.int16)
+            y = rng.integers(-32768, 32768, 4 * n).astype(np.int16)
+            sgm_simd.add_saturated(a, 1, x, 2, y, 9, n)
+            sgm_simd.compiled_add_saturated(b, 1, x, 2, y, 9, n)
+            np.testing.assert_array_equal(a, b)
+            ties = rng.integers(0, 4, 4 * n).astype(np.int16)  # many ties: the first wins
+            assert sgm_simd.first_min(ties, 6, n) == sgm_simd.compiled_first_min(ties, 6, n)
+            assert sgm_simd.first_min(ties, 6, n)[0] == int(np.argmin(ties[6 : 6 + n]))
+
+
+# --------------------------------------------------------------------------- costs
+
+
+@pytest.mark.parametrize(("rows", "cols"), [(3, 3), (5, 5), (3, 7), (1, 9), (7, 9)])
+def test_census_transform_equals_twin(rows, cols):
+    rng = np.random.default_rng(rows * 10 + cols)
+    image = rng.integers(0, 6, (9, 13)).astype(np.uint8)  # many equal neighbours
+    signal = padded_signal(image, 0)
+    out = np.empty(signal.shape, np.uint64)
+    sgm._census(image, rows, cols, out)
+    np.testing.assert_array_equal(out, naive_sgm.census(signal, rows, cols))
+
+
+def _costs_inputs(seed, colour, height=7, width=19):
+    rng = np.random.default_rng(seed)
+    shape = (height, width, 3) if colour else (height, width)
+    left = rng.integers(0, 256, shape).astype(np.uint8)
+    right = rng.integers(0, 256, shape).astype(np.uint8)
+    return left, right
+
+
+@pytest.mark.parametrize("colour", [False, True])
+@pytest.mark.parametrize(("dmin", "dmax", "box"), [(0, 6, 3), (-3, 4, 1), (2, 9, 5), (-5, -1, 3)])
+def test_cost_volume_equals_twin(colour, dmin, dmax, box):
+    left, right = _costs_inputs(dmax - dmin + box, colour)
+    params = MatchParams(
+        max_disparity=dmax, min_disparity=dmin, method="sgm", window=box, census_window=(3, 5)
+    )
+    height, width = left.shape[:2]
+    ndisp = dmax - dmin + 1
+    codes_l = np.empty((height, width), np.uint64)
+    codes_r = np.empty((height, width), np.uint64)
+    sgm._census(left, 3, 5, codes_l)
+    sgm._census(right, 3, 5, codes_r)
+    colour_l, colour_r = sgm.colour_channels(left, right)
+    bit_cost = sgm.census_bit_cost((3, 5))
+    expected = naive_sgm.box_mean(
+        naive_sgm.pixel_costs(codes_l, codes_r, colour_l, colour_r, dmin, ndisp, bit_cost, 20),
+        box,
+    )
+    pad, after = max(0, dmax), max(0, -dmin)
+    lanes = -(-ndisp // LANES) * LANES
+    channels = colour_l.shape[0]
+    largest = channels * sgm.largest_pixel_cost(params)
+    reciprocal = census_kernels.box_reciprocal(box, largest * box * box)
+    for begin, rows in ((0, height), (2, 3)):  # the whole image, and a strip of it
+        out = np.empty((rows, width, lanes), np.int16)
+        census_kernels.cost_volume(
+            codes_l, sgm._reversed_right(codes_r, pad, after), colour_l,
+            sgm._reversed_right(colour_r, pad, after), dmin, ndisp, bit_cost, 20, box,
+            reciprocal, 7777, begin, out,
+        )  # fmt: skip
+        np.testing.assert_array_equal(out[:, :, :ndisp], expected[begin : begin + rows])
+        assert (out[:, :, ndisp:] == 7777).all()
+
+
+def test_box_reciprocal_is_exact_or_refused():
+    for box in (1, 3, 5, 7, 9):
+        largest = min(32767, 300 * box * box)
+        r = census_kernels.box_reciprocal(box, largest)
+        sums = np.arange(largest + 1)
+        np.testing.assert_array_equal(
+            (sums.astype(np.float32) * r).astype(np.int64), sums // (box * box)
+        )
+    with pytest.raises(ValueError, match="too large"):
+        census_kernels.box_reciprocal(3, 40000)
+
+
+# --------------------------------------------------------------------------- pipeline
+
+
+def _naive_sgm(left, right, params):
+    """The raw sgm map (no fill) by the twins."""
+    rows, cols = params.census_window
+    codes_l = naive_sgm.census(padded_signal(left, 0), rows, cols)
+    codes_r = naive_sgm.census(padded_signal(right, 0), rows, cols)
+    colour_l, colour_r = sgm.colour_channels(left, right)
+    channels = colour_l.shape[0]
+    ad_max = params.ad_truncation if params.cost == "census-ad" else 0
+    if params.cost == "census":
+        channels = 1
+        colour_l, colour_r = colour_l[:1], colour_r[:1]
+    costs = naive_sgm.pixel_costs(
+        codes_l, codes_r, colour_l, colour_r, params.min_disparity, params.num_disparities,
+        sgm.census_bit_cost(params.census_window), ad_max,
+    )  # fmt: skip
+    costs = naive_sgm.box_mean(costs, params.window)
+    table = channels * sgm.p2_table(params)
+    sums = naive_sgm.aggregate(
+        costs, padded_signal(left, 0), channels * params.p1, table, params.paths
+    )
+    return naive_sgm.choose(sums, params.min_disparity, params.lr_tolerance, params.subpixel)
+
+
+CASES = [
+    {"max_disparity": 6},
+    {"max_disparity": 6, "paths": 4, "subpixel": "parabola"},
+    {"max_disparity": 3, "min_disparity": -4, "cost": "census", "subpixel": "equiangular"},
+    {"max_disparity": 9, "min_disparity": 2, "census_window": (3, 7), "window": 1},
+    {"max_disparity": 20, "window": 5, "p1": 10, "p2": 90, "p2_gradient": 0, "lr_tolerance": 0},
+    {"max_disparity": 5, "lr_tolerance": None, "p2_gradient": 2.5, "ad_truncation": 7},
+]
+
+
+@pytest.mark.parametrize("colour", [False, True])
+@pytest.mark.parametrize("case", CASES)
+def test_sgm_equals_twin(case, colour):
+    left, right = _costs_inputs(len(str(case)), colour, height=8, width=26)
+    right = np.roll(left, -3, axis=1) // 2 + right // 2  # something to match
+    params = MatchParams(method="sgm", fill=False, median=0, **case)
+    result = sgm.match_sgm(left, right, params)
+    disparity, flags = _naive_sgm(left, right, params)
+    np.testing.assert_array_equal(result.flags, flags)
+    np.testing.assert_array_equal(result.disparity, disparity)
+
+
+def test_strips_are_exact_where_one_strip_holds_the_image(monkeypatch):
+    rng = np.random.default_rng(5)
+    left = rng.integers(0, 256, (40, 50), dtype=np.uint8)
+    right = np.roll(left, -4, axis=1)
+    params = MatchParams(method="sgm", max_disparity=8, fill=False, median=0)
+    whole = sgm.match_sgm(left, right, params)
+    # a bound that makes strips of 5 rows with 32 rows of context covers this image whole
+    per_row = 50 * 16 * 2 * 3
+    monkeypatch.setattr(sgm, "VOLUME_BYTES", per_row * (5 + 2 * sgm.STRIP_MARGIN))
+    strips = sgm.match_sgm(left, right, params)
+    np.testing.assert_array_equal(strips.disparity, whole.disparity)
+    np.testing.assert_array_equal(strips.flags, whole.flags)
