@@ -24,7 +24,7 @@ import numpy as np
 
 from dcstereo.datasets import find_scenes, load_motorcycle, load_scene, middlebury_dir
 from dcstereo.evaluation import run_method
-from dcstereo.metrics import bad_pixel_rate
+from dcstereo.metrics import bad_pixel_rate, mean_abs_error
 
 V2 = ("tsukuba", "venus", "teddy", "cones")
 
@@ -41,8 +41,11 @@ def load_scenes(names=None):
     return scenes
 
 
-def score_run(scenes, method, options):
-    """bad-1.0 nonocc of the filled map per scene, and the seconds taken."""
+def score_run(scenes, method, options, extra=None):
+    """bad-1.0 nonocc of the filled map per scene, and the seconds taken.
+
+    ``extra``: a dict that receives each scene's bad-0.5 and mean absolute error (nonocc).
+    """
     scores = {}
     start = time.perf_counter()
     for scene in scenes:
@@ -55,23 +58,39 @@ def score_run(scenes, method, options):
             **options,
         )
         filled = result.filled().disparity
-        scores[scene.name] = bad_pixel_rate(
-            filled, scene.disparity, threshold=1.0, mask=scene.masks["nonocc"]
-        )
+        mask = scene.masks["nonocc"]
+        scores[scene.name] = bad_pixel_rate(filled, scene.disparity, threshold=1.0, mask=mask)
+        if extra is not None:
+            extra[scene.name] = (
+                bad_pixel_rate(filled, scene.disparity, threshold=0.5, mask=mask),
+                mean_abs_error(filled, scene.disparity, mask=mask),
+            )
     return scores, time.perf_counter() - start
 
 
-def summary(label, scores, reference=None):
-    """One line: the two group means, the wins over ``reference``, then every scene."""
+def summary(label, scores, reference=None, extra=None):
+    """One line: the two group means, the wins over ``reference``, then every scene.
+
+    With ``extra`` (from :func:`score_run`): the groups' bad-0.5 and mean error too.
+    """
     v2 = [scores[n] for n in V2 if n in scores]
     new = [v for n, v in scores.items() if n not in V2]
+    more = ""
+    if extra:
+        groups = ([n for n in extra if n in V2], [n for n in extra if n not in V2])
+        more = "".join(
+            f"  [{name} b0.5 {np.mean([extra[n][0] for n in names]):5.2f} "
+            f"mae {np.mean([extra[n][1] for n in names]):.3f}]"
+            for name, names in zip(("v2", "new"), groups, strict=True)
+            if names
+        )
     wins = ""
     if reference is not None:
         won = sum(scores[n] < reference[n] for n in scores if n not in V2)
         wins = f"  beats HH {won}/{len(new)}"
     means = f"v2 {np.mean(v2):5.2f}  new {np.mean(new):5.2f}" if v2 and new else ""
     scenes = " ".join(f"{n[:6]}={v:.1f}" for n, v in scores.items())
-    return f"{label:44s} {means}{wins}  {scenes}"
+    return f"{label:44s} {means}{wins}{more}  {scenes}"
 
 
 def main(argv=None):
@@ -80,20 +99,23 @@ def main(argv=None):
     parser.add_argument("--method", default="sgm")
     parser.add_argument("--scenes", help="comma-separated scene names (default: all)")
     parser.add_argument("--opencv", action="store_true", help="also OpenCV SGBM and MODE_HH")
+    parser.add_argument("--more", action="store_true", help="also bad-0.5 and the mean error")
     args = parser.parse_args(argv)
     scenes = load_scenes(args.scenes.split(",") if args.scenes else None)
     grid = ast.literal_eval(args.grid)
     reference = None
     if args.opencv:
         for name in ("opencv-sgbm", "opencv-hh"):
-            scores, seconds = score_run(scenes, name, {})
-            print(summary(f"{name} ({seconds:.0f} s)", scores), flush=True)
+            extra = {} if args.more else None
+            scores, seconds = score_run(scenes, name, {}, extra)
+            print(summary(f"{name} ({seconds:.0f} s)", scores, extra=extra), flush=True)
             reference = scores if name == "opencv-hh" else reference
     names = list(grid)
     for values in itertools.product(*(grid[n] for n in names)):
         options = dict(zip(names, values, strict=True))
-        scores, seconds = score_run(scenes, args.method, options)
-        print(summary(f"{options} ({seconds:.0f} s)", scores, reference), flush=True)
+        extra = {} if args.more else None
+        scores, seconds = score_run(scenes, args.method, options, extra)
+        print(summary(f"{options} ({seconds:.0f} s)", scores, reference, extra), flush=True)
     return 0
 
 

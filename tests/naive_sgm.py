@@ -33,7 +33,11 @@ def census(signal, rows, cols):
 
 
 def pixel_costs(codes_l, codes_r, colour_l, colour_r, dmin, ndisp, bit_cost, ad_max):
-    """Per-pixel costs ``(H, W, ndisp)`` in units of 1 / channels; right pixel clamped."""
+    """Per-pixel costs ``(H, W, ndisp)`` in thirds of a unit; the right pixel clamped.
+
+    A census bit costs ``bit_cost`` units, the mean absolute difference of the channels
+    one unit per gray level, truncated at ``ad_max`` units.
+    """
     height, width = codes_l.shape
     channels = colour_l.shape[0]
     out = np.zeros((height, width, ndisp), dtype=np.int64)
@@ -42,13 +46,13 @@ def pixel_costs(codes_l, codes_r, colour_l, colour_r, dmin, ndisp, bit_cost, ad_
             for k in range(ndisp):
                 xr = min(max(x - dmin - k, 0), width - 1)
                 bits = bin(int(codes_l[y, x]) ^ int(codes_r[y, xr])).count("1")
-                cost = channels * bit_cost * bits
+                cost = 3 * bit_cost * bits
                 if ad_max > 0:
                     ad = sum(
                         abs(int(colour_l[c, y, x]) - int(colour_r[c, y, xr]))
                         for c in range(channels)
                     )
-                    cost += min(ad, channels * ad_max)
+                    cost += min(ad * 3 // channels, 3 * ad_max)
                 out[y, x, k] = cost
     return out
 

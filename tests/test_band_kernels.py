@@ -821,10 +821,10 @@ def test_band_kernels_run_as_plain_python():
                           t.banded(left, right, -1, 4, 1, 900.0, five, 300.0, bt=True))
         texture = rng.integers(0, 256, (9, 24)).astype(np.uint8)
         left, right = texture[:, :-2], texture[:, 2:]
-        t.assert_same_dc(t.dc_by_rows(left, right, max_disparity=4, window=3),
-                         t.dcstereo.match(left, right, max_disparity=4, window=3))
-        t.assert_same_dc(t.dc_by_rows(left, right, max_disparity=4, window=3, cost="bt"),
-                         t.dcstereo.match(left, right, max_disparity=4, window=3, cost="bt"))
+        dc = dict(max_disparity=4, window=3, method="dc")
+        t.assert_same_dc(t.dc_by_rows(left, right, **dc), t.dcstereo.match(left, right, **dc))
+        t.assert_same_dc(t.dc_by_rows(left, right, cost="bt", **dc),
+                         t.dcstereo.match(left, right, cost="bt", **dc))
         t.assert_same(t.block_per_row(left.astype(np.int32), right.astype(np.int32), -1, 4, 1),
                       t.block_banded(left.astype(np.int32), right.astype(np.int32), -1, 4, 1))
         t.assert_same(
@@ -1484,7 +1484,7 @@ def dc_by_rows(left, right, **options):
 def dc_in_mode(mode, left, right, **options):
     """``dc`` row by row (0), on bands with the band's cost array (2) or without it (3)."""
     with mock.patch.object(api, "_dc_band_mode", lambda params, width: mode):
-        return dcstereo.match(left, right, **options)
+        return dcstereo.match(left, right, **{"method": "dc", **options})
 
 
 def assert_same_dc(expected, got):
@@ -1632,7 +1632,7 @@ def test_ser_scaled_by_a_power_of_two_is_one_division():
 def test_dc_on_bands_equals_the_row_kernel_on_middlebury(middlebury_root, scene):
     data = load_middlebury(scene, root=middlebury_root.parent)
     for options in (DC_OPTIONS[0], DC_OPTIONS[3], {"window": 7, "min_disparity": 2}):
-        kw = dict(max_disparity=data.max_disparity, **options)
+        kw = dict(max_disparity=data.max_disparity, method="dc", **options)
         expected = dc_by_rows(data.left, data.right, **kw)
         got = dcstereo.match(data.left, data.right, **kw)
         assert len(got.features) > 1000
@@ -1647,23 +1647,30 @@ def test_dc_keeps_the_band_cost_array_while_it_fits_the_caches():
     # 64 (47 MiB) are made twice instead (mode 3), or, with the left-right check, which
     # reads the array, kept all the same (2); row by row (0): the options the band search
     # does not implement
-    params = dcstereo.MatchParams(max_disparity=63)
+    params = dcstereo.MatchParams(max_disparity=63, method="dc")
     assert api._dc_band_mode(params, 450) == 2
     assert api._dc_band_mode(params, 1900) == 2
     assert api._dc_band_mode(params, 2100) == 3
-    assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=255), 3000) == 3
-    assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=255, lr_check=True), 3000) == 2
-    assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=63, lr_check=True), 450) == 2
+    assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=255, method="dc"), 3000) == 3
+    assert (
+        api._dc_band_mode(dcstereo.MatchParams(max_disparity=255, lr_check=True, method="dc"), 3000)
+        == 2
+    )
+    assert (
+        api._dc_band_mode(dcstereo.MatchParams(max_disparity=63, lr_check=True, method="dc"), 450)
+        == 2
+    )
     for options in ({"max_candidates": 5}, {"uniqueness": 0.0}, {"method": "dc-linear"}):
-        assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=63, **options), 450) == 0
+        params = dcstereo.MatchParams(max_disparity=63, **{"method": "dc", **options})
+        assert api._dc_band_mode(params, 450) == 0
     # the Birchfield-Tomasi cost needs the band's cost array: kept past the caches, row by
     # row only past the memory bound (127100 columns of 66 disparities: 512 MiB)
-    bt = dcstereo.MatchParams(max_disparity=63, cost="bt")
+    bt = dcstereo.MatchParams(max_disparity=63, cost="bt", method="dc")
     assert api._dc_band_mode(bt, 1900) == 2
     assert api._dc_band_mode(bt, 2100) == 2
     assert api._dc_band_mode(bt, 127100) == 2
     assert api._dc_band_mode(bt, 127101) == 0
-    lr = dcstereo.MatchParams(max_disparity=63, lr_check=True)
+    lr = dcstereo.MatchParams(max_disparity=63, lr_check=True, method="dc")
     assert api._dc_band_mode(lr, 127100) == 2
     assert api._dc_band_mode(lr, 127101) == 0
 
@@ -1672,7 +1679,7 @@ def test_band_cost_arrays_fit_the_memory_bound_together():
     # each running chunk makes one band cost array, so the chunks of the kernels that make
     # it are capped to the arrays BAND_ARRAY_BYTES holds (at least one); where one array
     # alone does not fit, the rows run one at a time; the maps never change
-    params = dcstereo.MatchParams(max_disparity=7, cost="bt")
+    params = dcstereo.MatchParams(max_disparity=7, cost="bt", method="dc")
     one = api._band_bytes(params, 40)
     assert one == 40 * 10 * _band_kernels.BAND_ROWS * 8
     rng = np.random.default_rng(12)
@@ -1816,7 +1823,7 @@ def test_bt_runs_on_bands_while_the_cost_array_fits():
     # block/dsi3/dsi5 with BT make the band's cost array, 66 x 64 bytes a column here:
     # 127100 columns (512.0 MiB) fit the memory bound, one more runs row by row (both give
     # the same map); past the caches (2100 columns, 8.5 MiB) the array is still made
-    params = dcstereo.MatchParams(max_disparity=63, cost="bt")
+    params = dcstereo.MatchParams(max_disparity=63, cost="bt", method="dc")
     assert api._band_bytes(params, 2100) == 2100 * 66 * 64
     assert api._band_array_fits(params, 2100)
     assert api._band_array_fits(params, 127100)
@@ -1847,7 +1854,7 @@ def test_bt_on_bands_equals_the_row_kernels_on_middlebury(middlebury_root, scene
         block_per_row(left, right, 0, ndisp, 2, bt=True),
         block_banded(left, right, 0, ndisp, 2, bt=True),
     )
-    kw = dict(max_disparity=data.max_disparity, cost="bt")
+    kw = dict(max_disparity=data.max_disparity, cost="bt", method="dc")
     expected = dc_by_rows(data.left, data.right, **kw)
     got = dcstereo.match(data.left, data.right, **kw)
     assert len(got.features) > 1000

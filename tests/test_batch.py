@@ -349,7 +349,7 @@ def test_a_damaged_output_is_redone_not_counted_complete(pairs_dir, tmp_path):
 
 def test_resume_refusal_names_only_the_options_that_differ(pairs_dir, tmp_path):
     pairs = find_pairs(pairs_dir)[:1]
-    assert run_batch(pairs, tmp_path, max_disparity=MAX_DISPARITY).ok
+    assert run_batch(pairs, tmp_path, max_disparity=MAX_DISPARITY, method="dc").ok
     with pytest.raises(ValueError) as refused:
         run_batch(pairs, tmp_path, max_disparity=12, method="block")
     assert str(refused.value) == (
@@ -727,21 +727,24 @@ def test_median_is_a_recorded_option_that_older_folders_lack(pairs_dir, tmp_path
 
     pairs = find_pairs(pairs_dir)[:2]
     out = tmp_path / "out"
-    run_batch(pairs, out, max_disparity=MAX_DISPARITY)
+    run_batch(pairs, out, max_disparity=MAX_DISPARITY, method="dc")
     recorded = json.loads((out / "batch.json").read_text())
     assert recorded["median"] == 0
-    del recorded["median"], recorded["subpixel"]  # as written before both options
+    # as written before median, subpixel and the options of sgm
+    for name in ("median", "subpixel", "census_window", "p1", "p2", "paths", "lr_tolerance"):
+        del recorded[name]
     (out / "batch.json").write_text(json.dumps(recorded))
-    assert run_batch(pairs, out, max_disparity=MAX_DISPARITY).skipped == [p.name for p in pairs]
+    skipped = run_batch(pairs, out, max_disparity=MAX_DISPARITY, method="dc").skipped
+    assert skipped == [p.name for p in pairs]
     with pytest.raises(ValueError, match=r"other options: median 0 \(now 5\)"):
-        run_batch(pairs, out, max_disparity=MAX_DISPARITY, median=5)
+        run_batch(pairs, out, max_disparity=MAX_DISPARITY, median=5, method="dc")
     filtered = tmp_path / "filtered"
     args = ["batch", str(pairs_dir), "-o", str(filtered), "--max-disparity", str(MAX_DISPARITY)]
-    result = CliRunner().invoke(main, [*args, "--median", "5", "-q"])
+    result = CliRunner().invoke(main, [*args, "--median", "5", "--method", "dc", "-q"])
     assert result.exit_code == 0, result.output
     for pair in pairs:
         expected = match(io.read_image(pair.left), io.read_image(pair.right),
-                         max_disparity=MAX_DISPARITY, median=5)  # fmt: skip
+                         max_disparity=MAX_DISPARITY, median=5, method="dc")  # fmt: skip
         np.testing.assert_array_equal(
             io.read_pfm(output_path(filtered, pair)), np.nan_to_num(expected.disparity, nan=np.inf)
         )

@@ -31,6 +31,8 @@ def test_run_writes_every_output(pair):
         "--features-out",
         folder / "features.csv",
         "--draw-features",
+        "--method",
+        "dc",
     )
     assert result.exit_code == 0, result.output
     assert "dc: 64x24" in result.output
@@ -352,7 +354,7 @@ def test_method_options_change_the_features(pair):
         csv = folder / f"{name}.csv"
         result = invoke(
             "run", folder / "left.png", folder / "noisy.png", "-o", folder / f"{name}.pfm",
-            "--max-disparity", 10, "--features-out", csv, *flags, "-q",
+            "--max-disparity", 10, "--features-out", csv, "--method", "dc", *flags, "-q",
         )  # fmt: skip
         assert result.exit_code == 0, result.output
         return io.read_features_csv(csv)
@@ -416,7 +418,7 @@ def test_batch_and_video_take_the_method_options(pair, tmp_path):
     source = folder / "list.csv"
     source.write_text("left.png,right.png,one\n")
     out = tmp_path / "batch-out"
-    base = ["batch", source, "-o", out, "--max-disparity", 10, "-q"]
+    base = ["batch", source, "-o", out, "--max-disparity", 10, "--method", "dc", "-q"]
     result = invoke(*base, "--ser-min", "7", "--lr-check")
     assert result.exit_code == 0, result.output
     recorded = json.loads((out / "batch.json").read_text())
@@ -425,7 +427,7 @@ def test_batch_and_video_take_the_method_options(pair, tmp_path):
     assert refused.exit_code == 1
     assert "ser_min 7.0 (now 8.0)" in refused.output
     result = CliRunner().invoke(
-        main, [str(a) for a in [*base[:-1], "--method", "dsi3", "--ser-min", "8"]]
+        main, [str(a) for a in [*base[:-3], "--method", "dsi3", "--ser-min", "8"]]
     )
     assert result.exit_code == 1
     assert "--ser-min is read only by dc, dc-linear, not by dsi3" in result.output
@@ -436,10 +438,10 @@ def test_batch_and_video_take_the_method_options(pair, tmp_path):
         (side / "f0.png").write_bytes((folder / name).read_bytes())
     out = tmp_path / "video-out"
     video = ["video", *frames, "-o", out, "--max-disparity", 10, "-q"]
-    result = invoke(*video, "--vs-max", "0.05", "--edge-guard", "0")
+    result = invoke(*video, "--method", "dc", "--vs-max", "0.05", "--edge-guard", "0")
     assert result.exit_code == 0, result.output
     left, right = io.read_image(folder / "left.png"), io.read_image(folder / "right.png")
-    direct = dcstereo.match(left, right, max_disparity=10, vs_max=0.05, edge_guard=0)
+    direct = dcstereo.match(left, right, max_disparity=10, method="dc", vs_max=0.05, edge_guard=0)
     written = io.read_disparity(next(out.glob("*.pfm")))
     np.testing.assert_array_equal(np.isfinite(written), np.isfinite(direct.disparity))
     np.testing.assert_array_equal(

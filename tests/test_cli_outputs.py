@@ -43,6 +43,7 @@ def assert_one_line_error(result, code, message):
 
 
 PAIR = ["left.png", "right.png", "--max-disparity", 10]
+PAIR_DC = [*PAIR, "--method", "dc"]  # feature outputs need a method with features
 
 
 @pytest.mark.parametrize(
@@ -92,7 +93,7 @@ def test_run_leaves_no_partial_outputs_when_a_later_write_fails(folder, monkeypa
     result = invoke(
         folder,
         "run",
-        *PAIR,
+        *PAIR_DC,
         "-o",
         "part.pfm",
         "--preview",
@@ -117,7 +118,7 @@ def test_run_puts_the_outputs_back_when_a_move_fails_partway(
     refuse_move(failing)
     before = snapshot(folder)
     result = invoke(
-        folder, "run", *PAIR, "-o", "part.pfm", "--preview", "part.png",
+        folder, "run", *PAIR_DC, "-o", "part.pfm", "--preview", "part.png",
         "--features-out", "part.csv",
     )  # fmt: skip
     assert_one_line_error(result, 1, f"cannot write '{failing}': permission denied")
@@ -128,7 +129,7 @@ def test_run_leaves_no_partial_outputs_when_a_temporary_file_cannot_be_made(fold
     # a 255-character name is valid, its hidden temporary sibling is too long
     long_name = "f" * 251 + ".csv"
     before = snapshot(folder)
-    result = invoke(folder, "run", *PAIR, "-o", "part.pfm", "--features-out", long_name)
+    result = invoke(folder, "run", *PAIR_DC, "-o", "part.pfm", "--features-out", long_name)
     assert_one_line_error(result, 1, f"cannot write '{long_name}'")
     assert snapshot(folder) == before
 

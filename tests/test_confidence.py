@@ -123,9 +123,9 @@ def test_run_confidence_out(pair):
     # after --subpixel: the confidence of the refined map
     result = invoke("run", folder / "left.png", folder / "right.png", "-o", folder / "d2.pfm",
                     "--max-disparity", 10, "--subpixel", "equiangular", "--confidence-out",
-                    folder / "c2.pfm", "-q")  # fmt: skip
+                    folder / "c2.pfm", "--method", "dc", "-q")  # fmt: skip
     assert result.exit_code == 0, result.output
-    refined = refine_subpixel(match(left, right, max_disparity=10), left, right)
+    refined = refine_subpixel(match(left, right, max_disparity=10, method="dc"), left, right)
     np.testing.assert_array_equal(
         io.read_pfm(folder / "c2.pfm"), np.nan_to_num(confidence(refined, left, right), nan=np.inf)
     )
@@ -184,3 +184,35 @@ def test_run_ply_min_confidence(pair):
     ):  # fmt: skip
         result = invoke(*args, *extra)
         assert result.exit_code == 1 and message in result.output, result.output
+
+
+def test_sgm_confidence_is_the_margin_of_its_aggregated_costs(pair):
+    # the twin: the totals of the naive aggregation, the margin over the least rival two or
+    # more disparities away, NaN where filled
+    import naive_sgm
+
+    from dcstereo import sgm
+    from dcstereo.signal import padded_signal
+
+    folder, _ = pair
+    left, right = io.read_image(folder / "left.png"), io.read_image(folder / "right.png")
+    left, right = left[:10, :40], right[:10, :40]
+    result = match(left, right, max_disparity=6)
+    sure = confidence(result, left, right)
+    params = result.params
+    codes = [naive_sgm.census(padded_signal(v, 0), 5, 5) for v in (left, right)]
+    colours = sgm.colour_channels(left, right)
+    costs = naive_sgm.box_mean(
+        naive_sgm.pixel_costs(*codes, *colours, 0, 7, sgm.census_bit_cost((5, 5)), 20), 3
+    )
+    table = sgm.UNITS * sgm.p2_table(params)
+    sums = naive_sgm.aggregate(costs, padded_signal(left, 0), sgm.UNITS * params.p1, table, 8)
+    filled = (result.flags & FLAG_FILLED) != 0
+    for y, x in zip(*np.nonzero(~filled), strict=True):
+        k = int(np.argmin(sums[y, x]))
+        rivals = [sums[y, x, j] for j in range(7) if abs(j - k) >= 2]
+        rival = min(rivals)
+        expected = np.float32((rival - sums[y, x, k]) / rival)
+        assert sure[y, x] == expected, (y, x)
+    assert np.isnan(sure[filled]).all()
+    assert np.nanmin(sure) >= 0 and np.nanmax(sure) <= 1

@@ -187,7 +187,7 @@ def test_block_match_is_computed_once_per_pixel():
 def test_features_carry_the_ser_and_vs_of_eq_2_and_3(seed):
     rng = np.random.default_rng(300 + seed)
     left, right, _ = synthetic.slanted_pair(rng, 12, 60, 3, 0.1)
-    result = dcstereo.match(left, right, max_disparity=8, window=5, **PAPER_TESTS_ONLY)
+    result = dcstereo.match(left, right, max_disparity=8, window=5, method="dc", **PAPER_TESTS_ONLY)
     assert len(result.features) > 0
     for row, x, j, ser, vs in result.features:
         var_l, var_r, ssd = naive_pair_statistics(left, right, int(row), int(x), int(j), 5)
@@ -244,7 +244,11 @@ def test_feature_search_agrees_with_the_naive_twin(options):
     radius = 2
     for left, right, max_disparity, min_disparity in search_pairs_for_comparison():
         params = MatchParams(
-            max_disparity=max_disparity, min_disparity=min_disparity, window=5, **options
+            max_disparity=max_disparity,
+            min_disparity=min_disparity,
+            window=5,
+            method="dc",
+            **options,
         )
         result = dcstereo.match(
             left,
@@ -252,6 +256,7 @@ def test_feature_search_agrees_with_the_naive_twin(options):
             max_disparity=max_disparity,
             min_disparity=min_disparity,
             window=5,
+            method="dc",
             **options,
         )
         left_p = np.pad(matching_signal(left), radius, mode="edge")
@@ -310,9 +315,9 @@ def test_up_front_tests_give_the_pairs_of_the_per_interval_search(middlebury_roo
     for scene in ("tsukuba", "cones"):
         data = load_middlebury(scene, root=middlebury_root.parent)
         left, right = data.left[100:140], data.right[100:140]
-        up_front = dcstereo.match(left, right, max_disparity=data.max_disparity)
+        up_front = dcstereo.match(left, right, max_disparity=data.max_disparity, method="dc")
         per_interval = dcstereo.match(
-            left, right, max_disparity=data.max_disparity, max_candidates=10**6
+            left, right, max_disparity=data.max_disparity, max_candidates=10**6, method="dc"
         )
         assert len(up_front.features) > 500
         np.testing.assert_array_equal(up_front.features, per_interval.features)
@@ -369,7 +374,7 @@ def test_dc_without_any_feature_is_dsi5(seed, slant_cost):
     rng = np.random.default_rng(400 + seed)
     left, right, _ = synthetic.object_pair(rng, 12, 50, 2, 6, (18, 32))
     nothing = {"feature_floor": 1e12}
-    dc = dcstereo.match(left, right, max_disparity=8, slant_cost=slant_cost, **nothing)
+    dc = dcstereo.match(left, right, max_disparity=8, method="dc", slant_cost=slant_cost, **nothing)
     same_slant = DEFAULT_DC_SLANT_COST if slant_cost is None else slant_cost
     dsi5 = dcstereo.match(left, right, max_disparity=8, method="dsi5", slant_cost=same_slant)
     assert len(dc.features) == 0
@@ -385,7 +390,7 @@ def test_dc_without_any_feature_is_dsi5(seed, slant_cost):
 def test_on_a_textured_constant_disparity_pair_every_feature_is_correct(seed, disparity):
     rng = np.random.default_rng(500 + seed)
     left, right = synthetic.constant_pair(rng, 16, 80, disparity)
-    result = dcstereo.match(left, right, max_disparity=12)
+    result = dcstereo.match(left, right, max_disparity=12, method="dc")
     features = result.features
     assert len(features) > 16 * 20  # dense: the texture is everywhere
     np.testing.assert_array_equal(features[:, 1] - features[:, 2], disparity)
@@ -395,7 +400,7 @@ def test_on_a_textured_constant_disparity_pair_every_feature_is_correct(seed, di
 def test_on_an_object_over_a_textured_background_every_feature_is_correct(seed):
     rng = np.random.default_rng(600 + seed)
     left, right, truth = synthetic.object_pair(rng, 16, 90, 3, 9, (35, 60))
-    result = dcstereo.match(left, right, max_disparity=12)
+    result = dcstereo.match(left, right, max_disparity=12, method="dc")
     expected = feature_truth(result, truth)
     assert np.isfinite(expected).all()
     np.testing.assert_array_equal(result.features[:, 1] - result.features[:, 2], expected)
@@ -406,11 +411,11 @@ def test_the_guard_removes_the_pairs_that_fatten_a_foreground_strip():
     # and VS alone accept them at the strip's disparity (and pin occluded pixels).
     rng = np.random.default_rng(700)
     left, right, truth = flat_background_pair(rng, 12, 80, 2, 8, (30, 50))
-    paper = dcstereo.match(left, right, max_disparity=12, **PAPER_TESTS_ONLY)
+    paper = dcstereo.match(left, right, max_disparity=12, method="dc", **PAPER_TESTS_ONLY)
     paper_truth = feature_truth(paper, truth)
     paper_d = paper.features[:, 1] - paper.features[:, 2]
     assert not np.all(paper_d == paper_truth)  # wrong or occluded pairs were accepted
-    guarded = dcstereo.match(left, right, max_disparity=12)
+    guarded = dcstereo.match(left, right, max_disparity=12, method="dc")
     guarded_truth = feature_truth(guarded, truth)
     assert len(guarded.features) > 0
     np.testing.assert_array_equal(guarded.features[:, 1] - guarded.features[:, 2], guarded_truth)
@@ -420,7 +425,7 @@ def test_the_guard_removes_the_pairs_that_fatten_a_foreground_strip():
 
 
 def test_slant_cost_default_is_the_methods_own():
-    assert MatchParams(max_disparity=4).effective_slant_cost == DEFAULT_DC_SLANT_COST
+    assert MatchParams(max_disparity=4, method="dc").effective_slant_cost == DEFAULT_DC_SLANT_COST
     assert MatchParams(max_disparity=4, method="dc-linear").effective_slant_cost == (
         DEFAULT_DC_SLANT_COST
     )
@@ -434,10 +439,10 @@ def test_slant_cost_default_is_the_methods_own():
 
 
 def test_edge_guard_default_follows_the_window():
-    assert MatchParams(max_disparity=4).effective_edge_guard == 3
-    assert MatchParams(max_disparity=4, window=9).effective_edge_guard == 5
-    assert MatchParams(max_disparity=4, edge_guard=0).effective_edge_guard == 0
-    assert MatchParams(max_disparity=4, edge_guard=2.0).edge_guard == 2
+    assert MatchParams(max_disparity=4, method="dc").effective_edge_guard == 3
+    assert MatchParams(max_disparity=4, window=9, method="dc").effective_edge_guard == 5
+    assert MatchParams(max_disparity=4, edge_guard=0, method="dc").effective_edge_guard == 0
+    assert MatchParams(max_disparity=4, edge_guard=2.0, method="dc").edge_guard == 2
 
 
 @pytest.mark.parametrize(
@@ -453,7 +458,7 @@ def test_edge_guard_default_follows_the_window():
 )
 def test_bad_dc_parameters_are_named(options, error, words):
     with pytest.raises(error, match=words):
-        MatchParams(max_disparity=4, **options)
+        MatchParams(max_disparity=4, method="dc", **options)
 
 
 # --------------------------------------------------------------------------- Middlebury
@@ -464,7 +469,9 @@ def test_bad_dc_parameters_are_named(options, error, words):
 @pytest.mark.parametrize(("scene", "limit"), sorted(MIDDLEBURY_TARGETS.items()))
 def test_dc_reaches_the_middlebury_dp_entry(middlebury_root, scene, limit):
     data = load_middlebury(scene, root=middlebury_root.parent)
-    result = dcstereo.match(data.left, data.right, max_disparity=data.max_disparity, fill=True)
+    result = dcstereo.match(
+        data.left, data.right, max_disparity=data.max_disparity, fill=True, method="dc"
+    )
     bad = bad_pixel_rate(result.disparity, data.disparity, mask=data.masks["nonocc"])
     assert bad <= limit, f"{scene}: bad-1.0 nonocc {bad:.2f}% > {limit}%"
 

@@ -68,7 +68,7 @@ def test_score_rejects_other_sizes():
 def test_every_method_is_available_and_parsed():
     names = available_methods(include_opencv=False)
     assert names == list(METHODS)
-    assert available_methods(include_opencv=True)[-2:] == ["opencv-sgbm", "opencv-bm"]
+    assert available_methods(include_opencv=True)[-3:] == ["opencv-sgbm", "opencv-hh", "opencv-bm"]
     assert parse_methods("dsi5, dc") == ["dsi5", "dc"]
     assert parse_methods(None) == available_methods()
     with pytest.raises(ValueError, match="unknown method 'nope'"):
@@ -130,7 +130,7 @@ def test_bench_match_options_reach_dcstereos_methods_only():
     scene = toy_scene()
     options = {"subpixel": "parabola", "occlusion_cost": 12.0}
     rows = bench([scene], ["dc", "opencv-sgbm"], match_options=options, keep_results=True)
-    ours = dcstereo.match(scene.left, scene.right, max_disparity=10, **options)
+    ours = dcstereo.match(scene.left, scene.right, max_disparity=10, method="dc", **options)
     np.testing.assert_array_equal(rows[0]["result"].disparity, ours.disparity)
     assert rows[0]["result"].params.subpixel == "parabola"
     d = rows[0]["result"].disparity

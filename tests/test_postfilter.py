@@ -135,14 +135,15 @@ def test_a_spike_and_a_streak_go():
 def test_match_filters_after_subpixel_and_before_filling(pair):
     folder, _ = pair
     left, right = io.read_image(folder / "left.png"), io.read_image(folder / "right.png")
-    plain = match(left, right, max_disparity=10, subpixel="parabola")
-    inside = match(left, right, max_disparity=10, subpixel="parabola", median=5)
+    dc = {"max_disparity": 10, "method": "dc"}
+    plain = match(left, right, subpixel="parabola", **dc)
+    inside = match(left, right, subpixel="parabola", median=5, **dc)
     np.testing.assert_array_equal(inside.disparity, median_filter(plain, 5).disparity)
     assert inside.params.median == 5 and plain.params.median == 0
-    filled = match(left, right, max_disparity=10, subpixel="parabola", median=5, fill=True)
+    filled = match(left, right, subpixel="parabola", median=5, fill=True, **dc)
     np.testing.assert_array_equal(filled.disparity, median_filter(plain, 5).filled().disparity)
     # the reliable pairs keep their disparities: the path still passes through them
-    whole = match(left, right, max_disparity=10, median=5)
+    whole = match(left, right, median=5, **dc)
     rows, xl, xr = (whole.features[:, i].astype(int) for i in range(3))
     assert len(rows) > 20
     np.testing.assert_array_equal(whole.disparity[rows, xl], xl - xr)
@@ -167,7 +168,7 @@ def test_errors():
         message = f"median must be 0 \\(off\\) or an odd integer from 3 to {MAX_MEDIAN}, got {bad}"
         with pytest.raises(ValueError, match=message):
             MatchParams(max_disparity=4, median=bad)
-    for bad in (True, 2.5, "5", None):
+    for bad in (True, 2.5, "5"):  # None: the method's default
         with pytest.raises(TypeError, match="median must be an integer"):
             MatchParams(max_disparity=4, median=bad)
     assert MatchParams(max_disparity=4, median=np.int64(3)).median == 3

@@ -124,8 +124,7 @@ def test_cost_volume_equals_twin(colour, dmin, dmax, box):
     )
     pad, after = max(0, dmax), max(0, -dmin)
     lanes = -(-ndisp // LANES) * LANES
-    channels = colour_l.shape[0]
-    largest = channels * sgm.largest_pixel_cost(params)
+    largest = sgm.UNITS * sgm.largest_pixel_cost(params)
     reciprocal = census_kernels.box_reciprocal(box, largest * box * box)
     for begin, rows in ((0, height), (2, 3)):  # the whole image, and a strip of it
         out = np.empty((rows, width, lanes), np.int16)
@@ -159,19 +158,15 @@ def _naive_sgm(left, right, params):
     codes_l = naive_sgm.census(padded_signal(left, 0), rows, cols)
     codes_r = naive_sgm.census(padded_signal(right, 0), rows, cols)
     colour_l, colour_r = sgm.colour_channels(left, right)
-    channels = colour_l.shape[0]
     ad_max = params.ad_truncation if params.cost == "census-ad" else 0
-    if params.cost == "census":
-        channels = 1
-        colour_l, colour_r = colour_l[:1], colour_r[:1]
     costs = naive_sgm.pixel_costs(
         codes_l, codes_r, colour_l, colour_r, params.min_disparity, params.num_disparities,
         sgm.census_bit_cost(params.census_window), ad_max,
     )  # fmt: skip
     costs = naive_sgm.box_mean(costs, params.window)
-    table = channels * sgm.p2_table(params)
+    table = sgm.UNITS * sgm.p2_table(params)
     sums = naive_sgm.aggregate(
-        costs, padded_signal(left, 0), channels * params.p1, table, params.paths
+        costs, padded_signal(left, 0), sgm.UNITS * params.p1, table, params.paths
     )
     return naive_sgm.choose(sums, params.min_disparity, params.lr_tolerance, params.subpixel)
 

@@ -131,7 +131,7 @@ def test_a_fractional_shift_is_recovered(true):
 def test_what_is_left_alone(pair):
     folder, _ = pair
     left, right = io.read_image(folder / "left.png"), io.read_image(folder / "right.png")
-    result = match(left, right, max_disparity=10, fill=True)
+    result = match(left, right, max_disparity=10, fill=True, method="dc")
     refined = refine_subpixel(result, left, right)
     d, r = result.disparity, refined.disparity
     keep = ((result.flags & FLAG_FILLED) != 0) | (d == 0) | (d == 10) | (np.floor(d) != d)
@@ -144,7 +144,7 @@ def test_what_is_left_alone(pair):
 def test_errors(pair):
     folder, _ = pair
     left, right = io.read_image(folder / "left.png"), io.read_image(folder / "right.png")
-    result = match(left, right, max_disparity=10)
+    result = match(left, right, max_disparity=10, method="dc")
     with pytest.raises(ValueError, match="fit must be one of equiangular, parabola, got 'cubic'"):
         refine_subpixel(result, left, right, fit="cubic")
     with pytest.raises(TypeError, match="result must be a DisparityResult, got ndarray"):
@@ -161,9 +161,10 @@ def test_run_subpixel(pair):
     for fit in ("equiangular", "parabola"):
         out = folder / f"d-{fit}.pfm"
         result = invoke("run", folder / "left.png", folder / "right.png", "-o", out,
-                        "--max-disparity", 10, "--subpixel", fit, "-q")  # fmt: skip
+                        "--max-disparity", 10, "--subpixel", fit, "--method", "dc", "-q")  # fmt: skip
         assert result.exit_code == 0, result.output
-        expected = refine_subpixel(match(left, right, max_disparity=10), left, right, fit=fit)
+        plain = match(left, right, max_disparity=10, method="dc")
+        expected = refine_subpixel(plain, left, right, fit=fit)
         np.testing.assert_array_equal(
             io.read_pfm(out), np.nan_to_num(expected.disparity, nan=np.inf)
         )
@@ -176,13 +177,25 @@ def test_run_subpixel(pair):
 def test_match_refines_before_filling(pair, fit):
     folder, _ = pair
     left, right = io.read_image(folder / "left.png"), io.read_image(folder / "right.png")
-    plain = match(left, right, max_disparity=10)
+    plain = match(left, right, max_disparity=10, method="dc")
     refined = refine_subpixel(plain, left, right, fit=fit)
-    inside = match(left, right, max_disparity=10, subpixel=fit)
+    inside = match(left, right, max_disparity=10, subpixel=fit, method="dc")
     np.testing.assert_array_equal(inside.disparity, refined.disparity)
     assert inside.params.subpixel == fit and plain.params.subpixel is None
-    filled = match(left, right, max_disparity=10, subpixel=fit, fill=True)
+    filled = match(left, right, max_disparity=10, subpixel=fit, fill=True, method="dc")
     np.testing.assert_array_equal(filled.disparity, refined.filled().disparity)
     np.testing.assert_array_equal(filled.flags, refined.filled().flags)
     with pytest.raises(ValueError, match="subpixel must be None or one of equiangular, parabola"):
         match(left, right, max_disparity=10, subpixel="linear")
+
+
+def test_sgm_fits_its_own_costs_and_refine_refuses_its_results(pair):
+    folder, _ = pair
+    left, right = io.read_image(folder / "left.png"), io.read_image(folder / "right.png")
+    plain = match(left, right, max_disparity=10)
+    with pytest.raises(ValueError, match="sgm fits its own aggregated costs"):
+        refine_subpixel(plain, left, right, fit="parabola")
+    refined = match(left, right, max_disparity=10, subpixel="parabola")
+    d = refined.disparity
+    assert np.any(d != np.floor(d))  # fractions: the fit through the aggregated costs
+    assert np.nanmax(np.abs(d - plain.disparity)) <= 2  # the median may move a pixel's value

@@ -31,6 +31,7 @@ from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
 from . import geometry, io
+from . import params as _params
 from ._checks import is_integer, is_number
 from .api import match
 from .confidence import confidence as confidence_map
@@ -54,7 +55,18 @@ DEPTH_FORMATS = ("pfm", "png")
 #: A pair folder's calibration file (Middlebury 2014's name and format).
 CALIB_NAME = "calib.txt"
 #: What outputs were made with when their ``batch.json`` predates an option.
-ASSUMED_OPTIONS = {"subpixel": None, "median": 0}
+ASSUMED_OPTIONS = {
+    "subpixel": None,
+    "median": 0,
+    # the options of sgm (folders made before it by methods that do not read them)
+    "census_window": list(_params.DEFAULT_CENSUS_WINDOW),
+    "ad_truncation": _params.DEFAULT_AD_TRUNCATION,
+    "p1": _params.DEFAULT_P1,
+    "p2": _params.DEFAULT_P2,
+    "p2_gradient": _params.DEFAULT_P2_GRADIENT,
+    "paths": _params.DEFAULT_PATHS,
+    "lr_tolerance": _params.DEFAULT_LR_TOLERANCE,
+}
 #: Longest pair name, in bytes of UTF-8: the temporary name of its output
 #: (:data:`dcstereo.io.TEMPORARY_NAME_EXTRA` more than ``<name>.pfm``) must fit the 255
 #: bytes file systems allow a name.

@@ -12,6 +12,10 @@ a few pixels off fits as well (no texture, a repeated pattern); the DP or the fe
 chose between them. Below 0: the data prefer a rival and the path's smoothness and
 occlusion costs overruled them. It is the run's own evidence, so it can rank the pixels
 (keep the surest), not say which are wrong.
+
+``sgm`` results take the same margin of ``sgm``'s own aggregated costs (the costs that chose
+the disparity: :func:`dcstereo.sgm.sgm_confidence`, in ``[0, 1]``), at the disparity the
+winner-take-all chose.
 """
 
 import numpy as np
@@ -41,6 +45,12 @@ def confidence(result: DisparityResult, left, right) -> np.ndarray:
     left, right = check_result_pair(result, left, right)
     d = result.disparity
     params = result.params  # MatchParams, or an OpenCV baseline's (no cost: SAD)
+    if params.method == "sgm":
+        from .sgm import sgm_confidence
+
+        out = sgm_confidence(left, right, params)
+        out[np.isnan(d) | ((result.flags & FLAG_FILLED) != 0)] = np.nan
+        return out
     radius = params.window // 2
     wanted = np.isfinite(d) & ((result.flags & FLAG_FILLED) == 0)
     out = np.full(d.shape, np.nan, dtype=np.float32)

@@ -28,7 +28,6 @@ from .result import (
     FLAG_OCCLUDED,
     DisparityResult,
     check_result_pair,
-    fill_occlusions,
 )
 
 
@@ -65,17 +64,16 @@ def fill_inconsistent(result: DisparityResult, left: np.ndarray) -> DisparityRes
     from .sgm import colour_channels
 
     check_result_pair(result, left, left)
+    return fill_with_colour(result, colour_channels(left, left)[0])
+
+
+def fill_with_colour(result: DisparityResult, colour: np.ndarray) -> DisparityResult:
+    """:func:`fill_inconsistent` with the left image's channels given: ``(C, H, W)`` int16."""
     disparity = result.disparity
-    missing = np.isnan(disparity)
-    background, _ = fill_occlusions(disparity)
-    mismatched = missing & ((result.flags & FLAG_MISMATCH) != 0)
-    colour, _ = colour_channels(left, left)
-    nearest = np.empty_like(disparity)
-    _kernels.nearest_similar(disparity, mismatched, colour, nearest)
-    out = np.where(mismatched & np.isfinite(nearest), nearest, background)
-    out = np.where(missing, out, disparity).astype(np.float32)
-    filled = missing & np.isfinite(out)
-    flags = result.flags | np.where(filled, FLAG_FILLED, 0).astype(np.uint8)
+    out = np.empty_like(disparity)
+    _kernels.fill_rows(disparity, (result.flags & FLAG_MISMATCH) != 0, colour, out)
+    filled = np.isnan(disparity) & np.isfinite(out)
+    flags = result.flags | (filled.view(np.uint8) * np.uint8(FLAG_FILLED))
     return replace(result, disparity=out, flags=flags)
 
 

@@ -315,6 +315,11 @@ def scanline(
     from .evaluation import run_method
 
     _check_methods(methods)
+    if "sgm" in methods:
+        raise ValueError(
+            "sgm has no scanline path to draw (its costs are aggregated across the rows); "
+            "choose scanline methods"
+        )
     check_method_options(options, methods)
     dsi = dsi_row(
         left,

@@ -53,6 +53,11 @@ METHOD_COSTS = {
 }
 _SCANLINE_COSTS = ("sad", "bt")
 
+
+def costs_of(method: str) -> tuple[str, ...]:
+    """The costs (``cost=``) that ``method`` takes."""
+    return METHOD_COSTS.get(base_method(method), _SCANLINE_COSTS)
+
 #: Method defaults of the options whose default depends on the method (``None`` given or
 #: left out: the method's value). ``sgm`` returns a filled, median-filtered map; the
 #: scanline methods of the paper the raw one.
@@ -392,7 +397,7 @@ class MatchParams:
             raise ValueError(f"occlusion_cost must be positive, got {cost}")
         if self.cost not in COSTS:
             raise ValueError(f"unknown cost {self.cost!r}; choose one of {', '.join(COSTS)}")
-        accepted = METHOD_COSTS.get(self.method, _SCANLINE_COSTS)
+        accepted = costs_of(self.method)
         if self.cost not in accepted:
             raise ValueError(
                 f"cost={self.cost!r} is not supported by {self.method} "

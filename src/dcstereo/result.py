@@ -104,6 +104,19 @@ class DisparityResult:
         rows, cols = np.nonzero(keep)
         return np.stack([rows, cols, cols - d[rows, cols].astype(np.int64)], axis=1)
 
+    def unfilled(self) -> "DisparityResult":
+        """Return a copy without the filled values: NaN where :data:`FLAG_FILLED` is set.
+
+        The estimates the method made itself (the reasons of the others stay in the flags,
+        and :data:`FLAG_FILLED` goes).
+        """
+        filled = (self.flags & FLAG_FILLED) != 0
+        if not filled.any():
+            return self
+        disparity = np.where(filled, np.float32(np.nan), self.disparity).astype(np.float32)
+        flags = (self.flags & ~np.uint8(FLAG_FILLED)).astype(np.uint8)
+        return replace(self, disparity=disparity, flags=flags)
+
     def filled(self) -> "DisparityResult":
         """Return a copy with every pixel that has no estimate filled (see fill_occlusions)."""
         disparity, was_filled = fill_occlusions(self.disparity)

@@ -31,7 +31,7 @@ context above and below; paths then start at the strip's edge, so such a result 
 
 import numpy as np
 
-from .consistency import fill_inconsistent
+from .consistency import fill_with_colour
 from .kernels import census as census_kernels
 from .kernels import sgm as sgm_kernels
 from .kernels.sgm_simd import HIGH, LANES
@@ -46,6 +46,10 @@ VOLUME_BYTES = 768 * 2**20
 
 #: Rows of context above and below each strip of a large image.
 STRIP_MARGIN = 32
+
+#: The kernels' costs per cost unit: thirds, so that the sum of three channels' absolute
+#: differences is their mean, exactly (``kernels.census.pixel_cost_row``).
+UNITS = 3
 
 #: The census term's largest value: a census of ``n`` bits costs ``round(CENSUS_SPAN / n)``
 #: a differing bit, so the term spans about the same range for every window.
@@ -71,15 +75,15 @@ def largest_pixel_cost(params: MatchParams) -> int:
     return census_bit_cost(params.census_window) * (rows * cols - 1) + int(ad)
 
 
-def check_sgm_bounds(params: MatchParams, channels: int = 3) -> None:
+def check_sgm_bounds(params: MatchParams) -> None:
     """Raise ``ValueError`` when the costs and penalties could pass the kernels' 16 bits.
 
-    The kernels count in units of ``1 / channels`` (``pixel_cost_row``).
+    The kernels count in :data:`UNITS` per cost unit (``pixel_cost_row``).
     """
     largest = largest_pixel_cost(params)
-    census_kernels.box_reciprocal(params.window, channels * largest * params.window**2)
-    if params.paths * channels * (largest + params.p2) >= HIGH:
-        most = HIGH // (params.paths * channels) - largest - 1
+    census_kernels.box_reciprocal(params.window, UNITS * largest * params.window**2)
+    if params.paths * UNITS * (largest + params.p2) >= HIGH:
+        most = HIGH // (params.paths * UNITS) - largest - 1
         raise ValueError(
             f"p2={params.p2} is too large for {params.paths} paths of costs up to {largest}: "
             f"the sums must fit 16 bits (p2 at most {most})"
@@ -96,7 +100,7 @@ def colour_channels(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np
     def scaled(image):
         image = np.asarray(image)
         if image.dtype == np.uint8:
-            return image.astype(np.float64)
+            return image
         if image.dtype == np.uint16:
             return image.astype(np.float64) / 257.0
         return image.astype(np.float64) * 255.0
@@ -108,7 +112,9 @@ def colour_channels(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np
             channels = np.moveaxis(scaled(image[:, :, :3]), 2, 0)
         else:
             channels = padded_signal(image, 0)[np.newaxis] / float(SIGNAL_STEPS)
-        out.append(np.ascontiguousarray(np.clip(np.rint(channels), 0, 255).astype(np.int16)))
+        if channels.dtype != np.uint8:
+            channels = np.clip(np.rint(channels), 0, 255)
+        out.append(np.ascontiguousarray(channels, dtype=np.int16))
     return out[0], out[1]
 
 
@@ -143,6 +149,21 @@ def _census(image: np.ndarray, rows: int, cols: int, out: np.ndarray) -> None:
 
 def match_sgm(left: np.ndarray, right: np.ndarray, params: MatchParams) -> DisparityResult:
     """Run the ``sgm`` pipeline up to the fill (the median is :func:`dcstereo.match`'s)."""
+    return _run(left, right, params, False)[0]
+
+
+def sgm_confidence(left: np.ndarray, right: np.ndarray, params: MatchParams) -> np.ndarray:
+    """The confidence of each pixel's ``sgm`` choice: its margin over the best rival.
+
+    ``(rival - best) / rival`` of the aggregated costs, ``rival`` the least of the
+    disparities two or more pixels from the chosen one: in ``[0, 1]``, near 0 where another
+    disparity is about as good. The run is made again with ``params`` (the same choices).
+    """
+    return _run(left, right, params, True)[1]
+
+
+def _run(left, right, params, want_confidence):
+    """The pipeline; returns the result (filled when ``params.fill``) and the confidence."""
     height, width = left.shape[:2]
     dmin, ndisp = params.min_disparity, params.num_disparities
     lanes = -(-ndisp // LANES) * LANES
@@ -161,19 +182,19 @@ def match_sgm(left: np.ndarray, right: np.ndarray, params: MatchParams) -> Dispa
     codes_r = _reversed_right(codes_r, pad, after)
     if params.cost == "census-ad":
         colour_r = _reversed_right(colour_r, pad, after)
-    channels = colour_l.shape[0]  # the kernels count in units of 1 / channels
-    check_sgm_bounds(params, channels)
-    largest = channels * largest_pixel_cost(params)
+    check_sgm_bounds(params)
+    largest = UNITS * largest_pixel_cost(params)
     reciprocal = census_kernels.box_reciprocal(params.window, largest * params.window**2)
-    pad_cost = largest + channels * params.p2 + 1
-    table = channels * p2_table(params)
-    p1 = channels * params.p1
+    pad_cost = largest + UNITS * params.p2 + 1
+    table = UNITS * p2_table(params)
+    p1 = UNITS * params.p1
     ad_max = params.ad_truncation if params.cost == "census-ad" else 0
     bit_cost = census_bit_cost(params.census_window)
     diagonals = params.paths == 8
 
     disparity = np.empty((height, width), dtype=np.float32)
     flags = np.empty((height, width), dtype=np.uint8)
+    margin = np.empty((height, width) if want_confidence else (0, 0), dtype=np.float32)
     per_row = width * lanes * 2 * 3
     strip = max(1, VOLUME_BYTES // per_row - 2 * STRIP_MARGIN)
     for s0 in range(0, height, strip):
@@ -196,9 +217,12 @@ def match_sgm(left: np.ndarray, right: np.ndarray, params: MatchParams) -> Dispa
         sgm_kernels.vertical_passes(cost, luma, p1, table, diagonals, down, up)
         sgm_kernels.final_pass(
             cost, luma, down, up, s0 - m0, s1 - m0, dmin, ndisp, p1, table,
-            _SUBPIXEL[params.subpixel], -1 if params.lr_tolerance is None else params.lr_tolerance, disparity[s0:s1], flags[s0:s1],
+            _SUBPIXEL[params.subpixel], -1 if params.lr_tolerance is None else params.lr_tolerance,
+            disparity[s0:s1], flags[s0:s1], margin[s0:s1],
         )  # fmt: skip
     result = DisparityResult(disparity, flags, params, np.full(height, np.nan))
     if params.fill:
-        result = fill_inconsistent(result, left)
-    return result
+        if colour_l.shape[1:] != (height, width):  # cost="census" keeps no colours
+            colour_l, _ = colour_channels(left, left)
+        result = fill_with_colour(result, colour_l)
+    return result, margin

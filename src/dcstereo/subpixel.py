@@ -47,11 +47,22 @@ def refine_subpixel(
     -------
     DisparityResult
         Each refined pixel moved by less than half a pixel.
+
+    Raises
+    ------
+    ValueError
+        For a result of ``sgm``, whose fit runs through its own aggregated costs inside the
+        match (``dcstereo.match(..., subpixel=fit)``), not through window costs.
     """
     if fit not in FITS:
         raise ValueError(f"fit must be one of {', '.join(FITS)}, got {fit!r}")
     left, right = check_result_pair(result, left, right)
     params = result.params
+    if params.method == "sgm":
+        raise ValueError(
+            "sgm fits its own aggregated costs: match with subpixel="
+            f"{fit!r} (dcstereo run --subpixel {fit}) instead of refining its result"
+        )
     radius = params.window // 2
     d = result.disparity
     with np.errstate(invalid="ignore"):

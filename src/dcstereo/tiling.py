@@ -1,6 +1,6 @@
-"""Exact row-band tiling of :func:`dcstereo.match` for images too large to match at once.
+"""Row-band tiling of :func:`dcstereo.match` for images too large to match at once.
 
-Every method matches each scanline on its own, and the window cost of row ``y`` reads only
+The scanline methods (all but ``sgm``) match each scanline on its own, and the window cost of row ``y`` reads only
 rows ``y - r .. y + r`` (``r = window // 2``; rows beyond the image edge are the replicated
 edge row). A band of output rows ``y0 .. y1 - 1`` therefore needs the input rows
 ``y0 - r .. y1 - 1 + r`` (clipped to the image) and nothing else, and matching that band on
@@ -9,6 +9,13 @@ only touches its first and last ``r`` rows, which are context, not output. The b
 run one after the other (memory: one band) or as one Dask task each. The one step that
 reads across rows of the map, the ``median`` post-filter, runs once on the stitched map
 (then ``fill``).
+
+``sgm`` aggregates its costs along paths that cross the rows, so no band is exact on its
+own: its bands read :data:`dcstereo.sgm.STRIP_MARGIN` more rows of context on each side
+(as its own strips do, :mod:`dcstereo.sgm`), and the result equals the whole-image one
+where a band's context reaches the image's edges, and differs slightly near the seams
+otherwise. Its fill (which searches across rows) and then its median run once on the
+stitched map.
 """
 
 from dataclasses import dataclass, replace
@@ -17,9 +24,11 @@ import numpy as np
 
 from ._checks import is_integer
 from .api import match
+from .consistency import fill_inconsistent
 from .params import MatchParams
 from .postfilter import median_filter
 from .result import DisparityResult
+from .sgm import STRIP_MARGIN
 from .signal import check_pair
 
 
@@ -42,12 +51,12 @@ class Band:
     read_stop: int
 
 
-def row_bands(height: int, tile_rows: int, window: int) -> list[Band]:
+def row_bands(height: int, tile_rows: int, window: int, context: int | None = None) -> list[Band]:
     """Split ``height`` rows into bands of ``tile_rows`` output rows with window context.
 
-    Each band reads ``window // 2`` extra rows on each side (fewer at the image edges),
-    and at least ``window`` rows in all when the image has them, since a band thinner
-    than the window is refused by :func:`dcstereo.match`.
+    Each band reads ``context`` (default ``window // 2``) extra rows on each side (fewer at
+    the image edges), and at least ``window`` rows in all when the image has them, since a
+    band thinner than the window is refused by :func:`dcstereo.match`.
 
     Parameters
     ----------
@@ -57,6 +66,8 @@ def row_bands(height: int, tile_rows: int, window: int) -> list[Band]:
         Output rows per band (the last band may be shorter).
     window : int
         Odd side of the matching window.
+    context : int, optional
+        Rows of context on each side; default ``window // 2``.
 
     Returns
     -------
@@ -78,7 +89,7 @@ def row_bands(height: int, tile_rows: int, window: int) -> list[Band]:
         raise ValueError(f"tile_rows must be at least 1, got {tile_rows}")
     if window < 1 or window % 2 == 0:
         raise ValueError(f"window must be a positive odd integer, got {window}")
-    radius = window // 2
+    radius = window // 2 if context is None else int(context)
     bands = []
     for start in range(0, height, tile_rows):
         stop = min(start + tile_rows, height)
@@ -107,7 +118,7 @@ def match_tiled(
         The rectified pair, as for :func:`dcstereo.match`.
     tile_rows : int
         Output rows per band; each band also reads ``window // 2`` rows of context on
-        each side.
+        each side (``sgm``: :data:`~dcstereo.sgm.STRIP_MARGIN` more).
     client : distributed.Client, optional
         Run one task per band on this Dask client (numba uses one thread inside each
         task, so the workers' cores are not oversubscribed). None: run the bands here,
@@ -121,7 +132,8 @@ def match_tiled(
     DisparityResult
         Equal to ``match(left, right, **match_kwargs)`` in every field: ``disparity``,
         ``flags`` and ``path_cost`` row by row, ``features`` with their rows in
-        whole-image coordinates.
+        whole-image coordinates (``sgm``: where the bands' context covers the image; see
+        the module's text).
 
     Examples
     --------
@@ -140,8 +152,10 @@ def match_tiled(
     left, right = check_pair(left, right)
     height, width = left.shape[:2]
     params.check_image_size(height, width)
-    bands = row_bands(height, tile_rows, params.window)
-    if params.median:  # reads rows of the neighbouring bands: once, on the stitched map
+    across = params.method == "sgm"  # paths, fill and median read across the bands
+    context = params.window // 2 + (STRIP_MARGIN if across else 0)
+    bands = row_bands(height, tile_rows, params.window, context)
+    if params.median or across:  # read rows of the neighbouring bands: once, on the whole
         match_kwargs = {**match_kwargs, "median": 0, "fill": False}
     if client is None:
         parts = [
@@ -158,9 +172,14 @@ def match_tiled(
             )
             futures.append(client.submit(_match_band, *pieces, match_kwargs, pure=False, retries=2))
         parts = client.gather(futures)
-    result = _stitch(bands, parts, height, width)
-    if params.median:
-        result = replace(median_filter(result, params.median), params=params)
+    result = replace(_stitch(bands, parts, height, width), params=params)
+    if across:
+        if params.fill:
+            result = fill_inconsistent(result, left)
+        if params.median:
+            result = median_filter(result, params.median)
+    elif params.median:
+        result = median_filter(result, params.median)
         if params.fill:
             result = result.filled()
     return result

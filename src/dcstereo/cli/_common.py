@@ -212,6 +212,26 @@ def _method_option_list():
     ]
 
 
+def describe(params) -> str:
+    """One line of a run's method and main settings (``method sgm, census 5x5 + colour, ..``)."""
+    if params.method == "sgm":
+        rows, cols = params.census_window
+        cost = f"census {rows}x{cols}" + (" + colour" if params.cost == "census-ad" else "")
+        parts = [f"method sgm, {cost}, window {params.window}", f"P1 {params.p1}",
+                 f"P2 {params.p2}", f"{params.paths} paths"]  # fmt: skip
+    else:
+        parts = [f"method {params.method}, window {params.window}"]
+        if params.method != "block":
+            parts.append(f"occlusion cost {params.occlusion_cost:g}")
+        if params.cost != "sad":
+            parts.append(f"cost {params.cost}")
+    if params.subpixel:
+        parts.append(f"sub-pixel {params.subpixel}")
+    if params.median:
+        parts.append(f"median {params.median}")
+    return ", ".join(parts)
+
+
 class CommandError(click.ClickException):
     """A one-line user-facing error (exit code 1)."""
 

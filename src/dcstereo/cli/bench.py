@@ -5,7 +5,7 @@ import math
 import click
 
 from ..metrics import DEFAULT_THRESHOLDS
-from ..params import DEFAULT_OCCLUSION_COST, SUBPIXEL_FITS, check_median
+from ..params import SUBPIXEL_FITS, check_median
 from ._common import (
     add_method_options,
     check_method_options,
@@ -26,21 +26,19 @@ from ._common import (
     help="Comma-separated methods (dcstereo's, opencv-sgbm, opencv-bm); all: every "
     "dcstereo method, and OpenCV's when it is installed.",
 )
-@click.option("--window", type=int, default=5, show_default=True, help="Odd window side.")
 @click.option(
-    "--occlusion-cost",
-    type=float,
-    default=DEFAULT_OCCLUSION_COST,
-    show_default=True,
-    help="Cost of one occluded pixel (dcstereo's methods).",
+    "--window",
+    type=int,
+    default=None,
+    help="Odd window side, for every method (default: each method's own; OpenCV's block 5).",
 )
 @click.option(
     "--subpixel",
     type=click.Choice(SUBPIXEL_FITS),
     default=None,
     help="Refine dcstereo's whole-pixel disparities by this fit (see run --subpixel; "
-    "OpenCV's are sub-pixel already). Default: off. It and --median, --occlusion-cost "
-    "reach dcstereo's methods only.",
+    "OpenCV's are sub-pixel already). Default: off. It and --median reach dcstereo's "
+    "methods only.",
 )
 @median_option
 @click.option(
@@ -70,8 +68,8 @@ from ._common import (
 @add_method_options
 @one_line_errors
 def bench(
-    data_dir, methods, window, occlusion_cost, subpixel, median, threshold, json_out, gt_scale,
-    threads, quiet, method_options,
+    data_dir, methods, window, subpixel, median, threshold, json_out, gt_scale, threads, quiet,
+    method_options,
 ):  # fmt: skip
     """Run METHODS on every scene folder under DATA_DIR and print a table.
 
@@ -98,9 +96,12 @@ def bench(
     if not (math.isfinite(threshold) and threshold > 0):
         raise ValueError(f"--threshold must be a positive number of pixels, got {threshold:g}")
     thresholds = sorted({*DEFAULT_THRESHOLDS, threshold})
-    check_median(median, "--median")
+    if median is not None:
+        check_median(median, "--median")
     check_method_options(method_options, names)
-    match_options = {"occlusion_cost": occlusion_cost, "subpixel": subpixel, "median": median}
+    match_options = {"subpixel": subpixel}
+    if median is not None:
+        match_options["median"] = median
     match_options.update(method_options)
     set_threads(threads)
 
@@ -112,7 +113,7 @@ def bench(
         rows = bench_folder(
             data_dir,
             names,
-            options={"window": window},
+            options={} if window is None else {"window": window},
             match_options=match_options,
             thresholds=thresholds,
             progress=progress,

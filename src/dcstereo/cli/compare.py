@@ -41,7 +41,12 @@ from ._common import (
     help="Comma-separated methods, one column each (any of dcstereo's, opencv-sgbm, "
     "opencv-bm; all: every one).",
 )
-@click.option("--window", type=int, default=5, show_default=True, help="Odd window side.")
+@click.option(
+    "--window",
+    type=int,
+    default=None,
+    help="Odd window side, for every method (default: each method's own).",
+)
 @click.option("--threads", type=int, default=None, help="Number of threads (default: all).")
 @add_method_options
 @one_line_errors
@@ -94,8 +99,8 @@ def compare(
             max_disparity=max_disparity,
             min_disparity=min_disparity,
             methods=names,
-            window=window,
             match_options=method_options,
+            **({} if window is None else {"window": window}),
         )
     figure = compare_figure(
         left_image, results, max_disparity=max_disparity, truth=truth, mask=mask

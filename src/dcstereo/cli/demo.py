@@ -7,6 +7,7 @@ import numpy as np
 
 from ._common import (
     compile_watch,
+    describe,
     matching_options,
     one_line_errors,
     output_folder,
@@ -53,19 +54,17 @@ def demo(output, max_disparity, match_options, threads):
     set_threads(threads)
     folder = output_folder(output)
     scene = load_motorcycle()
-    # the sparse map is written and scored too: fill after matching, not in it
     options = dict(match_options, max_disparity=max_disparity)
-    fill = options.pop("fill")
     # compile (cached on disk after the first run: announced when it happens); it also
     # refuses bad options before the folder is made
     with compile_watch():
         match(scene.left, scene.right, **options)
     folder.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
-    result = match(scene.left, scene.right, **options)
+    final = match(scene.left, scene.right, **options)  # filled where the method fills
     seconds = time.perf_counter() - start
-    dense = result.filled()
-    final = dense if fill else result
+    result = final.unfilled()  # the estimates the method made itself
+    dense = final.filled()
 
     with staged_outputs() as write:
         write(io.write_disparity, folder / "disparity.pfm", final.disparity)
@@ -83,7 +82,7 @@ def demo(output, max_disparity, match_options, threads):
         write(io.write_pfm, folder / "depth.pfm", depth(final.disparity, scene.calibration))
         cloud = point_cloud(final.disparity, scene.calibration, scene.left)
         write(io.write_ply, folder / "cloud.ply", cloud.points, cloud.colors)
-        sure = confidence(result, scene.left, scene.right)
+        sure = confidence(final, scene.left, scene.right)
         write(io.write_pfm, folder / "confidence.pfm", sure)
 
     height, width = scene.shape
@@ -93,17 +92,12 @@ def demo(output, max_disparity, match_options, threads):
         f"Middlebury 2014 Motorcycle (scikit-image), {width}x{height}, "
         f"disparities 0..{max_disparity}"
     )
-    extras = [f"cost {options['cost']}"] if options["cost"] != "sad" else []
-    extras += [f"sub-pixel {options['subpixel']}"] if options["subpixel"] else []
-    extras += [f"median {options['median']}"] if options["median"] else []
     click.echo(
-        f"method {options['method']}, window {options['window']}, "
-        f"occlusion cost {options['occlusion_cost']:g}"
-        + "".join(f", {extra}" for extra in extras)
+        describe(final.params)
         + f": {seconds * 1000:.0f} ms ({evaluations / seconds / 1e6:.0f} M disparity "
         "evaluations/s)"
     )
-    for name, estimate in (("sparse (occlusions left empty)", result), ("dense (filled)", dense)):
+    for name, estimate in (("sparse (before any fill)", result), ("dense (filled)", dense)):
         d = estimate.disparity
         bad1 = bad_pixel_rate(d, truth, mask=known)
         bad2 = bad_pixel_rate(d, truth, mask=known, threshold=2.0)

@@ -77,11 +77,12 @@ def _popcount_compiled(value):
 def pixel_cost_row(codes_l, codes_r, colour_l, colour_r, y, dmin, ndisp, bit_cost, ad_max, ad, out):
     """One row of per-pixel costs: ``out[x, k]`` for ``d = dmin + k``, ``k < ndisp``.
 
-    In units of ``1 / C`` for ``C`` channels of ``colour_l`` (``(C, H, W)``, 0..255):
-    ``C * bit_cost * popcount(L ^ R)`` of the census codes of left pixel ``x`` and right
-    pixel ``x - d``, plus, where ``ad_max > 0``, ``min(AD, C * ad_max)``, ``AD`` the sum of
-    the channels' absolute differences (so the mean absolute difference of the channels
-    counts one unit per gray level). The right view (``codes_r``, ``colour_r``) is padded
+    In thirds of a cost unit: ``3 * bit_cost * popcount(L ^ R)`` of the census codes of
+    left pixel ``x`` and right pixel ``x - d``, plus, where ``ad_max > 0``, ``min(AD, 3 *
+    ad_max)``, ``AD`` the sum of the absolute differences of the three channels of
+    ``colour_l`` (``(3, H, W)``, 0..255), or three times that of its one channel
+    (``(1, H, W)``): the mean absolute difference of the channels counts one unit per gray
+    level, and a gray image gives the costs of its three-channel copy. The right view (``codes_r``, ``colour_r``) is padded
     by repetition (``max(0, max_disparity)`` columns on the left, ``max(0, -dmin)`` on the
     right) and then reversed: right pixel ``x - d`` of row ``y`` is at ``[.., y, width - 1
     - x + dmin + max(0, -dmin) + k]``, so that the disparities of a left pixel run forward
@@ -90,8 +91,9 @@ def pixel_cost_row(codes_l, codes_r, colour_l, colour_r, y, dmin, ndisp, bit_cos
     width = codes_l.shape[1]
     channels = colour_l.shape[0]
     after = max(0, -dmin)
-    census = np.int16(channels * bit_cost)
-    limit = np.int16(channels * ad_max)
+    census = np.int16(3 * bit_cost)
+    limit = np.int16(3 * ad_max)
+    ad_scale = np.int16(3 // channels)
     for x in range(width):
         start = width - 1 - x + dmin + after
         code = codes_l[y, x]
@@ -108,7 +110,7 @@ def pixel_cost_row(codes_l, codes_r, colour_l, colour_r, y, dmin, ndisp, bit_cos
                 for k in range(ndisp):
                     ad[k] += np.int16(abs(np.int16(value - other[k])))
             for k in range(ndisp):
-                row[k] += min(ad[k], limit)
+                row[k] += min(np.int16(ad_scale * ad[k]), limit)
 
 
 @nb.njit(cache=True, parallel=True)

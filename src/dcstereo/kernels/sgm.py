@@ -133,10 +133,23 @@ def _subpixel(t, off, k, ndisp, mode):
     return (a - c) / (2.0 * den) if den > 0 else 0.0
 
 
+@nb.njit(cache=True)
+def _margin(t, off, k, ndisp, best):
+    """``(rival - best) / rival`` for the least total ``rival`` two or more disparities off."""
+    rival = 1 << 30
+    for j in range(ndisp):
+        if abs(j - k) >= 2 and t[off + j] < rival:
+            rival = t[off + j]
+    if rival == 1 << 30 or rival <= 0:
+        return np.float32(np.nan)
+    return np.float32((rival - best) / rival)
+
+
 @nb.njit(cache=True, parallel=True)
 def final_pass(
-    cost, luma, down, up, y0, y1, dmin, ndisp, p1, p2_table, subpixel, tolerance, disparity, flags
-):
+    cost, luma, down, up, y0, y1, dmin, ndisp, p1, p2_table, subpixel, tolerance, disparity, flags,
+    confidence,
+):  # fmt: skip
     """Horizontal paths, totals, winner-take-all and left-right check of rows ``y0..y1 - 1``.
 
     Rows of the strip (``luma``'s rows; ``cost``, ``down`` and ``up`` its flattened
@@ -148,6 +161,10 @@ def final_pass(
     ``FLAG_OCCLUDED`` where the right pixel's disparity is the larger (it belongs to a
     nearer surface, which hides this pixel from the right view) and ``FLAG_MISMATCH``
     otherwise; a choice whose right pixel lies beyond the image is ``FLAG_BORDER``.
+
+    ``confidence`` (float32, the shape of ``disparity``, or empty: not wanted) receives
+    ``(rival - best) / rival`` of each pixel's totals, ``rival`` the least total of the
+    disparities two or more away from the chosen one (NaN where there is none or it is 0).
     """
     height, width = luma.shape
     lanes = cost.size // (height * width)
@@ -196,6 +213,8 @@ def final_pass(
             k, value = first_min(total, x * lanes, lanes)
             k = min(k, ndisp - 1)
             best_k[x] = k
+            if confidence.size:
+                confidence[r, x] = _margin(total, x * lanes, k, ndisp, value)
             xr = x - dmin - k
             if 0 <= xr < width and value < right_best[xr]:
                 right_best[xr] = value
