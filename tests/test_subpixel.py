@@ -185,7 +185,7 @@ def test_match_refines_before_filling(pair, fit):
     filled = match(left, right, max_disparity=10, subpixel=fit, fill=True, method="dc")
     np.testing.assert_array_equal(filled.disparity, refined.filled().disparity)
     np.testing.assert_array_equal(filled.flags, refined.filled().flags)
-    with pytest.raises(ValueError, match="subpixel must be None or one of equiangular, parabola"):
+    with pytest.raises(ValueError, match=r"'none' \(off\) or one of equiangular, parabola"):
         match(left, right, max_disparity=10, subpixel="linear")
 
 

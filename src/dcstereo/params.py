@@ -62,9 +62,12 @@ def costs_of(method: str) -> tuple[str, ...]:
 #: left out: the method's value). ``sgm`` returns a filled, median-filtered map; the
 #: scanline methods of the paper the raw one.
 METHOD_DEFAULTS = {
-    "sgm": {"window": 3, "cost": "census-ad", "fill": True, "median": 5},
-    None: {"window": 5, "cost": "sad", "fill": False, "median": 0},
+    "sgm": {"window": 3, "cost": "census-ad", "fill": True, "median": 5, "subpixel": "equiangular"},
+    None: {"window": 5, "cost": "sad", "fill": False, "median": 0, "subpixel": None},
 }
+
+#: ``subpixel`` values that turn the fit off (None is the method's default).
+SUBPIXEL_OFF = (False, "none")
 
 #: ``sgm`` defaults (measured on the 21 development scenes, ``scripts/tune_sgm.py``).
 DEFAULT_CENSUS_WINDOW = (5, 5)
@@ -364,9 +367,12 @@ class MatchParams:
         if self.method not in METHODS:
             raise ValueError(f"unknown method {self.method!r}; choose one of {', '.join(METHODS)}")
         defaults = METHOD_DEFAULTS.get(self.method, METHOD_DEFAULTS[None])
+        off = isinstance(self.subpixel, (bool, str)) and self.subpixel in SUBPIXEL_OFF
         for name, value in defaults.items():
             if getattr(self, name) is None:
                 object.__setattr__(self, name, value)
+        if off:
+            object.__setattr__(self, "subpixel", None)
         for name in ("fill", "vs_relative", "lr_check"):
             value = getattr(self, name)
             if not isinstance(value, bool):
@@ -405,7 +411,8 @@ class MatchParams:
             )
         if self.subpixel is not None and self.subpixel not in SUBPIXEL_FITS:
             raise ValueError(
-                f"subpixel must be None or one of {', '.join(SUBPIXEL_FITS)}, got {self.subpixel!r}"
+                f"subpixel must be None (the method's default), 'none' (off) or one of "
+                f"{', '.join(SUBPIXEL_FITS)}, got {self.subpixel!r}"
             )
         object.__setattr__(self, "median", check_median(self.median))
         if self.cost == "bt" and self.window > MAX_BT_WINDOW:

@@ -15,7 +15,10 @@ from dataclasses import replace
 
 import numpy as np
 
+import functools
+
 from . import _postfilter_kernels
+from .kernels import median as median_kernels
 from .params import MAX_MEDIAN, check_median
 from .result import FLAG_FEATURE, DisparityResult
 
@@ -57,13 +60,46 @@ def median_filter(result: DisparityResult, size: int = 5) -> DisparityResult:
     d = result.disparity
     moved = np.isfinite(d) & ((result.flags & FLAG_FEATURE) == 0)
     out = d.copy()
+    radius = size // 2
+    full = moved & _full_windows(d, radius)
+    if full.any():  # every value of the window finite: a sorting network, rows at a time
+        median_kernels.median_rows_network(d, radius, _network(size), full, out)
+        moved = moved & ~full
+        if moved.any():  # the rest (windows with holes, or cut by the edge): sorted one by one
+            _postfilter_kernels.median_rows(d, moved, radius, out)
+        return replace(result, disparity=out)
     bins = np.empty(d.shape, dtype=np.int32)
     low, nbins, exact = _postfilter_kernels.value_buckets(d, MAX_BINS, bins)
     if nbins:  # a histogram of value buckets slid along the rows
-        _postfilter_kernels.median_rows_binned(d, bins, moved, size // 2, nbins, low, exact, out)
+        _postfilter_kernels.median_rows_binned(d, bins, moved, radius, nbins, low, exact, out)
     else:  # a span too wide for the histogram: each window sorted
-        _postfilter_kernels.median_rows(d, moved, size // 2, out)
+        _postfilter_kernels.median_rows(d, moved, radius, out)
     return replace(result, disparity=out)
+
+
+@functools.lru_cache(maxsize=None)
+def _network(size: int) -> np.ndarray:
+    return median_kernels.median_network(size * size)
+
+
+def _full_windows(disparity: np.ndarray, radius: int) -> np.ndarray:
+    """Pixels whose ``2 radius + 1`` square lies inside the image and holds no NaN."""
+    height, width = disparity.shape
+    full = np.zeros(disparity.shape, dtype=bool)
+    side = 2 * radius + 1
+    if height < side or width < side:
+        return full
+    holes = np.isnan(disparity).astype(np.int32)
+    if not holes.any():
+        full[radius : height - radius, radius : width - radius] = True
+        return full
+    table = np.zeros((height + 1, width + 1), dtype=np.int64)  # summed-area table of holes
+    table[1:, 1:] = holes.cumsum(axis=0).cumsum(axis=1)
+    counts = (
+        table[side:, side:] - table[:-side, side:] - table[side:, :-side] + table[:-side, :-side]
+    )
+    full[radius : height - radius, radius : width - radius] = counts == 0
+    return full
 
 
 #: The most histogram buckets the sliding histogram takes (a map of whole and half pixels

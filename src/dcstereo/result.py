@@ -119,6 +119,8 @@ class DisparityResult:
 
     def filled(self) -> "DisparityResult":
         """Return a copy with every pixel that has no estimate filled (see fill_occlusions)."""
+        if not np.isnan(self.disparity).any():
+            return self
         disparity, was_filled = fill_occlusions(self.disparity)
         flags = self.flags | np.where(was_filled, FLAG_FILLED, 0).astype(np.uint8)
         return replace(self, disparity=disparity, flags=flags)

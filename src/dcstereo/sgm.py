@@ -29,6 +29,8 @@ context above and below; paths then start at the strip's edge, so such a result 
 (slightly, near the strips' seams) from the whole-image one.
 """
 
+import threading
+
 import numpy as np
 
 from .consistency import fill_with_colour
@@ -140,6 +142,29 @@ def _reversed_right(array: np.ndarray, before: int, after: int) -> np.ndarray:
     return np.ascontiguousarray(np.pad(array, widths, mode="edge")[..., ::-1])
 
 
+_WORKSPACE = threading.local()
+
+
+def _volumes(size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Three int16 volumes of ``size`` values: the costs and the two sums of paths.
+
+    Kept from call to call in each thread (the largest asked for so far, at most
+    :data:`VOLUME_BYTES` together): fresh volumes larger than the allocator's reuse bound
+    (32 MiB, ``dcstereo._memory``) come from the system zeroed page by page, which cost a
+    sixth of the run on a 720 x 496 x 73 pair. :func:`release_workspace` frees them.
+    """
+    held = getattr(_WORKSPACE, "volumes", None)
+    if held is None or held[0].size < size:
+        held = tuple(np.empty(size, dtype=np.int16) for _ in range(3))
+        _WORKSPACE.volumes = held
+    return tuple(volume[:size] for volume in held)
+
+
+def release_workspace() -> None:
+    """Free the volumes this thread keeps between ``sgm`` runs (see :func:`_volumes`)."""
+    _WORKSPACE.volumes = None
+
+
 def _census(image: np.ndarray, rows: int, cols: int, out: np.ndarray) -> None:
     """The census codes of ``image``'s intensity (``census_transform``) into ``out``."""
     signal = padded_signal(image, 0)
@@ -205,14 +230,13 @@ def _run(left, right, params, want_confidence):
             else (max(0, s0 - STRIP_MARGIN), min(height, s1 + STRIP_MARGIN))
         )
         n = m1 - m0
-        volume = np.empty((n, width, lanes), dtype=np.int16)
+        volume, down, up = _volumes(n * width * lanes)
+        volume = volume.reshape(n, width, lanes)
         census_kernels.cost_volume(
             codes_l, codes_r, colour_l, colour_r, dmin, ndisp, bit_cost, ad_max, params.window,
             reciprocal, pad_cost, m0, volume,
         )  # fmt: skip
         cost = volume.reshape(-1)
-        down = np.empty_like(cost)
-        up = np.empty_like(cost)
         luma = np.ascontiguousarray(luma_l[m0:m1])
         sgm_kernels.vertical_passes(cost, luma, p1, table, diagonals, down, up)
         sgm_kernels.final_pass(

@@ -470,11 +470,11 @@ def matching_options(func):
         ),
         click.option(
             "--subpixel",
-            type=click.Choice(SUBPIXEL_FITS),
+            type=click.Choice([*SUBPIXEL_FITS, "none"]),
             default=None,
             help="Refine each whole-pixel disparity to a fraction of a pixel by this fit "
             "through the costs at d - 1, d, d + 1 (sgm: its aggregated costs; before "
-            "--fill; default: off).",
+            "--fill; default: equiangular for sgm, none for the others).",
         ),
         median_option,
         click.option(
@@ -492,7 +492,7 @@ def matching_options(func):
         check_method_options(method_options, [kwargs["match_options"]["method"]])
         kwargs["match_options"].update(method_options)
         kwargs["match_options"] = {
-            k: v for k, v in kwargs["match_options"].items() if v is not None or k == "subpixel"
+            k: v for k, v in kwargs["match_options"].items() if v is not None
         }
         return func(*args, **kwargs)
 

@@ -128,33 +128,44 @@ def cost_volume(
     ``pad_cost``. Rows in parallel, in chunks of 32 (each chunk makes the ``box - 1``
     per-pixel rows around it again).
     """
-    height, width = codes_l.shape
     rows = out.shape[0]
-    radius = box // 2
     chunk = 32
     nchunks = (rows + chunk - 1) // chunk
     for c in nb.prange(nchunks):
         y0 = y_begin + c * chunk
         y1 = min(y_begin + rows, y0 + chunk)
-        ring = np.empty((box, width, ndisp), dtype=np.int16)
-        vertical = np.empty((width + box - 1) * ndisp, dtype=np.int16)
-        sums = np.empty(width * ndisp, dtype=np.int16)
-        ad = np.empty(ndisp, dtype=np.int16)
-        for t in range(box - 1):  # rows y0 - radius .. y0 + radius - 1
-            yy = min(max(y0 - radius + t, 0), height - 1)
-            pixel_cost_row(
-                codes_l, codes_r, colour_l, colour_r, yy, dmin, ndisp, bit_cost, ad_max, ad,
-                ring[(y0 - radius + t) % box],
-            )  # fmt: skip
-        for y in range(y0, y1):
-            yy = min(y + radius, height - 1)
-            pixel_cost_row(
-                codes_l, codes_r, colour_l, colour_r, yy, dmin, ndisp, bit_cost, ad_max, ad,
-                ring[(y + radius) % box],
-            )  # fmt: skip
-            _box_row(
-                ring, width, ndisp, box, reciprocal, vertical, sums, out[y - y_begin], pad_cost
-            )
+        _volume_rows(
+            codes_l, codes_r, colour_l, colour_r, dmin, ndisp, bit_cost, ad_max, box,
+            reciprocal, pad_cost, y0, y1, y_begin, out,
+        )  # fmt: skip
+
+
+@nb.njit(cache=True)
+def _volume_rows(
+    codes_l, codes_r, colour_l, colour_r, dmin, ndisp, bit_cost, ad_max, box, reciprocal,
+    pad_cost, y0, y1, y_begin, out,
+):  # fmt: skip
+    """Rows ``y0..y1 - 1`` of :func:`cost_volume` (a function of its own: compiled outside
+    the parallel loop, its loops are vectorized)."""
+    height, width = codes_l.shape
+    radius = box // 2
+    ring = np.empty((box, width, ndisp), dtype=np.int16)
+    vertical = np.empty((width + box - 1) * ndisp, dtype=np.int16)
+    sums = np.empty(width * ndisp, dtype=np.int16)
+    ad = np.empty(ndisp, dtype=np.int16)
+    for t in range(box - 1):  # rows y0 - radius .. y0 + radius - 1
+        yy = min(max(y0 - radius + t, 0), height - 1)
+        pixel_cost_row(
+            codes_l, codes_r, colour_l, colour_r, yy, dmin, ndisp, bit_cost, ad_max, ad,
+            ring[(y0 - radius + t) % box],
+        )  # fmt: skip
+    for y in range(y0, y1):
+        yy = min(y + radius, height - 1)
+        pixel_cost_row(
+            codes_l, codes_r, colour_l, colour_r, yy, dmin, ndisp, bit_cost, ad_max, ad,
+            ring[(y + radius) % box],
+        )  # fmt: skip
+        _box_row(ring, width, ndisp, box, reciprocal, vertical, sums, out[y - y_begin], pad_cost)
 
 
 @nb.njit(cache=True)

@@ -25,7 +25,7 @@ the two pixels' intensities (1/16 gray levels): smaller across edges.
 import numba as nb
 import numpy as np
 
-from .sgm_simd import add_saturated, first_min, path_start, path_step
+from .sgm_simd import path_step, path_total_step, paths_step
 
 #: Pad of the path buffers at ``k = -1`` and ``k = Dp`` (never less than a path value;
 #: ``PAD + P1`` saturates at the int16 bound).
@@ -48,57 +48,81 @@ def _gradient_p2(luma, y, x, yq, xq, p2_table):
 
 
 @nb.njit(cache=True)
+def _path_buffer(slots, lanes):
+    """``slots`` path vectors of ``lanes`` values with their pads, and a last one of zeros.
+
+    Slot ``s`` starts at ``s * (lanes + 2)``: ``PAD``, the values, ``PAD``. The last slot
+    holds zeros: the predecessor of a path's first pixel (``L = C`` from it).
+    """
+    stride = lanes + 2
+    buffer = np.empty((slots + 1) * stride, dtype=np.int16)
+    for s in range(slots + 1):
+        buffer[s * stride] = PAD
+        buffer[s * stride + lanes + 1] = PAD
+    zero = slots * stride
+    for k in range(lanes):
+        buffer[zero + 1 + k] = 0
+    return buffer
+
+
+@nb.njit(cache=True)
 def vertical_pass(cost, luma, y_first, y_last, step, p1, p2_table, diagonals, sums):
     """The paths from above (``step`` 1) or below (-1), rows ``y_first`` to ``y_last``.
 
     ``cost`` and ``sums`` are ``(H, W, Dp)`` int16 volumes of a strip of rows, flattened
     (C order), and ``luma`` (int32, ``(H, W)``) the strip's intensity; row ``y_first``
-    starts every path. ``sums[y, x]`` receives the sum of the vertical path's
-    value and, with ``diagonals``, of the two diagonal paths' (predecessors ``x - 1`` and
-    ``x + 1`` in the previous row; a diagonal path whose predecessor is beyond the image
-    starts at the pixel).
+    starts every path. ``sums[y, x]`` receives the sum of the vertical path's value and,
+    with ``diagonals``, of the two diagonal paths' (predecessors ``x - 1`` and ``x + 1`` in
+    the previous row; a diagonal path whose predecessor is beyond the image starts at the
+    pixel). The paths of a pixel are one :func:`~.sgm_simd.paths_step`.
     """
     height, width = luma.shape
     lanes = cost.size // (height * width)
     npaths = 3 if diagonals else 1
     stride = lanes + 2
     slots = width + 2  # slot x + 1 holds pixel x; slots 0 and width + 1 lie beyond the image
-    prev = np.empty(npaths * slots * stride, dtype=np.int16)
-    cur = np.empty(npaths * slots * stride, dtype=np.int16)
-    for s in range(npaths * slots):
-        prev[s * stride] = PAD
-        prev[s * stride + lanes + 1] = PAD
-        cur[s * stride] = PAD
-        cur[s * stride + lanes + 1] = PAD
-    prev_min = np.empty((npaths, slots), dtype=np.int64)
-    cur_min = np.empty((npaths, slots), dtype=np.int64)
+    prev = _path_buffer(npaths * slots, lanes)
+    cur = _path_buffer(npaths * slots, lanes)
+    zero = npaths * slots * stride  # the slot of zeros
+    prev_min = np.zeros((npaths, slots), dtype=np.int64)
+    cur_min = np.zeros((npaths, slots), dtype=np.int64)
+    mins = np.zeros(3, dtype=np.int64)
     y = y_first
     first = True
     while True:
         row = y * width * lanes
+        yq = y - step
         for x in range(width):
             c_off = row + x * lanes
-            for p in range(npaths):
-                shift = 0 if p == 0 else (-1 if p == 1 else 1)  # predecessor column offset
-                q_off = (p * slots + x + 1) * stride
-                xq = x + shift
-                if first or xq < 0 or xq >= width:
-                    cur_min[p, x + 1] = path_start(cost, c_off, cur, q_off, lanes)
-                else:
-                    p2 = _gradient_p2(luma, y, x, y - step, xq, p2_table)
-                    p_off = (p * slots + xq + 1) * stride
-                    cur_min[p, x + 1] = path_step(
-                        cost, c_off, prev, p_off, cur, q_off, lanes, p1, p2, prev_min[p, xq + 1]
-                    )
-            o0 = (x + 1) * stride + 1
-            if diagonals:
-                o1 = (slots + x + 1) * stride + 1
-                o2 = (2 * slots + x + 1) * stride + 1
-                add_saturated(sums, c_off, cur, o0, cur, o1, lanes)
-                add_saturated(sums, c_off, sums, c_off, cur, o2, lanes)
+            q0 = (x + 1) * stride
+            if first:
+                p0, p2_0, mins[0] = zero, 0, 0
             else:
-                for k in range(lanes):
-                    sums[c_off + k] = cur[o0 + k]
+                p0, p2_0, mins[0] = q0, _gradient_p2(luma, y, x, yq, x, p2_table), prev_min[0, x + 1]
+            if diagonals:
+                q1 = (slots + x + 1) * stride
+                q2 = (2 * slots + x + 1) * stride
+                if first or x == 0:
+                    p1_, p2_1, mins[1] = zero, 0, 0
+                else:
+                    p1_ = (slots + x) * stride
+                    p2_1 = _gradient_p2(luma, y, x, yq, x - 1, p2_table)
+                    mins[1] = prev_min[1, x]
+                if first or x == width - 1:
+                    p2_, p2_2, mins[2] = zero, 0, 0
+                else:
+                    p2_ = (2 * slots + x + 2) * stride
+                    p2_2 = _gradient_p2(luma, y, x, yq, x + 1, p2_table)
+                    mins[2] = prev_min[2, x + 2]
+                paths_step(
+                    cost, c_off, prev, (p0, p1_, p2_), cur, (q0, q1, q2), lanes, p1,
+                    (p2_0, p2_1, p2_2), mins, sums, c_off,
+                )  # fmt: skip
+                cur_min[1, x + 1] = mins[1]
+                cur_min[2, x + 1] = mins[2]
+            else:
+                paths_step(cost, c_off, prev, (p0,), cur, (q0,), lanes, p1, (p2_0,), mins, sums, c_off)
+            cur_min[0, x + 1] = mins[0]
         prev, cur = cur, prev
         prev_min, cur_min = cur_min, prev_min
         first = False
@@ -172,50 +196,44 @@ def final_pass(
     for r in nb.prange(y1 - y0):
         y = y0 + r
         row = y * width * lanes
-        hbuf = np.empty(width * stride, dtype=np.int16)
-        hmin = np.empty(width, dtype=np.int64)
-        back = np.empty(2 * stride, dtype=np.int16)
+        hbuf = _path_buffer(width, lanes)  # left to right, every pixel's values kept
+        back = _path_buffer(2, lanes)  # right to left, two alternating slots
         total = np.empty(width * lanes, dtype=np.int16)
         best_k = np.empty(width, dtype=np.int64)
         right_best = np.full(width, 1 << 30, dtype=np.int64)
         right_d = np.full(width, -(1 << 30), dtype=np.int64)
-        for s in range(width):
-            hbuf[s * stride] = PAD
-            hbuf[s * stride + lanes + 1] = PAD
-        for s in range(2):
-            back[s * stride] = PAD
-            back[s * stride + lanes + 1] = PAD
+        hmin = 0
         for x in range(width):  # left to right
             if x == 0:
-                hmin[x] = path_start(cost, row, hbuf, 0, lanes)
+                hmin = path_step(cost, row, hbuf, width * stride, hbuf, 0, lanes, p1, 0, 0)
             else:
                 p2 = _gradient_p2(luma, y, x, y, x - 1, p2_table)
-                hmin[x] = path_step(
+                hmin = path_step(
                     cost, row + x * lanes, hbuf, (x - 1) * stride, hbuf, x * stride, lanes,
-                    p1, p2, hmin[x - 1],
+                    p1, p2, hmin,
                 )  # fmt: skip
         back_min = 0
-        for x in range(width - 1, -1, -1):  # right to left, and the totals
+        parts = (down, up, hbuf)
+        for x in range(width - 1, -1, -1):  # right to left, the totals and their least
             c_off = row + x * lanes
             q = (x % 2) * stride
             if x == width - 1:
-                back_min = path_start(cost, c_off, back, q, lanes)
+                p_off, p2, pmin = 2 * stride, 0, 0
             else:
+                p_off, pmin = ((x + 1) % 2) * stride, back_min
                 p2 = _gradient_p2(luma, y, x, y, x + 1, p2_table)
-                back_min = path_step(
-                    cost, c_off, back, ((x + 1) % 2) * stride, back, q, lanes, p1, p2, back_min
-                )
-            t_off = x * lanes
-            add_saturated(total, t_off, down, c_off, up, c_off, lanes)
-            add_saturated(total, t_off, total, t_off, hbuf, x * stride + 1, lanes)
-            add_saturated(total, t_off, total, t_off, back, q + 1, lanes)
-        for x in range(width):  # winner-take-all; the right view keeps its best claimant
-            k, value = first_min(total, x * lanes, lanes)
+            back_min, k, value = path_total_step(
+                cost, c_off, back, p_off, back, q, lanes, p1, p2, pmin, parts,
+                (c_off, c_off, x * stride + 1), total, x * lanes,
+            )  # fmt: skip
             k = min(k, ndisp - 1)
             best_k[x] = k
             if confidence.size:
                 confidence[r, x] = _margin(total, x * lanes, k, ndisp, value)
+        for x in range(width):  # the right view keeps the best of the left pixels choosing it
+            k = best_k[x]
             xr = x - dmin - k
+            value = total[x * lanes + k]
             if 0 <= xr < width and value < right_best[xr]:
                 right_best[xr] = value
                 right_d[xr] = dmin + k

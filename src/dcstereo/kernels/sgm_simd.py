@@ -84,6 +84,41 @@ def add_saturated(out, o_off, a, a_off, b, b_off, n):
         out[o_off + k] = _saturate(int(a[a_off + k]) + int(b[b_off + k]))
 
 
+def paths_step(cost, c_off, prev, p_offs, cur, q_offs, n, p1, p2s, pmins, sums, s_off):
+    """:func:`path_step` of several paths through one pixel, and the sum of their values.
+
+    ``p_offs``, ``q_offs`` and ``p2s`` are tuples of one entry per path: path ``i`` reads
+    ``prev`` at ``p_offs[i]``, writes ``cur`` at ``q_offs[i]``, with ``p2s[i]`` and
+    ``pmins[i]`` (an int64 array), which receives its new least value; ``sums[s_off + k]``
+    the sum of the paths' ``L(p, k)``, added in order, saturated. A path's first pixel is a
+    step from a predecessor of all zeros (``L = C`` exactly, since ``P1, P2 >= 0``).
+    """
+    for i in range(len(p_offs)):
+        pmins[i] = path_step(cost, c_off, prev, p_offs[i], cur, q_offs[i], n, p1, p2s[i], pmins[i])
+    for k in range(n):
+        total = 0
+        for i in range(len(q_offs)):
+            total = _saturate(total + int(cur[q_offs[i] + 1 + k]))
+        sums[s_off + k] = total
+
+
+def path_total_step(cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin, parts, offs, total, t_off):
+    """:func:`path_step`, then the total of the pixel: the path's value plus three parts.
+
+    ``total[t_off + k] = L(p, k) + parts[0][offs[0] + k] + parts[1][offs[1] + k] +
+    parts[2][offs[2] + k]``, summed in that order and saturated. Returns ``(min_k L(p, k),
+    k_best, total[t_off + k_best])`` with ``k_best`` the first least total.
+    """
+    least = path_step(cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin)
+    for k in range(n):
+        value = int(cur[q_off + 1 + k])
+        for i in range(3):
+            value = _saturate(value + int(parts[i][offs[i] + k]))
+        total[t_off + k] = value
+    k_best, best = first_min(total, t_off, n)
+    return least, k_best, best
+
+
 def first_min(values, off, n):
     """Return ``(k, values[off + k])`` of the least of ``values[off:off + n]``, first on ties."""
     best_k = 0
@@ -275,6 +310,172 @@ def _first_min_vector(typingctx, values, off, n):
     return types.UniTuple(types.int64, 2)(values, off, n), _first_min_codegen
 
 
+def _paths_step_codegen(context, builder, sig, args):
+    count = sig.args[3].count
+    _, c_off, _, p_offs, _, q_offs, n, p1, p2s, _, _, s_off = args
+    cost = _data(context, builder, sig, args, 0)
+    prev = _data(context, builder, sig, args, 2)
+    cur = _data(context, builder, sig, args, 4)
+    pmins = _data(context, builder, sig, args, 9)
+    sums = _data(context, builder, sig, args, 10)
+    p_offs = cgutils.unpack_tuple(builder, p_offs, count)
+    q_offs = cgutils.unpack_tuple(builder, q_offs, count)
+    p2s = cgutils.unpack_tuple(builder, p2s, count)
+    p1v = _splat(builder, _saturated_i16(builder, p1))
+    jumps, pminvs, bests = [], [], []
+    for i in range(count):
+        pmin = builder.load(builder.gep(pmins, [ir.Constant(_I64, i)]))
+        jumps.append(_splat(builder, _saturated_i16(builder, builder.add(pmin, p2s[i]))))
+        pminvs.append(_splat(builder, builder.trunc(pmin, _I16)))
+        bests.append(cgutils.alloca_once_value(builder, _splat(builder, ir.Constant(_I16, HIGH))))
+    one, two = ir.Constant(_I64, 1), ir.Constant(_I64, 2)
+    with _chunks(builder, n) as loop:
+        k = builder.mul(loop.index, ir.Constant(_I64, LANES))
+        c = _load(builder, cost, builder.add(c_off, k))
+        total = ir.Constant(_VEC, [0] * LANES)
+        for i in range(count):
+            at = builder.add(p_offs[i], k)
+            before = _add_sat(builder, _load(builder, prev, at), p1v)
+            same = _load(builder, prev, builder.add(at, one))
+            after = _add_sat(builder, _load(builder, prev, builder.add(at, two)), p1v)
+            step = _min(builder, _min(builder, same, before), _min(builder, after, jumps[i]))
+            value = builder.add(c, builder.sub(step, pminvs[i]))
+            _store(builder, value, cur, builder.add(builder.add(q_offs[i], k), one))
+            builder.store(_min(builder, builder.load(bests[i]), value), bests[i])
+            total = _add_sat(builder, total, value)
+        _store(builder, total, sums, builder.add(s_off, k))
+    for i in range(count):
+        least = builder.sext(_reduce_min(builder, builder.load(bests[i])), _I64)
+        builder.store(least, builder.gep(pmins, [ir.Constant(_I64, i)]))
+    return context.get_dummy_value()
+
+
+def _word_tuple(value):
+    return isinstance(value, types.UniTuple) and _words(value.dtype)
+
+
+def _int64_array(array):
+    return isinstance(array, types.Array) and array.layout == "C" and array.dtype == types.int64
+
+
+@intrinsic
+def _paths_step_vector(
+    typingctx, cost, c_off, prev, p_offs, cur, q_offs, n, p1, p2s, pmins, sums, s_off
+):
+    if not (
+        _int16_array(cost)
+        and _int16_array(prev)
+        and _int16_array(cur)
+        and _int16_array(sums)
+        and _int64_array(pmins)
+        and _word_tuple(p_offs)
+        and _word_tuple(q_offs)
+        and _word_tuple(p2s)
+        and p_offs.count == q_offs.count == p2s.count
+        and _words(c_off, n, p1, s_off)
+    ):
+        return None
+    sig = types.void(cost, c_off, prev, p_offs, cur, q_offs, n, p1, p2s, pmins, sums, s_off)
+    return sig, _paths_step_codegen
+
+
+def _path_total_codegen(context, builder, sig, args):
+    _, c_off, _, p_off, _, q_off, n, p1, p2, pmin, parts, offs, _, t_off = args
+    cost = _data(context, builder, sig, args, 0)
+    prev = _data(context, builder, sig, args, 2)
+    cur = _data(context, builder, sig, args, 4)
+    total_data = _data(context, builder, sig, args, 12)
+    part_type = sig.args[10].dtype
+    part_data = [
+        context.make_array(part_type)(context, builder, value).data
+        for value in cgutils.unpack_tuple(builder, parts, 3)
+    ]
+    offs = cgutils.unpack_tuple(builder, offs, 3)
+    p1v = _splat(builder, _saturated_i16(builder, p1))
+    jump = _splat(builder, _saturated_i16(builder, builder.add(pmin, p2)))
+    pminv = _splat(builder, builder.trunc(pmin, _I16))
+    high = _splat(builder, ir.Constant(_I16, HIGH))
+    least = cgutils.alloca_once_value(builder, high)
+    best = cgutils.alloca_once_value(builder, high)
+    index_type = ir.VectorType(ir.IntType(32), LANES)
+    where = cgutils.alloca_once_value(builder, ir.Constant(index_type, [0] * LANES))
+    lanes = ir.Constant(index_type, list(range(LANES)))
+    one, two = ir.Constant(_I64, 1), ir.Constant(_I64, 2)
+    with _chunks(builder, n) as loop:
+        k = builder.mul(loop.index, ir.Constant(_I64, LANES))
+        at = builder.add(p_off, k)
+        before = _add_sat(builder, _load(builder, prev, at), p1v)
+        same = _load(builder, prev, builder.add(at, one))
+        after = _add_sat(builder, _load(builder, prev, builder.add(at, two)), p1v)
+        step = _min(builder, _min(builder, same, before), _min(builder, after, jump))
+        value = builder.add(_load(builder, cost, builder.add(c_off, k)), builder.sub(step, pminv))
+        _store(builder, value, cur, builder.add(builder.add(q_off, k), one))
+        builder.store(_min(builder, builder.load(least), value), least)
+        total = value
+        for data, off in zip(part_data, offs, strict=True):
+            total = _add_sat(builder, total, _load(builder, data, builder.add(off, k)))
+        _store(builder, total, total_data, builder.add(t_off, k))
+        old = builder.load(best)
+        less = builder.icmp_signed("<", total, old)
+        builder.store(builder.select(less, total, old), best)
+        here = builder.add(_splat(builder, builder.trunc(k, ir.IntType(32)), index_type), lanes)
+        builder.store(builder.select(less, here, builder.load(where)), where)
+    final = builder.load(best)
+    smallest = _reduce_min(builder, final)
+    holds = builder.icmp_signed("==", final, _splat(builder, smallest))
+    first = builder.select(holds, builder.load(where), ir.Constant(index_type, [2**31 - 1] * LANES))
+    index = _call(builder, f"llvm.vector.reduce.umin.v{LANES}i32", ir.IntType(32), first)
+    values = [
+        builder.sext(_reduce_min(builder, builder.load(least)), _I64),
+        builder.sext(index, _I64),
+        builder.sext(smallest, _I64),
+    ]
+    return context.make_tuple(builder, sig.return_type, values)
+
+
+@intrinsic
+def _path_total_vector(
+    typingctx, cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin, parts, offs, total, t_off
+):
+    if not (
+        _int16_array(cost)
+        and _int16_array(prev)
+        and _int16_array(cur)
+        and _int16_array(total)
+        and isinstance(parts, types.UniTuple)
+        and parts.count == 3
+        and _int16_array(parts.dtype)
+        and _word_tuple(offs)
+        and offs.count == 3
+        and _words(c_off, p_off, q_off, n, p1, p2, pmin, t_off)
+    ):
+        return None
+    sig = types.UniTuple(types.int64, 3)(
+        cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin, parts, offs, total, t_off
+    )
+    return sig, _path_total_codegen
+
+
+@overload(paths_step)
+def _paths_step_compiled(cost, c_off, prev, p_offs, cur, q_offs, n, p1, p2s, pmins, sums, s_off):
+    def compiled(cost, c_off, prev, p_offs, cur, q_offs, n, p1, p2s, pmins, sums, s_off):
+        _paths_step_vector(cost, c_off, prev, p_offs, cur, q_offs, n, p1, p2s, pmins, sums, s_off)
+
+    return compiled
+
+
+@overload(path_total_step)
+def _path_total_compiled(
+    cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin, parts, offs, total, t_off
+):
+    def compiled(cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin, parts, offs, total, t_off):
+        return _path_total_vector(
+            cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin, parts, offs, total, t_off
+        )
+
+    return compiled
+
+
 @overload(path_step)
 def _path_step_compiled(cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin):
     return lambda cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin: _path_step_vector(
@@ -316,6 +517,22 @@ def compiled_path_start(cost, c_off, cur, q_off, n):
 def compiled_add_saturated(out, o_off, a, a_off, b, b_off, n):
     """``add_saturated`` as compiled code runs it."""
     add_saturated(out, o_off, a, a_off, b, b_off, n)
+
+
+@nb.njit(cache=True)
+def compiled_paths_step(cost, c_off, prev, p_offs, cur, q_offs, n, p1, p2s, pmins, sums, s_off):
+    """``paths_step`` as compiled code runs it."""
+    paths_step(cost, c_off, prev, p_offs, cur, q_offs, n, p1, p2s, pmins, sums, s_off)
+
+
+@nb.njit(cache=True)
+def compiled_path_total_step(
+    cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin, parts, offs, total, t_off
+):
+    """``path_total_step`` as compiled code runs it."""
+    return path_total_step(
+        cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin, parts, offs, total, t_off
+    )
 
 
 @nb.njit(cache=True)
