@@ -2,7 +2,10 @@
 
 1. A PNG whose header claims 89-179 million pixels printed Pillow's
    ``DecompressionBombWarning`` (a site-packages path and a ``warnings.warn(`` line)
-   before the one-line error: the readers now have a pixel limit of their own.
+   before the one-line error: the readers now have a pixel limit of their own. (The
+   fuzz of ``test_fuzz.py`` found a second such leak: a TIFF cut after its header printed
+   Pillow's ``Corrupt EXIF data`` warning; Pillow's warnings are now silenced while
+   dcstereo decodes.)
 2. A ``dcstereo run`` killed mid-write left ``.d.tmpXXXXXXXX.pfm`` and a nested
    ``..d.tmpX.tmpY.pfm`` (``write_pfm``'s atomic write inside ``run``'s) that no later
    run removed: one level of temporary files, and every name a killed run leaves is
@@ -16,6 +19,7 @@ import struct
 import subprocess
 import sys
 import textwrap
+import warnings
 import zlib
 
 import numpy as np
@@ -26,6 +30,8 @@ from PIL import Image
 import dcstereo
 from dcstereo import api, io
 from dcstereo.cli import main
+
+DATA = pathlib.Path(__file__).parent / "data"
 
 # --------------------------------------------------------------------------- pixel limit
 
@@ -79,7 +85,7 @@ def test_a_png_claiming_169_million_pixels_is_one_line_naming_the_limit(
     # before: Pillow's DecompressionBombWarning (its file and line, then "warnings.warn(")
     # printed above "Error: ... truncated or corrupt image data"; under -W error the
     # warning became that error's text
-    bomb = png_header_only(tmp_path / "bomb.png", 13000, 13000)
+    bomb = DATA / "png_header_13000x13000.png"  # the issue's file, 68 bytes
     if command == "run":
         args = ["run", bomb, bomb, "-o", tmp_path / "d.pfm", "--max-disparity", 16]
     else:
@@ -93,6 +99,23 @@ def test_a_png_claiming_169_million_pixels_is_one_line_naming_the_limit(
         "(in Python: max_pixels=)"
     ]
     assert not (tmp_path / "d.pfm").exists()
+
+
+@pytest.mark.parametrize("command", ["run", "eval"])
+def test_a_tiff_cut_after_its_header_is_one_line_without_pillows_exif_warning(tmp_path, command):
+    # before: "UserWarning: Corrupt EXIF data.  Expecting to read 2 bytes but only got 0."
+    # (TiffImagePlugin.py's path and "warnings.warn(str(msg))") above the error line
+    cut = DATA / "tiff_truncated_after_header.tif"  # b"II*\0\x08\0\0\0"
+    if command == "run":
+        args = ["run", cut, cut, "-o", tmp_path / "d.pfm", "--max-disparity", 4]
+    else:
+        args = ["eval", cut, scene(tmp_path / "scene")]
+    done = cli(*args, warnings_as_errors=False)
+    assert done.returncode == 1
+    assert done.stderr.splitlines() == [
+        f"Error: cannot read image '{cut}': not a recognised image format"
+    ]
+    assert not io.is_complete(cut)  # is_complete opens it too: silently
 
 
 @pytest.mark.parametrize(
@@ -152,15 +175,22 @@ def test_a_pfm_over_the_limit_is_refused_from_its_header(tmp_path):
         io.read_disparity(tmp_path / "huge.pfm")
 
 
-def test_pillows_own_setting_is_put_back(tmp_path):
-    path = png_header_only(tmp_path / "bomb.png", 13000, 13000)
-    before = Image.MAX_IMAGE_PIXELS
-    with pytest.raises(ValueError, match="more than the limit"):
-        io.read_image(path)
-    with pytest.raises(ValueError, match="truncated"):
-        io.read_image(path, max_pixels=10**9)
-    assert io.is_complete(path)  # the chunks' CRCs are right, and no warning either
-    assert Image.MAX_IMAGE_PIXELS == before
+def test_pillows_own_settings_are_put_back(tmp_path):
+    path = DATA / "png_header_13000x13000.png"
+    before = Image.MAX_IMAGE_PIXELS, list(warnings.filters)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with pytest.raises(ValueError, match="more than the limit"):
+            io.read_image(path)
+        with pytest.raises(ValueError, match="truncated"):
+            io.read_image(path, max_pixels=10**9)
+        assert io.is_complete(path)  # the chunks' CRCs are right
+        assert not io.is_complete(DATA / "tiff_truncated_after_header.tif")
+    assert caught == []
+    assert (Image.MAX_IMAGE_PIXELS, list(warnings.filters)) == before
+    # Pillow on its own still warns: its settings are set aside only while dcstereo reads
+    with pytest.warns(Image.DecompressionBombWarning), Image.open(path):
+        pass
 
 
 # --------------------------------------------------------------------------- temporary files

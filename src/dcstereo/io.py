@@ -16,8 +16,9 @@ baseline's unit, ``+inf`` where there is no depth) or 16-bit PNG (``round(z * sc
 The readers refuse an image of more than :data:`MAX_PIXELS` pixels (100 million) with a
 one-line ``ValueError`` that says how to raise the limit: the readers' ``max_pixels``
 argument, or the environment variable ``DCSTEREO_MAX_PIXELS`` (every command reads it).
-Pillow's own decompression-bomb warning and error are set aside while dcstereo decodes:
-this limit replaces them, so no warning text ever reaches the terminal.
+Pillow's own warnings (its decompression-bomb warning, ``Corrupt EXIF data``...) and its
+decompression-bomb error are set aside while dcstereo decodes: a damaged file is one error
+line, the pixel limit replaces Pillow's, and no warning text reaches the terminal.
 """
 
 import os
@@ -103,12 +104,12 @@ def open_image(path: str | os.PathLike, *, max_pixels: int | None = None) -> Ima
     decoders raise ``OSError``, ``SyntaxError``, ``EOFError``, ``ValueError``,
     ``struct.error``... on damaged files; none of them should reach the user as a
     traceback), and so is an image of more than ``max_pixels`` pixels (default:
-    :func:`pixel_limit`), found from its header before it is decoded. Pillow's
-    decompression-bomb check is set aside meanwhile (this limit replaces it), so its
-    warning is never printed, nor turned into an error by ``-W error``.
+    :func:`pixel_limit`), found from its header before it is decoded. Pillow's warnings
+    and its decompression-bomb check are set aside meanwhile (this limit replaces the
+    check): none is printed, nor turned into an exception by ``-W error``.
     """
     limit = pixel_limit(max_pixels)
-    with _pillow_size_check_off():
+    with _pillow_quietly():
         try:
             image = Image.open(path)
         except UnidentifiedImageError:
@@ -174,35 +175,34 @@ def _check_pixels(path, what: str, width: int, height: int, limit: int) -> None:
         )
 
 
-_pillow_lock = threading.Lock()
-_pillow_readers = 0
-_pillow_limit: int | None = None
+#: Held while Pillow decodes for dcstereo: the settings :func:`_pillow_quietly` changes
+#: are the process's, so one image decodes at a time (a reader called inside another's
+#: block, on the same thread, is fine).
+_PILLOW_LOCK = threading.RLock()
 
 
 @contextmanager
-def _pillow_size_check_off() -> Iterator[None]:
-    """Set Pillow's decompression-bomb check aside (``Image.MAX_IMAGE_PIXELS``) in the block.
+def _pillow_quietly() -> Iterator[None]:
+    """Decode with Pillow without its warnings and without its decompression-bomb check.
 
-    Pillow warns (``DecompressionBombWarning``, printed with its own source line) past
-    89.5 million pixels and raises past twice that; dcstereo applies its own limit
-    instead. Pillow reads the setting from its module, so it is set to None while any
-    thread of this process is inside such a block (counted) and put back as it was when
-    the last one leaves; Pillow used elsewhere in the process at the same moment runs
-    without the check meanwhile.
+    Pillow warns on damaged files (``Corrupt EXIF data``...) and past 89.5 million pixels
+    (``DecompressionBombWarning``), each printed with its own source line, and raises past
+    twice that: dcstereo reports a damaged file as one error line and applies its own
+    pixel limit instead (:func:`pixel_limit`). Python's warning filters and Pillow's
+    ``Image.MAX_IMAGE_PIXELS`` belong to the whole process, so they are changed under a
+    lock and put back when the block ends; under ``-W error`` too, no warning of Pillow's
+    becomes an exception meanwhile. Pillow used by another thread at that moment runs
+    with the same settings.
     """
-    global _pillow_readers, _pillow_limit
-    with _pillow_lock:
-        if _pillow_readers == 0:
-            _pillow_limit = Image.MAX_IMAGE_PIXELS
-            Image.MAX_IMAGE_PIXELS = None
-        _pillow_readers += 1
-    try:
-        yield
-    finally:
-        with _pillow_lock:
-            _pillow_readers -= 1
-            if _pillow_readers == 0:
-                Image.MAX_IMAGE_PIXELS = _pillow_limit
+    with _PILLOW_LOCK, warnings.catch_warnings():
+        warnings.filterwarnings("ignore", module=r"PIL(\.|$)")
+        warnings.filterwarnings("ignore", category=Image.DecompressionBombWarning)
+        limit = Image.MAX_IMAGE_PIXELS
+        Image.MAX_IMAGE_PIXELS = None
+        try:
+            yield
+        finally:
+            Image.MAX_IMAGE_PIXELS = limit
 
 
 def _check_readable(path: str | os.PathLike, what: str) -> None:
@@ -299,7 +299,7 @@ def is_complete(path: str | os.PathLike) -> bool:
             return path.stat().st_size == pos + 4 * width * height * channels
         if path.suffix.lower() == ".ply":
             return _ply_complete(path)
-        with _pillow_size_check_off(), Image.open(path) as image:
+        with _pillow_quietly(), Image.open(path) as image:
             image.verify()
         return True
     except (OSError, ValueError, SyntaxError, EOFError, struct.error, KeyError, IndexError):
