@@ -135,6 +135,9 @@ OUT_OF_MEMORY = textwrap.dedent(
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="RLIMIT_AS caps memory on Linux")
 def test_a_real_failed_allocation_is_one_line_in_the_library_and_the_cli(tmp_path):
+    small = np.random.default_rng(0).integers(0, 256, (16, 64), dtype=np.uint8)
+    for method in dcstereo.METHODS:  # compiled here first: the processes load them
+        dcstereo.match(small, small, max_disparity=8, method=method, window=1)
     env = {**os.environ, "NUMBA_NUM_THREADS": "2"}
     done = subprocess.run(
         [sys.executable, "-c", OUT_OF_MEMORY], capture_output=True, text=True, env=env,
