@@ -1,4 +1,5 @@
 import os
+import shutil
 import struct
 
 import numpy as np
@@ -141,7 +142,7 @@ def test_atomic_writes_without_a_second_name_keeps_the_new_file(tmp_path, monkey
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(os, "link", refuse)
-    monkeypatch.setattr(io.shutil, "copy2", refuse)
+    monkeypatch.setattr(shutil, "copy2", refuse)
     refuse_move("b.txt")
     with pytest.raises(ValueError, match="cannot write .*b.txt': permission denied"):
         with io.atomic_writes() as stage:

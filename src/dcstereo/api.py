@@ -81,8 +81,10 @@ def match(
     params.check_image_size(height, width)
     try:
         result = _METHODS[params.method](left, right, params)
-    except SystemError as err:  # an allocation failed inside a parallel kernel
-        if not isinstance(err.__cause__, MemoryError):
+    except (SystemError, MemoryError) as err:
+        # numpy's MemoryError, or numba's SystemError for an allocation that failed inside
+        # a parallel kernel: one line that says what did not fit
+        if not isinstance(err, MemoryError) and not isinstance(err.__cause__, MemoryError):
             raise
         raise MemoryError(
             f"out of memory matching {height} x {width} images over "

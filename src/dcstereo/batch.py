@@ -404,10 +404,13 @@ def run_batch(
 
     todo = []
     cameras = {}
+    outputs_of = {
+        p.name: _outputs(folder, p, depth and depth_format, confidence, ply) for p in pairs
+    }
+    # what a killed run left half-written (never a real output), each folder listed once
+    io.remove_stale_temporaries(*(path for paths in outputs_of.values() for path in paths))
     for pair in pairs:
-        outputs = _outputs(folder, pair, depth and depth_format, confidence, ply)
-        for path in outputs:
-            _remove_stale_temporaries(path)
+        outputs = outputs_of[pair.name]
         problem = pair.problem
         if problem is None and (depth or ply):
             cameras[pair.name], problem = _camera(pair, calibration, depth, ply)
@@ -686,12 +689,6 @@ def check_recorded_options(
         return
     with io.atomic_write(recorded) as tmp:
         tmp.write_text(json.dumps(current, sort_keys=True, indent=1) + "\n", encoding="utf-8")
-
-
-def _remove_stale_temporaries(path: Path) -> None:
-    """Remove what a killed run left half-written of ``path`` (never a real output)."""
-    for tmp in io.stale_temporaries(path):
-        tmp.unlink(missing_ok=True)
 
 
 def write_failures(folder: Path, rows: list[FailureRow]) -> None:

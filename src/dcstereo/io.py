@@ -12,241 +12,53 @@ Depth maps (:mod:`dcstereo.geometry`) are written the same two ways: PFM (float3
 baseline's unit, ``+inf`` where there is no depth) or 16-bit PNG (``round(z * scale)``,
 ``scale=1`` by default: millimetres for a baseline in millimetres, the RGB-D convention;
 ``0`` where there is no depth).
+
+The readers refuse an image of more than :data:`MAX_PIXELS` pixels (100 million) with a
+one-line ``ValueError`` that says how to raise the limit: the readers' ``max_pixels``
+argument, or the environment variable ``DCSTEREO_MAX_PIXELS`` (every command reads it).
+Pillow's own warnings (its decompression-bomb warning, ``Corrupt EXIF data``...) and its
+decompression-bomb error are set aside while dcstereo decodes: a damaged file is one error
+line, the pixel limit replaces Pillow's, and no warning text reaches the terminal.
 """
 
-import glob
 import os
 import re
-import secrets
-import shutil
 import struct
+import threading
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 from PIL import Image, UnidentifiedImageError
 
-from ._checks import disparity_array, is_number
+from ._atomic import (  # noqa: F401  (re-exported: the writers' public helpers)
+    TEMPORARY_NAME_EXTRA,
+    _reason,
+    atomic_write,
+    atomic_writes,
+    check_writable,
+    remove_stale_temporaries,
+    stale_temporaries,
+)
+from ._checks import disparity_array, is_integer, is_number
 
 _PNG16_MAX = 65535
+#: The most pixels (width x height) an image or map may have for the readers, unless
+#: their ``max_pixels`` or the environment variable :data:`MAX_PIXELS_VARIABLE` says
+#: otherwise. 100 million: twice a 50-megapixel photograph; Pillow's own
+#: decompression-bomb limit (89.5 million, an error at twice that) is of the same size.
+MAX_PIXELS = 100_000_000
+#: The environment variable that sets the readers' pixel limit (a whole number).
+MAX_PIXELS_VARIABLE = "DCSTEREO_MAX_PIXELS"
 _PFM_HEADER = re.compile(rb"(P[Ff])\s+(\S+)\s+(\S+)\s+(\S+)(?:\r\n|\s)")
+#: Bytes read for a PFM header (the header of any real file is far shorter).
+_PFM_HEADER_BYTES = 4096
 _DISPARITY_SUFFIXES = (".pfm", ".png")
 
 
-@contextmanager
-def atomic_write(path: str | os.PathLike) -> Iterator[Path]:
-    """Give a temporary path next to ``path`` and move it onto ``path`` on success.
-
-    The temporary file is hidden (``.out.tmpXXXXXXXX.png`` for ``out.png``) and keeps the
-    real suffix last, so writers that pick the format from the name (Pillow) still work.
-    If the body raises, the temporary file is removed and the exception propagates, so
-    nothing half-written ever appears at ``path`` and an existing file there is untouched.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        Final location of the file; its directory must exist.
-
-    Yields
-    ------
-    Path
-        The temporary file to write (it exists, empty).
-
-    Examples
-    --------
-    >>> with atomic_write("out.png") as tmp:  # doctest: +SKIP
-    ...     Image.fromarray(pixels).save(tmp)
-    """
-    with atomic_writes() as stage:
-        yield stage(path)
-
-
-@contextmanager
-def atomic_writes() -> Iterator[Callable[[str | os.PathLike], Path]]:
-    """Write several files all or none: :func:`atomic_write` for a group of outputs.
-
-    Yields ``stage(path)``, which returns a temporary file next to ``path`` (as
-    :func:`atomic_write` does). When the block ends without an error every temporary
-    file is moved onto its path, in the order staged; if the block raises, all of them
-    are removed. If a move fails partway (a folder's permissions changed, a path became
-    a directory), the files already moved are put back as they were: the earlier
-    contents of each overwritten path, kept by a hard link (a copy where the file system
-    has none; where neither can be made, that path keeps its new file) until the group is
-    in place, and no file where there was none. Otherwise the paths hold the whole new
-    group or the whole old one, and no temporary file is left behind (unless putting a
-    file back fails as well: the hidden second name then stays). The error is a one-line
-    ``ValueError`` naming the path.
-
-    Examples
-    --------
-    >>> with atomic_writes() as stage:  # doctest: +SKIP
-    ...     np.save(stage("a.npy"), a)
-    ...     np.save(stage("b.npy"), b)
-    """
-    staged: list[tuple[Path, Path, str | os.PathLike]] = []
-
-    def stage(path: str | os.PathLike) -> Path:
-        check_writable(path)
-        target = Path(path)
-        staged.append((_create_temp(target, path), target, path))
-        return staged[-1][0]
-
-    try:
-        yield stage
-    except BaseException:
-        for tmp, _, _ in staged:
-            tmp.unlink(missing_ok=True)
-        raise
-    _move_all(staged)
-
-
-def _move_all(staged: list[tuple[Path, Path, str | os.PathLike]]) -> None:
-    """Move each temporary file onto its target; undo the moves made if one fails."""
-    # (target, a second name of what was there or None, whether anything was there)
-    moved: list[tuple[Path, Path | None, bool]] = []
-    i = 0
-    try:
-        for i, (tmp, target, _) in enumerate(staged):
-            existed = target.is_symlink() or target.exists()
-            # the last move is never undone: no later one can fail
-            backup = _keep_earlier(target) if existed and i < len(staged) - 1 else None
-            try:
-                os.replace(tmp, target)
-            except BaseException:
-                if backup is not None:
-                    backup.unlink(missing_ok=True)
-                raise
-            moved.append((target, backup, existed))
-    except BaseException as exc:
-        for tmp, _, _ in staged:
-            tmp.unlink(missing_ok=True)
-        _put_back(moved)
-        if isinstance(exc, OSError):
-            raise ValueError(f"cannot write '{staged[i][2]}': {_reason(exc)}") from None
-        raise
-    for _, backup, _ in moved:
-        if backup is not None:
-            backup.unlink(missing_ok=True)
-
-
-def _keep_earlier(target: Path) -> Path | None:
-    """Return a hidden second name for what is at ``target`` (a hard link, else a copy).
-
-    None where there is nothing at ``target``, or no second name could be made: that
-    output then cannot be put back if a later move of its group fails.
-    """
-    if not target.is_symlink() and not target.is_file():
-        return None
-    for _ in range(100):
-        backup = _temporary_name(target, secrets.token_hex(4))
-        try:
-            if target.is_symlink():
-                os.symlink(os.readlink(target), backup)
-            else:
-                os.link(target, backup)
-            return backup
-        except FileExistsError:
-            continue
-        except OSError:
-            break
-    if target.is_symlink():
-        return None
-    try:  # no hard links on this file system
-        backup = _create_temp(target, target)
-    except ValueError:
-        return None
-    try:
-        shutil.copy2(target, backup)
-    except OSError:
-        backup.unlink(missing_ok=True)
-        return None
-    return backup
-
-
-def _put_back(moved: list[tuple[Path, Path | None, bool]]) -> None:
-    """Undo the moves of :func:`_move_all` (best effort: an error here is not raised).
-
-    A path that held nothing is emptied again; one whose earlier file has no second name
-    keeps the new file.
-    """
-    for target, backup, existed in reversed(moved):
-        try:
-            if backup is not None:
-                os.replace(backup, target)
-            elif not existed:
-                target.unlink(missing_ok=True)
-        except OSError:
-            pass
-
-
-def check_writable(path: str | os.PathLike, *, make_folders: bool = False) -> None:
-    """Fail at once when :func:`atomic_write` could not write ``path``.
-
-    For tools that run a long job before writing: a bad output path is then a one-line
-    ``ValueError`` before the work, not after it. With ``make_folders`` a missing folder
-    is fine when the nearest existing one above it is a folder the caller can write in.
-    """
-    target = Path(path)
-    if target.is_dir():
-        raise ValueError(f"cannot write '{path}': it is a directory")
-    folder = target.parent
-    if make_folders:
-        while not folder.exists() and folder != folder.parent:
-            folder = folder.parent
-    if not folder.is_dir():
-        if make_folders or folder.exists():
-            raise ValueError(f"cannot write '{path}': '{folder}' is not a directory")
-        raise ValueError(f"cannot write '{path}': directory '{folder}' does not exist")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise ValueError(f"cannot write '{path}': permission denied in '{folder}'")
-
-
-#: How many characters longer than its target's name the name of an :func:`atomic_write`
-#: temporary file is: ``.<stem>.tmp<8 hex digits><suffix>`` beside ``<stem><suffix>``.
-TEMPORARY_NAME_EXTRA = len("..tmp") + 8
-
-
-def _temporary_name(target: Path, token: str) -> Path:
-    return target.with_name(f".{target.stem}.tmp{token}{target.suffix}")
-
-
-def stale_temporaries(path: str | os.PathLike) -> list[Path]:
-    """Return the temporary files of :func:`atomic_write` for ``path`` still there, sorted.
-
-    A writer killed before its rename leaves one behind; a later run may remove them.
-    Only names of exactly the temporary scheme are returned, never another output.
-    """
-    target = Path(path)
-    pattern = glob.escape(f".{target.stem}.tmp") + "*" + glob.escape(target.suffix)
-    return sorted(
-        tmp
-        for tmp in target.parent.glob(pattern)
-        if len(tmp.name) == len(target.name) + TEMPORARY_NAME_EXTRA
-    )
-
-
-def _create_temp(target: Path, shown: str | os.PathLike) -> Path:
-    # O_EXCL so two writers never share a temp file; mode 0o666 lets the umask decide.
-    for _ in range(100):
-        tmp = _temporary_name(target, secrets.token_hex(4))
-        try:
-            os.close(os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
-        except FileExistsError:
-            continue
-        except OSError as exc:
-            raise ValueError(f"cannot write '{shown}': {_reason(exc)}") from None
-        return tmp
-    raise ValueError(f"cannot write '{shown}': no free temporary file name")
-
-
-def _reason(exc: OSError) -> str:
-    text = exc.strerror or str(exc)
-    return text[:1].lower() + text[1:]
-
-
-def read_image(path: str | os.PathLike) -> np.ndarray:
+def read_image(path: str | os.PathLike, *, max_pixels: int | None = None) -> np.ndarray:
     """Read an image file into a numpy array.
 
     PNG, JPEG, TIFF, PGM/PPM and the other formats Pillow knows are read with Pillow, PFM
@@ -258,6 +70,9 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     ----------
     path : str or os.PathLike
         The image file.
+    max_pixels : int, optional
+        The most pixels the image may have (default: :func:`pixel_limit`, 100 million or
+        ``DCSTEREO_MAX_PIXELS``); checked on the header, before anything is decoded.
 
     Returns
     -------
@@ -267,12 +82,14 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     Raises
     ------
     ValueError
-        If the file is missing, not an image or truncated; the message names the path.
+        If the file is missing, not an image, truncated or over ``max_pixels``; the
+        message names the path.
     """
+    limit = pixel_limit(max_pixels)
     _check_readable(path, "image")
     if _is_pfm(path):
-        return read_pfm(path)
-    image = open_image(path)
+        return read_pfm(path, max_pixels=limit)
+    image = open_image(path, max_pixels=limit)
     mode = image.mode
     array = _mode_to_array(image)
     if array is None:
@@ -280,26 +97,112 @@ def read_image(path: str | os.PathLike) -> np.ndarray:
     return _normalise_dtype(array, path)
 
 
-def open_image(path: str | os.PathLike) -> Image.Image:
+def open_image(path: str | os.PathLike, *, max_pixels: int | None = None) -> Image.Image:
     """Open and decode an image file with Pillow; return the decoded image.
 
     A damaged or unknown file is a one-line ``ValueError`` naming the path (Pillow's
     decoders raise ``OSError``, ``SyntaxError``, ``EOFError``, ``ValueError``,
     ``struct.error``... on damaged files; none of them should reach the user as a
-    traceback).
+    traceback), and so is an image of more than ``max_pixels`` pixels (default:
+    :func:`pixel_limit`), found from its header before it is decoded. Pillow's warnings
+    and its decompression-bomb check are set aside meanwhile (this limit replaces the
+    check): none is printed, nor turned into an exception by ``-W error``.
     """
+    limit = pixel_limit(max_pixels)
+    with _pillow_quietly():
+        try:
+            image = Image.open(path)
+        except UnidentifiedImageError:
+            raise ValueError(f"cannot read image '{path}': not a recognised image format") from None
+        except Exception as exc:
+            raise _corrupt(path, exc) from None
+        with image:
+            _check_pixels(path, "image", *image.size, limit)
+            try:
+                image.load()
+                return image.copy()
+            except MemoryError:
+                width, height = image.size
+                raise MemoryError(
+                    f"out of memory reading image '{path}' ({width} x {height} pixels)"
+                ) from None
+            except Exception as exc:
+                raise _corrupt(path, exc) from None
+
+
+def _corrupt(path: str | os.PathLike, exc: Exception) -> ValueError:
+    return ValueError(f"cannot read image '{path}': truncated or corrupt image data ({exc})")
+
+
+def pixel_limit(max_pixels: int | None = None) -> int:
+    """Return the pixel limit of the readers: ``max_pixels`` if given, else the default.
+
+    The default is the environment variable ``DCSTEREO_MAX_PIXELS`` where it is set (a
+    whole number, ``_`` allowed between digits), else :data:`MAX_PIXELS`.
+
+    Raises
+    ------
+    TypeError, ValueError
+        If ``max_pixels`` or the variable is not a whole number of 1 or more.
+    """
+    if max_pixels is not None:
+        if not is_integer(max_pixels):
+            raise TypeError(f"max_pixels must be an integer, got {max_pixels!r}")
+        if max_pixels < 1:
+            raise ValueError(f"max_pixels must be 1 or more, got {max_pixels}")
+        return int(max_pixels)
+    text = os.environ.get(MAX_PIXELS_VARIABLE, "").strip()
+    if not text:
+        return MAX_PIXELS
     try:
-        with Image.open(path) as image:
-            image.load()
-            return image.copy()
-    except UnidentifiedImageError:
-        raise ValueError(f"cannot read image '{path}': not a recognised image format") from None
-    except Image.DecompressionBombError as exc:
-        raise ValueError(f"cannot read image '{path}': {exc}") from None
-    except Exception as exc:
+        limit = int(text)
+    except ValueError:
+        limit = 0
+    if limit < 1:
         raise ValueError(
-            f"cannot read image '{path}': truncated or corrupt image data ({exc})"
-        ) from None
+            f"{MAX_PIXELS_VARIABLE} must be a whole number of pixels, 1 or more, got {text!r}"
+        )
+    return limit
+
+
+def _check_pixels(path, what: str, width: int, height: int, limit: int) -> None:
+    """Refuse a ``width x height`` image over ``limit`` pixels, saying how to raise it."""
+    if width * height > limit:
+        raise ValueError(
+            f"cannot read {what} '{path}': {width} x {height} is {width * height:,} pixels, "
+            f"more than the limit of {limit:,} per image; raise it with the environment "
+            f"variable {MAX_PIXELS_VARIABLE}=<pixels> (in Python: max_pixels=)"
+        )
+
+
+#: Held while Pillow decodes for dcstereo: the settings :func:`_pillow_quietly` changes
+#: are the process's, so one image decodes at a time (a reader called inside another's
+#: block, on the same thread, is fine).
+_PILLOW_LOCK = threading.RLock()
+
+
+@contextmanager
+def _pillow_quietly() -> Iterator[None]:
+    """Decode with Pillow without its warnings and without its decompression-bomb check.
+
+    Pillow warns on damaged files (``Corrupt EXIF data``...) and past 89.5 million pixels
+    (``DecompressionBombWarning``), each printed with its own source line, and raises past
+    twice that: dcstereo reports a damaged file as one error line and applies its own
+    pixel limit instead (:func:`pixel_limit`). Python's warning filters and Pillow's
+    ``Image.MAX_IMAGE_PIXELS`` belong to the whole process, so they are changed under a
+    lock and put back when the block ends; under ``-W error`` too, no warning of Pillow's
+    becomes an exception meanwhile. Pillow used by another thread at that moment runs
+    with the same settings.
+    """
+    with _PILLOW_LOCK, warnings.catch_warnings():
+        warnings.filterwarnings("ignore", module=r"PIL(\.|$)")
+        warnings.filterwarnings("ignore", category=Image.DecompressionBombWarning)
+        limit = Image.MAX_IMAGE_PIXELS
+        Image.MAX_IMAGE_PIXELS = None
+        try:
+            yield
+        finally:
+            Image.MAX_IMAGE_PIXELS = limit
 
 
 def _check_readable(path: str | os.PathLike, what: str) -> None:
@@ -396,7 +299,7 @@ def is_complete(path: str | os.PathLike) -> bool:
             return path.stat().st_size == pos + 4 * width * height * channels
         if path.suffix.lower() == ".ply":
             return _ply_complete(path)
-        with Image.open(path) as image:
+        with _pillow_quietly(), Image.open(path) as image:
             image.verify()
         return True
     except (OSError, ValueError, SyntaxError, EOFError, struct.error, KeyError, IndexError):
@@ -426,7 +329,7 @@ def _ply_complete(path: Path) -> bool:
     return path.stat().st_size == end + len(b"end_header\n") + count * sum(sizes)
 
 
-def read_pfm(path: str | os.PathLike) -> np.ndarray:
+def read_pfm(path: str | os.PathLike, *, max_pixels: int | None = None) -> np.ndarray:
     """Read a Portable Float Map.
 
     The header is ``Pf`` (gray) or ``PF`` (colour), the width and height, and a scale
@@ -438,6 +341,9 @@ def read_pfm(path: str | os.PathLike) -> np.ndarray:
     ----------
     path : str or os.PathLike
         The PFM file.
+    max_pixels : int, optional
+        The most pixels the map may have (default: :func:`pixel_limit`); checked on the
+        header, before the data is read.
 
     Returns
     -------
@@ -446,19 +352,27 @@ def read_pfm(path: str | os.PathLike) -> np.ndarray:
     Raises
     ------
     ValueError
-        If the file is missing, its header is malformed or its data is short.
+        If the file is missing, its header is malformed, its data is short or it has more
+        than ``max_pixels`` pixels.
     """
+    limit = pixel_limit(max_pixels)
     _check_readable(path, "PFM file")
-    data = Path(path).read_bytes()
-    width, height, channels, scale, pos = _pfm_header(data, path)
-    count = width * height * channels
-    if len(data) - pos < 4 * count:
+    try:
+        with open(path, "rb") as f:
+            width, height, channels, scale, pos = _pfm_header(f.read(_PFM_HEADER_BYTES), path)
+            _check_pixels(path, "PFM file", width, height, limit)
+            count = width * height * channels
+            f.seek(pos)
+            data = f.read(4 * count)
+    except OSError as exc:
+        raise ValueError(f"cannot read PFM file '{path}': {_reason(exc)}") from None
+    if len(data) < 4 * count:
         raise ValueError(
-            f"cannot read PFM file '{path}': data is short ({len(data) - pos} bytes, "
+            f"cannot read PFM file '{path}': data is short ({len(data)} bytes, "
             f"{4 * count} expected for {width}x{height}x{channels})"
         )
     dtype = "<f4" if scale < 0 else ">f4"
-    values = np.frombuffer(data, dtype=dtype, count=count, offset=pos)
+    values = np.frombuffer(data, dtype=dtype, count=count)
     shape = (height, width, 3) if channels == 3 else (height, width)
     return np.ascontiguousarray(values.reshape(shape)[::-1], dtype=np.float32)
 
@@ -491,7 +405,9 @@ def write_pfm(path: str | os.PathLike, array: np.ndarray) -> None:
         tmp.write_bytes(header + body)
 
 
-def read_disparity(path: str | os.PathLike, *, scale: float | None = None) -> np.ndarray:
+def read_disparity(
+    path: str | os.PathLike, *, scale: float | None = None, max_pixels: int | None = None
+) -> np.ndarray:
     """Read a disparity map stored as PFM or as a gray PNG (or other gray image).
 
     Parameters
@@ -504,16 +420,21 @@ def read_disparity(path: str | os.PathLike, *, scale: float | None = None) -> np
     scale : float, optional
         Stored value per pixel of disparity. Default 256 for 16-bit images; for PFM files
         the values are divided by it when given.
+    max_pixels : int, optional
+        The most pixels the map may have (default: :func:`pixel_limit`).
 
     Returns
     -------
     ndarray of float32, shape (H, W)
         Disparity in pixels, NaN where there is no estimate.
     """
-    return _read_map(path, None if scale is None else _check_scale(scale), "disparity")
+    scale = None if scale is None else _check_scale(scale)
+    return _read_map(path, scale, "disparity", max_pixels)
 
 
-def read_depth(path: str | os.PathLike, *, scale: float = 1.0) -> np.ndarray:
+def read_depth(
+    path: str | os.PathLike, *, scale: float = 1.0, max_pixels: int | None = None
+) -> np.ndarray:
     """Read a depth map written by :func:`write_depth` (PFM, or 16-bit PNG).
 
     Parameters
@@ -525,21 +446,23 @@ def read_depth(path: str | os.PathLike, *, scale: float = 1.0) -> np.ndarray:
         Stored value per unit of depth for a PNG (1: the PNG holds the depth in the
         baseline's unit, millimetres for Middlebury; TUM RGB-D uses 5000 per metre).
         A PFM's values are divided by it too.
+    max_pixels : int, optional
+        The most pixels the map may have (default: :func:`pixel_limit`).
 
     Returns
     -------
     ndarray of float32, shape (H, W)
         Depth, NaN where there is none.
     """
-    return _read_map(path, _check_scale(scale), "depth")
+    return _read_map(path, _check_scale(scale), "depth", max_pixels)
 
 
-def _read_map(path, scale: float | None, what: str) -> np.ndarray:
+def _read_map(path, scale: float | None, what: str, max_pixels: int | None) -> np.ndarray:
     """Read a one-channel map: PFM (``inf`` = none) or integer image (``0`` = none).
 
     ``scale`` is checked by the caller; None: 256 for a 16-bit image, required for 8 bits.
     """
-    stored = read_image(path)
+    stored = read_image(path, max_pixels=max_pixels)
     if stored.ndim != 2:
         raise ValueError(
             f"cannot read {what} '{path}': it is a colour image, a {what} map must "

@@ -567,15 +567,24 @@ def match_sequence(
         report.done.append(frame.name)
         note(frame.name, "done")
 
+    def frame_outputs(index):
+        outputs = list(output_paths(folder, index, disparity_format))
+        if calibration is not None:
+            outputs.append(depth_output_path(folder, index, depth_format))
+        if confidence:
+            outputs.append(confidence_output_path(folder, index))
+        if ply:
+            outputs.append(cloud_output_path(folder, index))
+        return outputs
+
+    # what a killed run left half-written (never a real output), the folder listed once
+    io.remove_stale_temporaries(
+        *(path for index in range(sequence.frame_count) for path in frame_outputs(index))
+    )
+
     def pending():
         for frame in sequence.frames():
-            outputs = list(output_paths(folder, frame.index, disparity_format))
-            if calibration is not None:
-                outputs.append(depth_output_path(folder, frame.index, depth_format))
-            if confidence:
-                outputs.append(confidence_output_path(folder, frame.index))
-            if ply:
-                outputs.append(cloud_output_path(folder, frame.index))
+            outputs = frame_outputs(frame.index)
             if resume and all(io.is_complete(p) for p in outputs):
                 report.skipped.append(frame.name)
                 note(frame.name, "skipped")

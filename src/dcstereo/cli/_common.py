@@ -241,13 +241,13 @@ class CommandError(click.ClickException):
 
 
 def one_line_errors(func):
-    """Turn the library's ValueError/TypeError/OSError into a one-line CLI error."""
+    """Turn the library's ValueError/TypeError/OSError/MemoryError into a one-line CLI error."""
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
         try:
             return func(*args, **kwargs)
-        except (ValueError, TypeError, OSError) as exc:
+        except (ValueError, TypeError, OSError, MemoryError) as exc:
             message = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise CommandError(message) from None
 
@@ -305,12 +305,15 @@ def staged_outputs():
     ends without an error, every temporary file is moved onto its path; on any error all
     of them are removed, and a move that fails partway puts back the files already moved,
     so a failed command leaves no partial set of outputs and pre-existing files untouched.
+    The writer writes the temporary file directly (one level of temporary files), and
+    what earlier commands killed before their rename left beside ``path`` is removed.
     """
     from .. import io
 
     with io.atomic_writes() as stage:
 
         def write(writer, path, *args, **kwargs):
+            io.remove_stale_temporaries(path)
             temporary = stage(path)
             try:
                 return writer(temporary, *args, **kwargs)
