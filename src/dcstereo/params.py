@@ -26,6 +26,7 @@ DEFAULT_UNIQUENESS = 2.0
 
 #: ``dsi3-gcp`` defaults (measured on the dev scenes, ``scripts/measure_gcp_bt.py``).
 DEFAULT_GCP_UNIQUENESS = 3.0
+#: (the same; ``gcp_variance_floor``, gray levels squared)
 DEFAULT_GCP_VARIANCE_FLOOR = 100.0
 
 #: Largest window: the band kernels sum a window's absolute differences (each at most
