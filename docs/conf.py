@@ -71,4 +71,3 @@ html_theme_options = {
     "footer_end": ["sphinx-version"],
 }
 html_sidebars = {"**": ["sidebar-nav-bs"]}
-

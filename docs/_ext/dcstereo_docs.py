@@ -69,6 +69,7 @@ class KernelRole(SphinxRole):
     """The ``kernel`` role (see the module docstring)."""
 
     def run(self):
+        """Return the code node of the name, with a warning when it does not resolve."""
         has_title, title, target = split_explicit_title(self.text)
         target = target.strip()
         try:
@@ -148,6 +149,7 @@ def _fields(name: str) -> set[str]:
 
 
 def setup(app):
+    """Register the role and the two rules with Sphinx."""
     app.add_role("kernel", KernelRole())
     app.connect("autodoc-skip-member", skip_reexported)
     app.connect("missing-reference", unique_target)
