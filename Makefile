@@ -1,16 +1,17 @@
 # The two set-up commands of the README: `make demo` and `make test`.
-# Each creates .venv and installs the project (with its test and demo extras) when missing.
+# Each creates .venv and installs the project (with its test, demo and docs extras) when
+# missing.
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: demo test lint bench clean
+.PHONY: demo test lint bench docs doctest clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e ".[test,demo]"
+	$(BIN)/python -m pip install --quiet -e ".[test,demo,docs]"
 	touch $(STAMP)
 
 demo: $(STAMP)
@@ -23,11 +24,27 @@ test: $(STAMP)
 	$(BIN)/python -m pytest -q -n $(JOBS) --dist worksteal
 
 lint: $(STAMP)
-	$(BIN)/ruff check src tests benchmarks scripts
-	$(BIN)/ruff format --check src tests benchmarks scripts
+	$(BIN)/ruff check src tests benchmarks scripts docs
+	$(BIN)/ruff format --check src tests benchmarks scripts docs
 
 bench: $(STAMP)
-	$(BIN)/python benchmarks/bench_speed.py --markdown docs/SPEED.md
+	$(BIN)/python benchmarks/bench_speed.py --markdown docs/speed-tables.md
+
+# The documentation site, docs/_build/html/index.html: warnings are errors, and every
+# cross-reference must resolve (-n), so a renamed function breaks the build.
+SPHINXOPTS ?= -n -W --keep-going -q
+docs: $(STAMP)
+	$(BIN)/sphinx-build -b html $(SPHINXOPTS) docs docs/_build/html
+
+# The documentation's examples as doctests: the pages' (Sphinx's doctest builder) and the
+# docstrings' (pytest, in their modules' namespaces). The kernels they compile are cached
+# in .numba-cache/docs for the next run.
+DOCS_CACHE := $(CURDIR)/.numba-cache/docs
+doctest: $(STAMP)
+	NUMBA_CACHE_DIR=$(DOCS_CACHE) \
+	    $(BIN)/sphinx-build -b doctest $(SPHINXOPTS) docs docs/_build/doctest
+	NUMBA_CACHE_DIR=$(DOCS_CACHE) \
+	    $(BIN)/python -m pytest -q -p no:cacheprovider --doctest-modules src/dcstereo
 
 clean:
-	rm -rf $(VENV) demo-output .pytest_cache .numba-cache
+	rm -rf $(VENV) demo-output .pytest_cache .numba-cache docs/_build docs/api/generated

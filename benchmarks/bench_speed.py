@@ -689,7 +689,7 @@ def markdown_report(payload):
 
 
 #: The line that ends the tables in ``--markdown``'s file: what an existing file has after
-#: it (docs/SPEED.md: the notes on each speed change) is kept when the tables are rewritten.
+#: it is kept when the tables are rewritten (``make bench`` writes docs/speed-tables.md).
 NOTES_MARKER = "<!-- bench_speed.py writes the tables above this line and keeps what is below -->"
 
 

@@ -12,9 +12,10 @@ defaults), printed to stdout::
     python scripts/tune_dc.py --grid "{'method': ['dsi5'], 'slant_cost': [0, 6]}"
 
 The documented sweep (fill costs, then one feature parameter at a time around the
-defaults, the final four-method table and timings), written as markdown::
+defaults, the final four-method table and timings), written as markdown (its outcome is
+summarised in ``docs/guide/methods.md``)::
 
-    python scripts/tune_dc.py --out docs/dc_tuning.md
+    python scripts/tune_dc.py --out dc_tuning.md
 """
 
 import argparse

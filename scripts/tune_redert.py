@@ -8,8 +8,8 @@ Every setting runs on tsukuba, venus, teddy and cones (filled maps, ``window=5``
 defaults is the mean over the four scenes (no per-scene tuning), with venus's bad-1.0
 nonocc at least 10 % below ``dsi3``'s (issue 5); the synthetic slanted planes of
 ``tests/test_redert.py`` must still be followed (``slant_cost`` below the occlusion
-cost, the discount neither for border runs nor for long runs; see
-``docs/redert_tuning.md``).
+cost, the discount neither for border runs nor for long runs; see the ``redert``
+section of ``docs/guide/methods.md``).
 """
 
 import argparse

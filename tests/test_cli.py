@@ -453,15 +453,15 @@ def test_batch_and_video_take_the_method_options(pair, tmp_path):
     assert "--uniqueness is read only by dc, dc-linear, not by block" in refused.output
 
 
-def test_the_readme_lists_every_method_option_with_its_methods():
-    # the README's table of the methods' options: one row per group of methods
+def test_the_docs_list_every_method_option_with_its_methods():
+    # the command line page's table of the methods' options: one row per group of methods
     from pathlib import Path
 
     from dcstereo.cli._common import METHOD_OPTIONS, _flag
 
-    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    page = Path(__file__).resolve().parents[1] / "docs" / "guide" / "cli.md"
     rows = {}
-    for line in readme.splitlines():
+    for line in page.read_text(encoding="utf-8").splitlines():
         if line.startswith("| `") and "`--" in line:
             methods, flags = line.split("|")[1:3]
             for method in methods.replace("`", "").split(","):

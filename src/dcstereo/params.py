@@ -20,10 +20,10 @@ DEFAULT_OCCLUSION_COST = 10.0
 #: ``occlusion_cost``, for ``dsi5``: 0, the paper's model.
 DEFAULT_SLANT_COST = 0.0
 
-#: The same for the fill DP of ``dc`` and ``dc-linear`` (see ``docs/dc_tuning.md``).
+#: The same for the fill DP of ``dc`` and ``dc-linear`` (see ``docs/guide/methods.md``).
 DEFAULT_DC_SLANT_COST = 8.0
 
-#: Reliability defaults of the divide-and-conquer methods (see ``docs/dc_tuning.md``).
+#: Reliability defaults of the divide-and-conquer methods (see ``docs/guide/methods.md``).
 DEFAULT_SER_MIN = 1.0
 DEFAULT_VS_MAX = 0.2
 DEFAULT_FEATURE_FLOOR = 100.0
@@ -31,6 +31,7 @@ DEFAULT_UNIQUENESS = 2.0
 
 #: ``dsi3-gcp`` defaults (measured on the dev scenes, ``scripts/measure_gcp_bt.py``).
 DEFAULT_GCP_UNIQUENESS = 3.0
+#: ``dsi3-gcp``: least window variance of a control point (gray levels squared).
 DEFAULT_GCP_VARIANCE_FLOOR = 100.0
 
 #: Largest window: the band kernels sum a window's absolute differences (each at most
@@ -252,7 +253,7 @@ class MatchParams:
         block-matched back inside the interval (a left-right consistency test; not in the
         paper, which relies on SER and VS alone). Off by default: with ``uniqueness`` and
         ``edge_guard`` on it changes no score on the development scenes by more than 0.01,
-        and it costs a few per cent of ``dc``'s time (``docs/dc_tuning.md``).
+        and it costs a few per cent of ``dc``'s time (``docs/guide/methods.md``).
     uniqueness : float
         ``dc`` methods, not in the paper: a uniqueness test (0 disables it). A candidate's
         match must be its least window cost over the whole disparity band (the ordering

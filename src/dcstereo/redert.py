@@ -56,7 +56,7 @@ Our choices (the reconstruction)
       discounted pixel cost. With ``occlusion_discount=0`` (or no discounted pixels) and
       ``orientations=(0,)`` the model is exactly the three-step DP of ``dsi3``.
     * The defaults (slopes above, slant 9, orientation 0.5, discount 0.2 for 5 pixels)
-      were chosen on the four development scenes together (``docs/redert_tuning.md``).
+      were chosen on the four development scenes together (``docs/guide/methods.md``).
     * The scanline ends are those of ``dsi3``: a free virtual start where one image has
       consumed nothing, and the path ends when either image's last column is reached;
       pixels left over are ``FLAG_BORDER``.
