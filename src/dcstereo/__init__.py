@@ -18,6 +18,7 @@ from .result import (
     DisparityResult,
     fill_occlusions,
 )
+from .stereo_dc import StereoDC
 
 __all__ = [
     "FLAG_BORDER",
@@ -27,6 +28,7 @@ __all__ = [
     "METHODS",
     "DisparityResult",
     "MatchParams",
+    "StereoDC",
     "fill_occlusions",
     "match",
 ]
