@@ -567,7 +567,8 @@ def rerun_options(func):
         metavar="FILE.rrd",
         help="Save a Rerun recording: the left image, the disparity, the occlusion and "
         "confidence maps and, with a calibration, the camera, the depth and the coloured "
-        "point cloud (open it with: rerun FILE.rrd; needs dcstereo[rerun]).",
+        "point cloud, each frame at its index on the time line 'frame' (open it with: "
+        "rerun FILE.rrd; needs dcstereo[rerun]).",
     )(func)
 
 
