@@ -442,3 +442,17 @@ def test_video_rerun_on_dask_logs_the_same_frames(sequence, tmp_path):
     assert [f for f, _ in entities["world/camera/image"]["Image:buffer"]] == [0, 1, 2]
     for i, frame in enumerate(frames):
         np.testing.assert_array_equal(image_of(entities, "world/camera/image", row=i), frame.left)
+
+
+def test_a_viewer_that_cannot_start_is_a_one_line_error(pair_files, monkeypatch):
+    def no_viewer(**kwargs):
+        raise RuntimeError('Failed to find Rerun Viewer executable at "rerun"')
+
+    monkeypatch.setattr(rr, "spawn", no_viewer)
+    folder = pair_files
+    done = invoke("run", folder / "left.png", folder / "right.png", "-o", folder / "d.pfm",
+                  "--max-disparity", 12, "--rerun-spawn", "--rerun", folder / "r.rrd")  # fmt: skip
+    assert done.exit_code == 1 and done.output.count("\n") == 1, done.output
+    assert "Error: cannot start the Rerun viewer: Failed to find" in done.output
+    assert not (folder / "d.pfm").exists() and not (folder / "r.rrd").exists()
+    assert not [p for p in folder.iterdir() if p.name.startswith(".")]

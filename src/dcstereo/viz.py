@@ -8,6 +8,8 @@ recording of its own made by :func:`rerun_recording`.
 import contextlib
 import logging
 import os
+import shutil
+import sys
 from collections.abc import Iterator
 
 import numpy as np
@@ -418,8 +420,17 @@ def rerun_recording(
 
 
 def _viewer_sink(rr, recording):
-    """Start a Rerun viewer; return the sink that streams to it."""
-    rr.spawn(connect=False, recording=recording)
+    """Start a Rerun viewer; return the sink that streams to it.
+
+    The viewer is the ``rerun`` program of this environment's ``rerun-sdk`` (found beside
+    the Python interpreter, so that an environment that is not activated works), else the
+    first on the ``PATH``.
+    """
+    here = shutil.which("rerun", path=os.path.dirname(sys.executable))
+    try:
+        rr.spawn(connect=False, recording=recording, executable_path=here)
+    except RuntimeError as err:  # no viewer program, or it did not start
+        raise ValueError(f"cannot start the Rerun viewer: {err}") from None
     return rr.GrpcSink()
 
 
