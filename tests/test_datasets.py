@@ -102,8 +102,8 @@ def test_missing_scene_lists_the_available_ones(tmp_path):
 
 
 def test_missing_files_and_bad_meta(tmp_path):
-    write_scene(tmp_path / "a", skip=("disc.png",))
-    with pytest.raises(ValueError, match="lacks disc.png"):
+    write_scene(tmp_path / "a", skip=("disp_gt.png",))
+    with pytest.raises(ValueError, match="lacks disp_gt.png"):
         load_middlebury(tmp_path / "a")
     folder = tmp_path / "b"
     write_scene(folder)

@@ -382,7 +382,8 @@ def test_run_writes_depth_png(pair):
         (["--ply", "c.ply"], "--depth-out and --ply need a calibration: --calib FILE, or "
          "--focal and --baseline (missing --focal)"),
         (["--depth-out", "z.pfm", "--focal", 9], "(missing --baseline)"),
-        (["--focal", 9, "--baseline", 1], "--focal is used only with --depth-out or --ply"),
+        (["--focal", 9, "--baseline", 1],
+         "--focal is used only with --depth-out, --ply or --rerun"),
         (["--ply", "c.ply", "--calib", "calib.txt", "--focal", 9],
          "--calib and --focal cannot be used together"),
         (["--ply", "c.ply", "--calib", "missing.txt"], "missing.txt: file does not exist"),

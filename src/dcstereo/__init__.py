@@ -19,6 +19,7 @@ from .result import (
     DisparityResult,
     fill_occlusions,
 )
+from .stereo_dc import StereoDC
 
 __all__ = [
     "FLAG_BORDER",
@@ -30,6 +31,7 @@ __all__ = [
     "METHODS",
     "DisparityResult",
     "MatchParams",
+    "StereoDC",
     "fill_occlusions",
     "match",
 ]

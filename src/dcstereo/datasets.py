@@ -52,6 +52,14 @@ DATA_ENV_VAR = "DCSTEREO_DATA"
 #: Mask files of a Middlebury scene folder and the mask names they become.
 MIDDLEBURY_MASKS = {"nonocc": "nonocc.png", "all": "all.png", "disc": "disc.png"}
 
+#: Keys of a loaded scene's ``meta``: where each of its masks comes from (a file, or how it
+#: was derived), and why each Middlebury mask it lacks is missing (mask name: reason).
+MASK_SOURCES = "mask_sources"
+MISSING_MASKS = "missing_masks"
+
+#: How the masks derived from the ground truth alone are described.
+KNOWN_TRUTH = "every pixel with ground truth"
+
 
 @dataclass(frozen=True, eq=False)
 class StereoScene:
@@ -70,7 +78,9 @@ class StereoScene:
         Ground-truth disparity of the left view in pixels (``x_right = x_left - d``); NaN
         where unknown.
     masks : dict of str to ndarray of bool, shape (H, W)
-        Evaluation masks: Middlebury scenes have ``"nonocc"``, ``"all"`` and ``"disc"``.
+        Evaluation masks: ``"nonocc"``, ``"all"`` and ``"disc"`` for the Middlebury v2
+        scenes with all three mask files, the ones a scene has otherwise (see
+        :func:`load_scene`).
     max_disparity : int
         Largest disparity to search (inclusive), for :func:`dcstereo.match`; sub-pixel
         ground truth may exceed it by less than one pixel.
@@ -260,14 +270,17 @@ def load_middlebury(
     StereoScene
         ``disparity = gray / scale`` with gray 0 as NaN; masks ``"nonocc"``, ``"all"`` and
         ``"disc"`` are the pixels equal to 255 in the mask images (so ``"disc"`` leaves out the
-        value 128); ``max_disparity = ndisp - 1``.
+        value 128), those of the three the folder has; a folder with none has one mask,
+        ``"all"``, every pixel with ground truth. ``meta["mask_sources"]`` says where each
+        mask comes from and ``meta["missing_masks"]`` why the others are missing;
+        ``max_disparity = ndisp - 1``.
 
     Raises
     ------
     ValueError
-        When the scene does not exist (the message lists the available ones), a file is
-        missing, ``meta.json`` is not valid JSON or lacks ``scale`` or ``ndisp``, or the
-        files differ in size.
+        When the scene does not exist (the message lists the available ones), the right
+        image, the ground truth or ``meta.json`` is missing, ``meta.json`` is not valid
+        JSON or lacks ``scale`` or ``ndisp``, or the files differ in size.
 
     Examples
     --------
@@ -276,7 +289,7 @@ def load_middlebury(
     ((288, 384, 3), 15)
     """
     folder = _scene_folder(name_or_path, root)
-    needed = ["right.png", "disp_gt.png", "meta.json", *MIDDLEBURY_MASKS.values()]
+    needed = ["right.png", "disp_gt.png", "meta.json"]
     missing = [f for f in needed if not (folder / f).is_file()]
     if missing:
         raise ValueError(f"Middlebury scene folder {folder} lacks {', '.join(missing)}")
@@ -298,7 +311,8 @@ def load_middlebury(
     right = _read_image(folder / "right.png")
     gray = _read_gray(folder / "disp_gt.png")
     disparity = np.where(gray == 0, np.nan, gray / scale).astype(np.float32)
-    masks = {key: _read_gray(folder / file) == 255 for key, file in MIDDLEBURY_MASKS.items()}
+    present = {key: file for key, file in MIDDLEBURY_MASKS.items() if (folder / file).is_file()}
+    masks = {key: _read_gray(folder / file) == 255 for key, file in present.items()}
     for file, array in [("right.png", right), ("disp_gt.png", gray)] + [
         (MIDDLEBURY_MASKS[key], mask) for key, mask in masks.items()
     ]:
@@ -307,6 +321,18 @@ def load_middlebury(
                 f"{folder / file} is {array.shape[1]}x{array.shape[0]} pixels but left.png is "
                 f"{left.shape[1]}x{left.shape[0]}"
             )
+    # a folder with some of the masks is scored on those; with none, on every pixel with
+    # ground truth (as the layouts without mask files are)
+    sources = dict(present)
+    if not masks:
+        masks = {"all": np.isfinite(disparity)}
+        sources["all"] = KNOWN_TRUTH + " (the folder has no mask file)"
+    meta[MASK_SOURCES] = sources
+    meta[MISSING_MASKS] = {
+        key: f"no {file} in the folder"
+        for key, file in MIDDLEBURY_MASKS.items()
+        if key not in masks
+    }
     return StereoScene(
         name=str(meta.get("name", folder.name)),
         left=left,
@@ -377,6 +403,11 @@ def load_motorcycle() -> StereoScene:
             "source": "skimage.data.stereo_motorcycle (Middlebury 2014, Motorcycle, reduced)",
             "masks": "'all' and 'nonocc' are both the pixels with finite ground truth; "
             "no occlusion mask is available",
+            MASK_SOURCES: {
+                "nonocc": KNOWN_TRUTH + " (no occlusion mask is available)",
+                "all": KNOWN_TRUTH,
+            },
+            MISSING_MASKS: {"disc": "scikit-image ships no disc mask"},
             "citation": (
                 "D. Scharstein et al. High-resolution stereo datasets with subpixel-accurate "
                 "ground truth. GCPR 2014."
@@ -500,6 +531,12 @@ def load_scene(folder: str | os.PathLike, *, scale: float | None = None) -> Ster
     return _load_2014(folder)
 
 
+def _describe_masks(meta: dict, layout: str) -> None:
+    """Record the sources of a derived scene's ``nonocc`` and ``all``, and its missing disc."""
+    meta[MASK_SOURCES] = {"nonocc": meta["nonocc"], "all": KNOWN_TRUTH}
+    meta[MISSING_MASKS] = {"disc": f"the {layout} layout has no disc mask"}
+
+
 def _check_same_size(folder: Path, reference: np.ndarray, arrays: dict) -> None:
     for name, array in arrays.items():
         if array.shape[:2] != reference.shape[:2]:
@@ -582,6 +619,7 @@ def _load_2005(folder: Path, scale: float | None) -> StereoScene:
         raise ValueError(f"{folder / 'disp1.png'} holds no known disparity (all 0)")
     max_disparity = int(math.ceil(float(np.nanmax(truth))))
     meta["max_disparity"] = "ceil of the largest ground-truth disparity (no ndisp in this layout)"
+    _describe_masks(meta, "2005/2006")
     return StereoScene(
         name=folder.name,
         left=left,
@@ -635,6 +673,7 @@ def _load_2014(folder: Path) -> StereoScene:
         _check_same_size(folder, left, arrays)
         nonocc = known.copy()
         meta["nonocc"] = "no mask0nocc.png or disp1.pfm: equals 'all' (occluded pixels included)"
+    _describe_masks(meta, "2014")
     return StereoScene(
         name=folder.name,
         left=left,

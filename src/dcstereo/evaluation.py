@@ -19,7 +19,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .datasets import StereoScene, find_scenes, load_scene, scene_layout
+from .datasets import (
+    MASK_SOURCES,
+    MISSING_MASKS,
+    StereoScene,
+    find_scenes,
+    load_scene,
+    scene_layout,
+)
 from .metrics import DEFAULT_THRESHOLDS, bad_key, evaluate
 from .opencv import OPENCV_METHODS
 from .params import BT_SUFFIX, METHODS, base_method, check_method_options, options_for
@@ -172,6 +179,47 @@ def score(
     return evaluate(disparity, scene.disparity, {m: scene.masks[m] for m in names}, thresholds)
 
 
+def scene_masks(scene: StereoScene) -> dict:
+    """Say which masks a scene is scored on, where each comes from, and which it lacks.
+
+    Parameters
+    ----------
+    scene : StereoScene
+        A scene from :func:`dcstereo.datasets.load_scene` (or built by hand: its masks are
+        then described by name only).
+
+    Returns
+    -------
+    dict
+        ``{"masks": {name: source}, "masks_missing": {name: reason}}``: the scene's masks in
+        the order of :data:`MASK_ORDER` (a file such as ``"nonocc.png"``, or how the mask
+        was derived), and each mask of :data:`MASK_ORDER` it does not have, with the reason
+        (``"no disc.png in the folder"``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> known = np.ones((2, 3), dtype=bool)
+    >>> scene = StereoScene("toy", known * 0, known * 0, np.zeros((2, 3), np.float32),
+    ...                     {"nonocc": known}, max_disparity=2,
+    ...                     meta={"missing_masks": {"all": "no all.png in the folder"}})
+    >>> scene_masks(scene)["masks_missing"]
+    {'all': 'no all.png in the folder', 'disc': 'not in the scene'}
+    """
+    sources = scene.meta.get(MASK_SOURCES, {})
+    reasons = scene.meta.get(MISSING_MASKS, {})
+    names = [m for m in MASK_ORDER if m in scene.masks]
+    names += [m for m in scene.masks if m not in names]
+    return {
+        "masks": {name: sources.get(name, name) for name in names},
+        "masks_missing": {
+            name: reasons.get(name, "not in the scene")
+            for name in MASK_ORDER
+            if name not in scene.masks
+        },
+    }
+
+
 def evaluate_file(
     prediction: str | os.PathLike,
     scene_dir: str | os.PathLike,
@@ -199,8 +247,9 @@ def evaluate_file(
     Returns
     -------
     dict
-        ``{"prediction", "scene", "layout", "size", "scores"}`` with ``scores`` as in
-        :func:`score`.
+        ``{"prediction", "scene", "layout", "size", "scores", "masks", "masks_missing"}``
+        with ``scores`` as in :func:`score` (one entry per mask the scene has) and the last
+        two as in :func:`scene_masks`.
     """
     from .io import read_disparity
 
@@ -212,7 +261,22 @@ def evaluate_file(
         "layout": scene.meta.get("layout", ""),
         "size": [scene.shape[1], scene.shape[0]],
         "scores": score(disparity, scene),
+        **scene_masks(scene),
     }
+
+
+def mask_lines(result: dict) -> list[str]:
+    """Say, for :func:`evaluate_file`'s result, the masks scored and those not (or nothing).
+
+    Empty when the scene has every mask of :data:`MASK_ORDER`; otherwise two lines,
+    ``scored on: nonocc (nonocc.png)`` and ``not scored: all (no all.png in the folder),
+    disc (...)``.
+    """
+    if not result["masks_missing"]:
+        return []
+    used = ", ".join(f"{name} ({source})" for name, source in result["masks"].items())
+    missing = ", ".join(f"{name} ({why})" for name, why in result["masks_missing"].items())
+    return [f"scored on: {used}", f"not scored: {missing}"]
 
 
 def _warm_up(method: str, scene: StereoScene, options: dict, done: set) -> None:
@@ -273,10 +337,11 @@ def bench(
     -------
     list of dict
         One row per (scene, method): ``{"scene", "method", "size", "max_disparity",
-        "seconds", "features", "sparse": scores, "dense": scores}`` with scores as in
-        :func:`score`. ``seconds`` is the wall time of one call, compilation excluded;
-        ``features`` the number of feature pairs (``dc``, ``dc-linear``) or control points
-        (``dsi3-gcp``), None for the methods without.
+        "seconds", "features", "sparse": scores, "dense": scores, "masks",
+        "masks_missing"}`` with scores as in :func:`score` (the masks the scene has) and
+        the masks as in :func:`scene_masks`. ``seconds`` is the wall time of one call,
+        compilation excluded; ``features`` the number of feature pairs (``dc``,
+        ``dc-linear``) or control points (``dsi3-gcp``), None for the methods without.
     """
     options = dict(options or {})
     ours = {**options, **(match_options or {})}
@@ -307,6 +372,7 @@ def bench(
                 "features": None if result.features is None else len(result.features),
                 "sparse": score(result.disparity, scene, thresholds),
                 "dense": score(result.filled().disparity, scene, thresholds),
+                **scene_masks(scene),
             }
             if keep_results:
                 row["result"] = result
@@ -383,6 +449,34 @@ def mean_rows(rows: Sequence[dict]) -> list[dict]:
                 }
         means.append(mean)
     return means
+
+
+def missing_mask_lines(rows: Sequence[dict]) -> list[str]:
+    """Say which scenes of :func:`bench`'s rows lack a mask of :data:`MASK_ORDER`, and why.
+
+    One line per mask that some scene lacks (empty when every scene has every mask):
+    ``disc: not scored on 2 of 5 scenes (no disc.png in the folder: a, b); its mean is
+    over the other 3``. The table shows ``-`` in those cells, and the mean rows average
+    each mask over the scenes that have it.
+    """
+    scenes = {}
+    for row in rows:
+        scenes.setdefault(row["scene"], row.get("masks_missing", {}))
+    lines = []
+    for mask in MASK_ORDER:
+        lacking = {name: why[mask] for name, why in scenes.items() if mask in why}
+        if not lacking:
+            continue
+        by_reason: dict[str, list[str]] = {}
+        for name, why in lacking.items():
+            by_reason.setdefault(why, []).append(name)
+        reasons = "; ".join(f"{why}: {', '.join(names)}" for why, names in by_reason.items())
+        rest = len(scenes) - len(lacking)
+        mean = f"its mean is over the other {rest}" if rest else "it has no mean"
+        lines.append(
+            f"{mask}: not scored on {len(lacking)} of {len(scenes)} scenes ({reasons}); {mean}"
+        )
+    return lines
 
 
 def _cell(scores: dict, mask: str, key: str, digits: int = 2) -> str:

@@ -72,6 +72,39 @@ class Calibration:
         """Focal length along y: ``focal_y``, or ``focal`` when it is None."""
         return self.focal if self.focal_y is None else self.focal_y
 
+    def reprojection_matrix(self) -> np.ndarray:
+        """Return OpenCV's 4 x 4 reprojection matrix ``Q`` of this pair.
+
+        The matrix ``cv2.stereoRectify`` returns for a rectified pair (its ``Q``), for
+        ``cv2.reprojectImageTo3D(disparity, Q)``: it maps ``(x, y, d, 1)`` to the
+        homogeneous point of :func:`point_cloud`, so the two agree (``Z = baseline *
+        focal / (d + doffs)``)::
+
+            [[1, 0, 0, -cx], [0, s, 0, -cy * s], [0, 0, 0, focal], [0, 0, 1 / baseline,
+            doffs / baseline]]
+
+        with ``s = focal / focal_y`` (1 for square pixels, OpenCV's case).
+
+        Returns
+        -------
+        ndarray of float64, shape (4, 4)
+
+        Examples
+        --------
+        >>> q = Calibration(focal=500, baseline=100, cx=320, cy=240).reprojection_matrix()
+        >>> q[2].tolist(), q[3].tolist()
+        ([0.0, 0.0, 0.0, 500.0], [0.0, 0.0, 0.01, 0.0])
+        """
+        s = self.focal / self.fy
+        return np.array(
+            [
+                [1.0, 0.0, 0.0, -self.cx],
+                [0.0, s, 0.0, -self.cy * s],
+                [0.0, 0.0, 0.0, self.focal],
+                [0.0, 0.0, 1.0 / self.baseline, self.doffs / self.baseline],
+            ]
+        )
+
     @classmethod
     def from_middlebury(cls, path: str | os.PathLike) -> "Calibration":
         """Read a Middlebury ``calib.txt`` (the 2014 and 2021 data sets' format).

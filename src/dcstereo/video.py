@@ -436,6 +436,7 @@ def match_sequence(
     ply: bool = False,
     depth_format: str = "pfm",
     depth_scale: float | None = None,
+    recording=None,
     **options,
 ) -> SequenceReport:
     """Match every frame of a sequence; write its disparity and preview atomically.
@@ -489,6 +490,13 @@ def match_sequence(
         coloured by the left frame when it is 8 or 16 bits; binary PLY) as
         ``frameNNNNN.ply``; needs ``calibration``, and a frame is then complete only with
         it.
+    recording : rerun.RecordingStream, optional
+        Also log each frame matched to this Rerun recording
+        (:func:`dcstereo.viz.rerun_recording`) with :func:`dcstereo.viz.log_rerun`, at
+        its index on the ``frame`` time line: the left view, the disparity, the occlusion
+        and confidence maps (the confidence is computed for it) and, with
+        ``calibration``, the camera, the depth and the point cloud. Frames skipped on
+        resume are not logged (``resume=False`` logs every frame).
     **options
         The other options of :func:`dcstereo.match`.
 
@@ -540,6 +548,9 @@ def match_sequence(
     )
     match_kwargs = {"max_disparity": max_disparity, **options}
     report = SequenceReport()
+    # the viewer gets each frame's confidence, and its left view for the picture and colours
+    sure_wanted = confidence or recording is not None
+    keep_left = ply or recording is not None
 
     def note(name, status):
         if on_frame is not None:
@@ -557,13 +568,26 @@ def match_sequence(
             disparity,
             calibration,
             depth_output_path(folder, frame.index, depth_format),
-            sure,
+            sure if confidence else None,
             confidence_output_path(folder, frame.index),
             (cloud_output_path(folder, frame.index), colors) if ply else None,
             depth_scale,
         )
         io.write_disparity(disparity_path, disparity)
         io.write_rgb_png(preview_path, preview(disparity, occluded, style=preview_style))
+        if recording is not None:
+            from .viz import log_rerun
+
+            log_rerun(
+                disparity,
+                left,
+                recording=recording,
+                calibration=calibration,
+                confidence=sure,
+                occluded=occluded,
+                disparity_range=(params.min_disparity, params.max_disparity),
+                frame=frame.index,
+            )
         report.done.append(frame.name)
         note(frame.name, "done")
 
@@ -598,9 +622,9 @@ def match_sequence(
 
     if client is None:
         for frame, left, right in pending():
-            finish(frame, match_frame(left, right, match_kwargs, threads, confidence), left)
+            finish(frame, match_frame(left, right, match_kwargs, threads, sure_wanted), left)
     else:
-        _run_on_dask(client, pending(), match_kwargs, threads, confidence, finish, ply)
+        _run_on_dask(client, pending(), match_kwargs, threads, sure_wanted, finish, keep_left)
     report.done.sort()
     write_failures(folder, report.failed)
     report.seconds = time.perf_counter() - start

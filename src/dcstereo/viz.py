@@ -1,4 +1,16 @@
-"""Turn disparity maps into images: the paper's gray display, colour maps, error maps."""
+"""Turn disparity maps into images: the paper's gray display, colour maps, error maps.
+
+And show them where users look at their data: :func:`log_rerun` logs a result to the
+`Rerun <https://rerun.io>`_ viewer (the optional extra ``dcstereo[rerun]``), into a
+recording of its own made by :func:`rerun_recording`.
+"""
+
+import contextlib
+import logging
+import os
+import shutil
+import sys
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -300,3 +312,302 @@ def _check_limit(value: float, name: str) -> float:
     if not np.isfinite(value):
         raise ValueError(f"{name} must be finite, got {value}")
     return float(value)
+
+
+# --- Rerun -------------------------------------------------------------------------------
+
+#: The entity paths :func:`log_rerun` writes (Rerun's ``/``-separated paths).
+RERUN_ENTITIES = {
+    "world": "the 3-D space, X right, Y down, Z forward (static; with a calibration)",
+    "world/camera": "the left camera's pinhole, from the calibration",
+    "world/camera/image": "the left image",
+    "world/camera/image/features": "the reliable feature pairs of the dc methods (2-D points)",
+    "world/camera/depth": "the depth (a depth image, shown in 3-D through the camera)",
+    "world/points": "the coloured point cloud",
+    "disparity": "the disparity in colour (turbo over the searched range; black: none)",
+    "occlusion": "why a pixel has no estimate: occluded (1) or beyond the border (2)",
+    "confidence": "the confidence in colour (viridis over 0..1; black: none)",
+}
+
+#: The classes of the ``occlusion`` segmentation image: id, label, RGBA colour.
+OCCLUSION_CLASSES = (
+    (0, "estimate", (0, 0, 0, 0)),
+    (1, "occluded", (255, 255, 255, 255)),
+    (2, "border", (128, 128, 128, 255)),
+)
+
+_LOG = logging.getLogger(__name__)
+
+
+def _import_rerun():
+    try:
+        import rerun
+    except ImportError as err:
+        raise ImportError(
+            'Rerun is not installed; install the extra: pip install "dcstereo[rerun]"'
+        ) from err
+    return rerun
+
+
+@contextlib.contextmanager
+def rerun_recording(
+    path: str | os.PathLike | None = None,
+    *,
+    spawn: bool = False,
+    application_id: str = "dcstereo",
+) -> Iterator["object"]:
+    """Open a Rerun recording of its own, saved to a file or streamed to a viewer.
+
+    A dedicated ``rerun.RecordingStream`` (never Rerun's global one: nothing changes for
+    the rest of the program) for :func:`log_rerun`'s ``recording=``. When the block ends
+    the recording is flushed and closed; the file is written atomically, moved onto
+    ``path`` only when the block ends without an error.
+
+    Parameters
+    ----------
+    path : str or os.PathLike, optional
+        The ``.rrd`` file to save the recording to (open it with ``rerun FILE.rrd``).
+    spawn : bool
+        Also start a Rerun viewer (the ``rerun`` program of the ``rerun-sdk`` package)
+        and stream the recording to it. A viewer that cannot be reached is logged as a
+        warning (``logging``) when the recording closes, not raised: the file is complete.
+    application_id : str
+        The recording's application id (the viewer groups recordings by it).
+
+    Yields
+    ------
+    rerun.RecordingStream
+
+    Raises
+    ------
+    ImportError
+        When ``rerun-sdk`` is not installed (the message names the extra).
+    ValueError
+        For a path that does not end in ``.rrd`` or cannot be written, or neither a path
+        nor ``spawn``.
+
+    Examples
+    --------
+    >>> with rerun_recording("match.rrd") as recording:  # doctest: +SKIP
+    ...     log_rerun(result, left, recording=recording, calibration=calib)
+    """
+    from . import io
+
+    if path is None and not spawn:
+        raise ValueError("give the recording a path (an .rrd file) or spawn=True (a viewer)")
+    if path is not None and not os.fspath(path).lower().endswith(".rrd"):
+        raise ValueError(f"a Rerun recording is an .rrd file, got '{os.fspath(path)}'")
+    if not isinstance(spawn, bool):
+        raise TypeError(f"spawn must be True or False, got {spawn!r}")
+    rr = _import_rerun()
+    with contextlib.ExitStack() as stack:
+        target = None if path is None else stack.enter_context(io.atomic_write(path))
+        recording = rr.RecordingStream(application_id)
+        sinks = []
+        if spawn:
+            sinks.append(_viewer_sink(rr, recording))
+        if target is not None:
+            sinks.append(rr.FileSink(str(target)))
+        recording.set_sinks(*sinks)
+        try:
+            yield recording
+        finally:
+            try:
+                recording.flush()
+            except RuntimeError as err:  # the viewer went away: the file sink is done
+                _LOG.warning("the Rerun viewer could not be reached: %s", err)
+            recording.disconnect()
+
+
+def _viewer_sink(rr, recording):
+    """Start a Rerun viewer; return the sink that streams to it.
+
+    The viewer is the ``rerun`` program of this environment's ``rerun-sdk`` (found beside
+    the Python interpreter, so that an environment that is not activated works), else the
+    first on the ``PATH``.
+    """
+    here = shutil.which("rerun", path=os.path.dirname(sys.executable))
+    try:
+        rr.spawn(connect=False, recording=recording, executable_path=here)
+    except RuntimeError as err:  # no viewer program, or it did not start
+        raise ValueError(f"cannot start the Rerun viewer: {err}") from None
+    return rr.GrpcSink()
+
+
+def log_rerun(
+    result,
+    left: np.ndarray | None = None,
+    *,
+    recording=None,
+    calibration=None,
+    confidence: np.ndarray | None = None,
+    occluded: np.ndarray | None = None,
+    disparity_range: tuple[float, float] | None = None,
+    frame: int | None = None,
+    timeline: str = "frame",
+    meter: float = 1.0,
+) -> None:
+    """Log a matching result to Rerun: images, disparity, occlusions, depth and points.
+
+    The entities are :data:`RERUN_ENTITIES`: the left image (``world/camera/image``, with
+    the ``dc`` methods' feature pairs as 2-D points), the disparity in colour
+    (``disparity``), why pixels have no estimate (``occlusion``, a segmentation image
+    labelled by :data:`OCCLUSION_CLASSES`), the confidence (``confidence``) and, given a
+    calibration, the left camera's pinhole (``world/camera``), the depth
+    (``world/camera/depth``, which the viewer also shows in 3-D through the camera) and
+    the coloured point cloud (``world/points``) in the camera's frame (X right, Y down,
+    Z forward, :func:`dcstereo.geometry.point_cloud`).
+
+    Parameters
+    ----------
+    result : DisparityResult or ndarray of float, shape (H, W)
+        The result of :func:`dcstereo.match`, or a disparity map alone (NaN = none).
+    left : ndarray, shape (H, W) or (H, W, 3|4), optional
+        The left image (RGB order): the image entity and the points' colours.
+    recording : rerun.RecordingStream, optional
+        Where to log (:func:`rerun_recording`); default Rerun's current recording (the
+        one ``rerun.init`` made), and an error when there is none.
+    calibration : dcstereo.geometry.Calibration, optional
+        The pair's geometry: the camera, the depth and the point cloud.
+    confidence : ndarray of float, shape (H, W), optional
+        :func:`dcstereo.confidence.confidence` of the result.
+    occluded : ndarray of bool, shape (H, W), optional
+        With a disparity map for ``result``: its occluded pixels (default its NaN pixels).
+    disparity_range : (float, float), optional
+        The disparities at the two ends of the colour map; default the range searched
+        (the result's parameters), or the map's least and largest value.
+    frame : int, optional
+        The time of this log on ``timeline`` (a sequence's frame index); None logs at the
+        recording's current time.
+    timeline : str
+        The name of the time line of ``frame``.
+    meter : float
+        How many units of the baseline make a metre (1000 for Middlebury's
+        millimetres): depth and points are logged in metres, Rerun's unit. Default 1: in
+        the baseline's unit.
+
+    Raises
+    ------
+    ImportError
+        When ``rerun-sdk`` is not installed (the message names the extra).
+    TypeError, ValueError
+        For arrays of other shapes or types, or no recording.
+
+    Examples
+    --------
+    >>> with rerun_recording("tsukuba.rrd") as recording:  # doctest: +SKIP
+    ...     log_rerun(result, left, recording=recording, confidence=sure, frame=0)
+    """
+    from .geometry import Calibration, depth, point_cloud
+    from .result import FLAG_BORDER, FLAG_OCCLUDED, DisparityResult
+
+    flags = None
+    features = None
+    if isinstance(result, DisparityResult):
+        if occluded is not None:
+            raise ValueError("occluded is given by the result's flags; pass it with a map only")
+        disparity = result.disparity
+        flags = result.flags
+        features = result.features
+        if disparity_range is None:
+            disparity_range = (result.params.min_disparity, result.params.max_disparity)
+    else:
+        disparity = disparity_array(result, "result").astype(np.float32)
+    shape = disparity.shape
+    if occluded is not None:
+        occluded = _check_mask(occluded, shape, "occluded")
+    if left is not None:
+        left = np.asarray(left)
+        if left.shape[:2] != shape or left.ndim not in (2, 3):
+            raise ValueError(f"left has shape {left.shape}, the disparity {shape}")
+    if confidence is not None:
+        confidence = disparity_array(confidence, "confidence")
+        if confidence.shape != shape:
+            raise ValueError(f"confidence has shape {confidence.shape}, the disparity {shape}")
+    if calibration is not None and not isinstance(calibration, Calibration):
+        raise TypeError(
+            f"calibration must be a dcstereo.geometry.Calibration, got {type(calibration).__name__}"
+        )
+    if frame is not None and not is_integer(frame):
+        raise TypeError(f"frame must be an integer, got {frame!r}")
+    if not isinstance(timeline, str) or not timeline:
+        raise ValueError(f"timeline must be a non-empty name, got {timeline!r}")
+    meter = _check_limit(meter, "meter")
+    if meter <= 0:
+        raise ValueError(f"meter must be positive, got {meter:g}")
+    low, high = (None, None) if disparity_range is None else disparity_range
+    if disparity_range is not None:
+        low, high = _check_limit(low, "disparity_range"), _check_limit(high, "disparity_range")
+    rr = _import_rerun()
+    if recording is None:
+        recording = rr.get_data_recording()
+        if recording is None:
+            raise ValueError(
+                "no Rerun recording: pass recording= (dcstereo.viz.rerun_recording) or call "
+                "rerun.init() first"
+            )
+    elif not isinstance(recording, rr.RecordingStream):
+        raise TypeError(
+            f"recording must be a rerun.RecordingStream, got {type(recording).__name__}"
+        )
+
+    if frame is not None:
+        recording.set_time(timeline, sequence=int(frame))
+    classes = [
+        rr.AnnotationInfo(id=i, label=label, color=color) for i, label, color in OCCLUSION_CLASSES
+    ]
+    recording.log("occlusion", rr.AnnotationContext(classes), static=True)
+    if left is not None:
+        recording.log("world/camera/image", rr.Image(left))
+    if features is not None and len(features):
+        recording.log(
+            "world/camera/image/features",
+            # Rerun's pixel (x, y) spans x..x+1, y..y+1: the points at the pixels' centres
+            rr.Points2D(features[:, [1, 0]] + 0.5, colors=(255, 0, 0), radii=1.0),
+        )
+    recording.log("disparity", rr.Image(colorize(disparity, vmin=low, vmax=high)))
+    classes_image = np.zeros(shape, dtype=np.uint8)
+    if flags is not None:
+        classes_image[(flags & FLAG_OCCLUDED) != 0] = 1
+        classes_image[(flags & FLAG_BORDER) != 0] = 2
+    else:
+        classes_image[~np.isfinite(disparity) if occluded is None else occluded] = 1
+    recording.log("occlusion", rr.SegmentationImage(classes_image))
+    if confidence is not None:
+        picture = colorize(confidence, vmin=0.0, vmax=1.0, cmap="viridis")
+        recording.log("confidence", rr.Image(picture))
+    if calibration is None:
+        return
+    recording.log("world", rr.ViewCoordinates.RDF, static=True)
+    recording.log(
+        "world/camera",
+        rr.Pinhole(
+            image_from_camera=[
+                [calibration.focal, 0.0, calibration.cx],
+                [0.0, calibration.fy, calibration.cy],
+                [0.0, 0.0, 1.0],
+            ],
+            resolution=[shape[1], shape[0]],
+            camera_xyz=rr.ViewCoordinates.RDF,
+        ),
+    )
+    z = depth(disparity, calibration)
+    # Rerun reads a depth of 0 as none; a NaN it might draw
+    recording.log("world/camera/depth", rr.DepthImage(np.nan_to_num(z, nan=0.0), meter=meter))
+    colors = None if left is None else _point_colors(left)
+    cloud = point_cloud(disparity, calibration, colors)
+    recording.log(
+        "world/points",
+        rr.Points3D(cloud.points / np.float32(meter), colors=cloud.colors),
+    )
+
+
+def _point_colors(left: np.ndarray) -> np.ndarray | None:
+    """Return the left image as :func:`~dcstereo.geometry.point_cloud` takes colours."""
+    if left.ndim == 3:
+        left = left[:, :, :3]
+    if left.dtype.kind == "f":
+        return np.rint(np.clip(np.nan_to_num(left), 0.0, 1.0) * 255).astype(np.uint8)
+    if left.dtype in (np.uint8, np.uint16):
+        return left
+    return None

@@ -638,6 +638,46 @@ def calibration_options(func):
     return _option_group(func, "calibration", CALIBRATION_OPTIONS, options)
 
 
+def rerun_options(func):
+    """Add ``--rerun FILE.rrd`` and ``--rerun-spawn``: the result in the Rerun viewer."""
+    func = click.option(
+        "--rerun-spawn",
+        is_flag=True,
+        help="Start a Rerun viewer and stream the result to it (needs dcstereo[rerun]).",
+    )(func)
+    return click.option(
+        "--rerun",
+        "rerun_out",
+        type=click.Path(dir_okay=False),
+        default=None,
+        metavar="FILE.rrd",
+        help="Save a Rerun recording: the left image, the disparity, the occlusion and "
+        "confidence maps and, with a calibration, the camera, the depth and the coloured "
+        "point cloud, each frame at its index on the time line 'frame' (open it with: "
+        "rerun FILE.rrd; needs dcstereo[rerun]).",
+    )(func)
+
+
+def check_rerun():
+    """Fail at once (one line, the extra named) when rerun-sdk is not installed."""
+    from ..viz import _import_rerun
+
+    try:
+        _import_rerun()
+    except ImportError as exc:
+        raise CommandError(f"--rerun and --rerun-spawn need Rerun: {exc}") from None
+
+
+def record_rerun(path, *, spawn, result, left, camera, sure, frame=0):
+    """Log one result to a Rerun recording saved at ``path`` and/or a spawned viewer."""
+    from ..viz import log_rerun, rerun_recording
+
+    with rerun_recording(path, spawn=spawn) as recording:
+        log_rerun(
+            result, left, recording=recording, calibration=camera, confidence=sure, frame=frame
+        )
+
+
 def calibration_of(options, shape, needed):
     """Return the :class:`~dcstereo.geometry.Calibration` the options give, or None.
 
@@ -650,7 +690,7 @@ def calibration_of(options, shape, needed):
     given = [flag for name, flag in CALIBRATION_OPTIONS.items() if options[name] is not None]
     if not needed:
         if given:
-            raise CommandError(f"{given[0]} is used only with --depth-out or --ply")
+            raise CommandError(f"{given[0]} is used only with --depth-out, --ply or --rerun")
         return None
     if options["calib"] is not None:
         if len(given) > 1:

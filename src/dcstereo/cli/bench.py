@@ -78,7 +78,10 @@ def bench(
     gives bad-1.0 (or --threshold) (%) of the filled (dense) maps in the nonocc, all and
     disc masks and their mean absolute error over nonocc, the density of the raw map and
     the time per run, then the mean of each method. A method's own options (--ser-min
-    and the others of run) reach the methods that read them.
+    and the others of run) reach the methods that read them. A scene without one of the
+    masks (a v2 folder with only some of nonocc.png, all.png, disc.png; the other layouts
+    have no disc mask) shows - in its cells, the mean is over the scenes that have the
+    mask, and a line after the table names them (the JSON: each row's "masks_missing").
     """
     from .. import io
     from ..evaluation import (
@@ -86,6 +89,7 @@ def bench(
         bench_table,
         json_rows,
         machine_description,
+        missing_mask_lines,
         parse_methods,
         render,
         to_json,
@@ -121,6 +125,9 @@ def bench(
         )
     table = bench_table(rows, title=f"bench {data_dir}", threshold=threshold)
     click.echo(render(table), nl=False)
+    if not quiet:
+        for line in missing_mask_lines(rows):
+            click.echo(line)
     if json_out is not None:
         payload = {
             "machine": machine_description(),

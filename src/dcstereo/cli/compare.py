@@ -89,7 +89,8 @@ def compare(
     if gt is not None:
         if gt_is_scene:
             scene = load_scene(gt)
-            truth, mask = scene.disparity, scene.masks["nonocc"]
+            # nonocc where the scene has it; else every pixel with ground truth
+            truth, mask = scene.disparity, scene.masks.get("nonocc")
         else:
             truth = io.read_disparity(gt, scale=gt_scale)
     with compile_watch():  # each method's first run on a machine compiles it

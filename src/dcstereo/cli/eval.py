@@ -32,11 +32,16 @@ def eval_command(prediction, scene_dir, scale, gt_scale, as_json):
     for each mask of the scene (nonocc, all, and disc where the layout has it). Pixels
     without an estimate count as bad; the denominator is the masked pixels with known
     ground truth. MAE and RMS have no value when the map has no estimate in the mask.
+    A v2 scene folder with some of nonocc.png, all.png and disc.png is scored on those,
+    one with none on every pixel with ground truth; the output says which masks were
+    scored and which not (in the JSON: "masks" and "masks_missing").
     """
-    from ..evaluation import evaluate_file, render, scores_table, to_json
+    from ..evaluation import evaluate_file, mask_lines, render, scores_table, to_json
 
     result = evaluate_file(prediction, scene_dir, scale=scale, truth_scale=gt_scale)
     if as_json:
         click.echo(to_json(result, indent=2))
     else:
         click.echo(render(scores_table(result)), nl=False)
+        for line in mask_lines(result):
+            click.echo(line)

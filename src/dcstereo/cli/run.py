@@ -12,12 +12,15 @@ from ._common import (
     calibration_options,
     check_distinct_paths,
     check_output_paths,
+    check_rerun,
     compile_note,
     compile_watch,
     disparity_range_options,
     matching_options,
     one_line_errors,
     preview_style_option,
+    record_rerun,
+    rerun_options,
     set_threads,
     staged_outputs,
 )
@@ -97,6 +100,7 @@ from ._common import (
     help="Write each pixel's confidence (PFM, float32 in -1..1: the margin of its "
     "disparity's cost over the best rival two or more pixels away; inf = none).",
 )
+@rerun_options
 @click.option(
     "--tile-rows",
     type=int,
@@ -125,6 +129,8 @@ def run(
     ply_min_confidence,
     calibration,
     confidence_out,
+    rerun_out,
+    rerun_spawn,
     tile_rows,
     quiet,
 ):
@@ -142,8 +148,9 @@ def run(
     if draw_features and preview is None:
         raise click.UsageError("--draw-features needs --preview")
     check_output_paths(
-        output, occlusion_out, preview, features_out, depth_out, ply_out, confidence_out
-    )
+        output, occlusion_out, preview, features_out, depth_out, ply_out, confidence_out,
+        rerun_out,
+    )  # fmt: skip
     check_distinct_paths(
         {"the left input": left, "the right input": right, "--calib": calibration["calib"]},
         {
@@ -154,6 +161,7 @@ def run(
             "--depth-out": depth_out,
             "--ply": ply_out,
             "--confidence-out": confidence_out,
+            "--rerun": rerun_out,
         },
     )
     if (features_out is not None or draw_features) and method not in FEATURE_METHODS:
@@ -177,6 +185,11 @@ def run(
         io.check_suffix(ply_out, ".ply", "--ply")
     if confidence_out is not None:
         io.check_suffix(confidence_out, ".pfm", "--confidence-out")
+    if rerun_out is not None:
+        io.check_suffix(rerun_out, ".rrd", "--rerun")
+    viewing = rerun_out is not None or rerun_spawn
+    if viewing:
+        check_rerun()
     if ply_min_confidence is not None:
         if ply_out is None:
             raise ValueError("--ply-min-confidence is used only with --ply")
@@ -187,7 +200,11 @@ def run(
     set_threads(threads)
     left_image = io.read_image(left)
     right_image = io.read_image(right)
-    camera = calibration_of(calibration, left_image.shape, depth_out or ply_out)
+    # the viewer shows the depth, the cloud and the camera when a calibration is given
+    given = any(value is not None for value in calibration.values())
+    camera = calibration_of(
+        calibration, left_image.shape, depth_out or ply_out or (viewing and given)
+    )
     # staged outputs: written only if all succeed; the watch: the kernels' first compile
     # (about a minute) is announced, and the match's time says its share
     with compile_watch(quiet) as watch, staged_outputs() as write:
@@ -226,7 +243,7 @@ def run(
             too_far = write(io.write_depth, depth_out, depth(result.disparity, camera),
                             scale=depth_scale)  # fmt: skip
         sure = None
-        if confidence_out is not None or ply_min_confidence is not None:
+        if confidence_out is not None or ply_min_confidence is not None or viewing:
             from ..confidence import confidence
 
             sure = confidence(result, left_image, right_image)
@@ -237,6 +254,11 @@ def run(
             keep = None if ply_min_confidence is None else sure >= ply_min_confidence
             cloud = point_cloud(result.disparity, camera, colors, mask=keep)
             write(io.write_ply, ply_out, cloud.points, cloud.colors)
+        shown = {"result": result, "left": left_image, "camera": camera, "sure": sure}
+        if rerun_out is not None:
+            write(record_rerun, rerun_out, spawn=rerun_spawn, **shown)
+        elif rerun_spawn:
+            record_rerun(None, spawn=True, **shown)
     if not quiet:
         height, width = result.disparity.shape
         valid = 100.0 * result.valid.mean()
@@ -248,3 +270,5 @@ def run(
             click.echo(f"{too_far} pixels too far for 16 bits left out of {depth_out}")
         if ply_out is not None:
             click.echo(f"{len(cloud)} points -> {ply_out}")
+        if rerun_out is not None:
+            click.echo(f"Rerun recording -> {rerun_out}")

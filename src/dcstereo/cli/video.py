@@ -1,5 +1,6 @@
 """``dcstereo video``: a disparity and a preview per frame of a stereo sequence."""
 
+from contextlib import nullcontext
 from pathlib import Path
 
 import click
@@ -7,6 +8,8 @@ import click
 from ._common import (
     CommandError,
     apply_threads,
+    check_output_paths,
+    check_rerun,
     compile_watch,
     depth_file_options,
     disparity_range_options,
@@ -14,6 +17,7 @@ from ._common import (
     one_line_errors,
     output_folder,
     preview_style_option,
+    rerun_options,
 )
 from .batch import advancer, dask_client, progress_bar, scheduler_option
 
@@ -71,6 +75,7 @@ from .batch import advancer, dask_client, progress_bar, scheduler_option
     help="With --calib: also write each frame's point cloud, frameNNNNN.ply (binary PLY, "
     "left camera frame, coloured by the left view).",
 )
+@rerun_options
 @scheduler_option
 @click.option(
     "--resume/--no-resume",
@@ -97,6 +102,8 @@ def video(
     ply,
     depth_format,
     depth_scale,
+    rerun_out,
+    rerun_spawn,
     scheduler,
     resume,
     quiet,
@@ -112,6 +119,7 @@ def video(
     from ..geometry import Calibration
     from ..params import MatchParams
     from ..video import match_sequence, open_sequence, output_paths, write_video
+    from ..viz import rerun_recording
 
     folder = output_folder(output)
     if preview_video is not None:
@@ -131,16 +139,25 @@ def video(
         raise CommandError("--depth-format is used only with --calib (the depth maps)")
     if depth_scale is not None and depth_format != "png":
         raise CommandError("--depth-scale is used only with --depth-format png")
+    if rerun_out is not None:
+        from .. import io
+
+        io.check_suffix(rerun_out, ".rrd", "--rerun")
+        check_output_paths(rerun_out)  # its folder must exist: it is written as frames come
+    if rerun_out is not None or rerun_spawn:
+        check_rerun()
     calibration = None if calib is None else Calibration.from_middlebury(calib)
     sequence = open_sequence(left, right)
     # Refuse bad options before a cluster starts; match_sequence makes the folder once valid.
     MatchParams(max_disparity=max_disparity, min_disparity=min_disparity, **match_options)
     apply_threads(threads, scheduler)
     # compile_watch: a first run's compiling is announced (here, not on a Dask cluster)
+    viewing = rerun_out is not None or rerun_spawn
     with (
         progress_bar("frames", quiet) as bar,
         dask_client(scheduler) as client,
         compile_watch(quiet),
+        rerun_recording(rerun_out, spawn=rerun_spawn) if viewing else nullcontext() as recording,
     ):
         report = match_sequence(
             sequence,
@@ -158,6 +175,7 @@ def video(
             depth_format=depth_format,
             depth_scale=depth_scale,
             min_disparity=min_disparity,
+            recording=recording,
             **match_options,
         )
     written = None
@@ -178,6 +196,7 @@ def video(
             f"{len(report.skipped)} already complete, {len(report.failed)} failed, "
             f"{report.seconds:.1f} s{rate} -> {folder}"
             + (f", preview video {preview_video} ({written} frames)" if written else "")
+            + (f", Rerun recording {rerun_out} ({matched} frames)" if rerun_out else "")
         )
     if not report.ok:
         click.echo(
