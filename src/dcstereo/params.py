@@ -73,9 +73,9 @@ SUBPIXEL_OFF = (False, "none")
 #: ``sgm`` defaults (measured on the 21 development scenes, ``scripts/tune_sgm.py``).
 DEFAULT_CENSUS_WINDOW = (5, 5)
 DEFAULT_AD_TRUNCATION = 20
-DEFAULT_P1 = 40
-DEFAULT_P2 = 240
-DEFAULT_P2_GRADIENT = 8.0
+DEFAULT_P1 = 60
+DEFAULT_P2 = 400
+DEFAULT_P2_GRADIENT = 6.0
 DEFAULT_PATHS = 8
 DEFAULT_LR_TOLERANCE = 1
 

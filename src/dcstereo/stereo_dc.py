@@ -14,9 +14,10 @@ No OpenCV is needed: this module does not import it.
 
 Each OpenCV option maps onto a keyword of :func:`dcstereo.match` through one table,
 :data:`OPENCV_OPTIONS`. An option whose keyword the method in use does not read (today
-``P1``, ``P2``, ``disp12MaxDiff``, ``preFilterCap``, ``uniquenessRatio``, the speckle
-filter and ``mode``: the ``dc`` method has no such settings) is accepted, kept and
-reported by its getter, but changes nothing; :meth:`StereoDC.unusedOptions` lists those
+``P1`` and ``P2``, whose units are OpenCV's, ``preFilterCap``, ``uniquenessRatio`` and the
+speckle filter; with the paper's ``dc`` also ``disp12MaxDiff`` and ``mode``, which map onto
+``sgm``'s left-right check and paths) is accepted, kept and reported by its getter, but
+changes nothing; :meth:`StereoDC.unusedOptions` lists those
 set to another value than OpenCV's default, and ``strict=True`` refuses them instead.
 """
 
@@ -91,14 +92,24 @@ OPENCV_OPTIONS = (
         "any positive count (OpenCV's multiples of 16 work as they are)",
     ),
     OpenCVOption("blockSize", None, "window", None, "odd side of the matching window"),
-    OpenCVOption("P1", 0, None, None, "smoothness penalty of a change of 1 pixel"),
-    OpenCVOption("P2", 0, None, None, "smoothness penalty of a larger change"),
-    OpenCVOption("disp12MaxDiff", 0, None, None, "left-right check tolerance"),
+    OpenCVOption(
+        "P1", 0, None, None,
+        "smoothness penalty of a change of 1 pixel; sgm's are in its own cost units "
+        "(give p1= instead: OpenCV's 8 * channels * blockSize**2 would mean another thing)",
+    ),  # fmt: skip
+    OpenCVOption("P2", 0, None, None, "smoothness penalty of a larger change (sgm: p2=)"),
+    OpenCVOption(
+        "disp12MaxDiff", 0, "lr_tolerance", lambda v: None if v < 0 else int(v),
+        "left-right check tolerance in pixels (sgm's lr_tolerance; negative: no check)",
+    ),  # fmt: skip
     OpenCVOption("preFilterCap", 0, None, None, "clip of the x-derivative prefilter"),
     OpenCVOption("uniquenessRatio", 0, None, None, "margin of the best cost, percent"),
     OpenCVOption("speckleWindowSize", 0, None, None, "speckle filter: region size"),
     OpenCVOption("speckleRange", 0, None, None, "speckle filter: disparity variation"),
-    OpenCVOption("mode", MODE_SGBM, None, None, "aggregation paths (MODE_SGBM, MODE_HH, ...)"),
+    OpenCVOption(
+        "mode", MODE_SGBM, "paths", lambda v: 4 if v == MODE_HH4 else 8,
+        "aggregation paths: MODE_HH4 gives sgm's 4 paths, the others its 8",
+    ),  # fmt: skip
 )
 
 # the keywords StereoDC fills from OpenCV's settings (given as options they would clash)
