@@ -28,11 +28,14 @@ parent that made the large pair; ``ru_maxrss`` at the end is still kept in the J
 (``ru_maxrss_mb``), and it is what the table shows where ``/proc`` is missing;
 ``x SGBM`` time over OpenCV SGBM's at the same thread count (below 1 = faster).
 
-dcstereo methods run with their defaults (``window=5``); OpenCV runs through
-``dcstereo.opencv.match_opencv`` with its documented defaults (``MODE_SGBM``, 5x5 block,
-``P1 = 8 * 25``, ``P2 = 32 * 25``, uniqueness 10 (SGBM) / 15 (BM), ``disp12MaxDiff = 1``,
-speckle filter 100 px / 2): both sides include the conversion to gray and the conversion
-of the result to float32 with NaN holes.
+dcstereo methods run with their defaults (``sgm`` the default method, the whole pipeline:
+costs, aggregation, left-right check, fill, median, sub-pixel fit); OpenCV runs through
+``dcstereo.evaluation.run_method``, as in the results (``docs/RESULTS.md``): SGBM in
+``MODE_SGBM`` (``opencv-sgbm``) and ``MODE_HH`` (``opencv-hh``, eight paths) on the colour
+images when the pair is colour (``P1 = 8 * 3 * 25``, ``P2 = 32 * 3 * 25``; on gray ``cn =
+1``), 5x5 block, uniqueness 10, ``disp12MaxDiff = 1``, speckle filter 100 px / 2, and BM
+on the luma: both sides include the conversion of the images and of the result to float32
+with NaN holes.
 
 With ``--rounds N``, the whole fresh-process sweep runs ``N`` times, the rounds one after
 the other, and each row is the fastest of its ``N`` processes (the memory columns are that
@@ -77,8 +80,8 @@ from pathlib import Path
 
 import numpy as np
 
-DCSTEREO_METHODS = ("block", "dsi3", "dsi5", "dc")
-OPENCV_METHODS = ("opencv-bm", "opencv-sgbm")
+DCSTEREO_METHODS = ("sgm", "block", "dsi3", "dsi5", "dc")
+OPENCV_METHODS = ("opencv-bm", "opencv-sgbm", "opencv-hh")
 DEFAULT_METHODS = DCSTEREO_METHODS + OPENCV_METHODS
 SGBM = "opencv-sgbm"
 LARGE_NAME = "synthetic"
@@ -188,18 +191,18 @@ def max_rss_bytes():
 
 def make_call(method, left, right, min_disparity, max_disparity):
     """A no-argument matcher call for ``method``; returns (call, disparities searched)."""
+    from dcstereo.evaluation import run_method
+
     if method in OPENCV_METHODS:
-        from dcstereo.opencv import match_opencv, opencv_num_disparities
+        from dcstereo.opencv import opencv_num_disparities
 
-        kind = method.split("-", 1)[1]
-
+        # through run_method: SGBM on the colour images when both are (the results' protocol)
         def call():
-            return match_opencv(
-                left, right, max_disparity=max_disparity, min_disparity=min_disparity, method=kind
+            return run_method(
+                method, left, right, max_disparity=max_disparity, min_disparity=min_disparity
             )
 
         return call, opencv_num_disparities(min_disparity, max_disparity)
-    from dcstereo.evaluation import run_method
 
     def call():  # a name ending in +bt: that method with the Birchfield-Tomasi cost
         return run_method(

@@ -193,8 +193,9 @@ def _run(left, right, params, want_confidence):
     dmin, ndisp = params.min_disparity, params.num_disparities
     lanes = -(-ndisp // LANES) * LANES
     rows, cols = params.census_window
-    codes_l = np.empty((height, width), dtype=np.uint64)
-    codes_r = np.empty((height, width), dtype=np.uint64)
+    kind = np.uint32 if rows * cols - 1 <= 32 else np.uint64
+    codes_l = np.empty((height, width), dtype=kind)
+    codes_r = np.empty((height, width), dtype=kind)
     _census(left, rows, cols, codes_l)
     _census(right, rows, cols, codes_r)
     luma_l = padded_signal(left, 0)

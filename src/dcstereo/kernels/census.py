@@ -25,7 +25,8 @@ from numba.extending import intrinsic, overload
 
 @nb.njit(cache=True, parallel=True)
 def census_transform(padded, rows, cols, out):
-    """Census codes over a ``rows x cols`` window into ``out`` (uint64, ``(H, W)``).
+    """Census codes over a ``rows x cols`` window into ``out`` (``(H, W)``, uint32 for up to
+    32 bits, else uint64).
 
     ``padded`` is the int32 intensity padded by ``rows // 2`` rows and ``cols // 2``
     columns on each side, repeating its edges (``signal.padded_signal``). Bit order: the
@@ -46,24 +47,28 @@ def census_transform(padded, rows, cols, out):
                     continue
                 other = padded[y + dy, dx : dx + width]
                 for x in range(width):
-                    code[x] = (code[x] << np.uint64(1)) | np.uint64(other[x] < centre[x])
+                    code[x] = (code[x] << 1) | (other[x] < centre[x])
 
 
 def popcount(value):
-    """Number of set bits of a ``uint64`` (compiled: one ``llvm.ctpop``)."""
+    """Return the number of set bits of an unsigned integer (compiled: one ``llvm.ctpop``)."""
     return bin(int(value)).count("1")
 
 
 @intrinsic
 def _ctpop(typingctx, value):
-    if not (isinstance(value, types.Integer) and value.bitwidth == 64):
+    if not (isinstance(value, types.Integer) and value.bitwidth in (32, 64)):
         return None
+    width = value.bitwidth
 
     def codegen(context, builder, sig, args):
+        kind = ir.IntType(width)
         fn = cgutils.get_or_insert_function(
-            builder.module, ir.FunctionType(ir.IntType(64), [ir.IntType(64)]), "llvm.ctpop.i64"
+            builder.module, ir.FunctionType(kind, [kind]), f"llvm.ctpop.i{width}"
         )
-        return builder.call(fn, [args[0]])
+        return builder.zext(builder.call(fn, [args[0]]), ir.IntType(64)) if width < 64 else (
+            builder.call(fn, [args[0]])
+        )
 
     return types.int64(value), codegen
 
@@ -74,7 +79,7 @@ def _popcount_compiled(value):
 
 
 @nb.njit(cache=True)
-def pixel_cost_row(codes_l, codes_r, colour_l, colour_r, y, dmin, ndisp, bit_cost, ad_max, ad, out):
+def pixel_cost_row(codes_l, codes_r, colour_l, colour_r, y, dmin, ndisp, bit_cost, ad_max, out):
     """One row of per-pixel costs: ``out[x, k]`` for ``d = dmin + k``, ``k < ndisp``.
 
     In thirds of a cost unit: ``3 * bit_cost * popcount(L ^ R)`` of the census codes of
@@ -82,35 +87,54 @@ def pixel_cost_row(codes_l, codes_r, colour_l, colour_r, y, dmin, ndisp, bit_cos
     ad_max)``, ``AD`` the sum of the absolute differences of the three channels of
     ``colour_l`` (``(3, H, W)``, 0..255), or three times that of its one channel
     (``(1, H, W)``): the mean absolute difference of the channels counts one unit per gray
-    level, and a gray image gives the costs of its three-channel copy. The right view (``codes_r``, ``colour_r``) is padded
-    by repetition (``max(0, max_disparity)`` columns on the left, ``max(0, -dmin)`` on the
-    right) and then reversed: right pixel ``x - d`` of row ``y`` is at ``[.., y, width - 1
-    - x + dmin + max(0, -dmin) + k]``, so that the disparities of a left pixel run forward
-    in memory. ``ad`` is an int16 scratch row of ``ndisp``.
+    level, and a gray image gives the costs of its three-channel copy. The right view
+    (``codes_r``, ``colour_r``) is padded by repetition (``max(0, max_disparity)`` columns
+    on the left, ``max(0, -dmin)`` on the right) and then reversed: right pixel ``x - d`` of
+    row ``y`` is at ``[.., y, width - 1 - x + dmin + max(0, -dmin) + k]``, so that the
+    disparities of a left pixel run forward in memory. One loop over the disparities of a
+    pixel makes both terms.
     """
     width = codes_l.shape[1]
-    channels = colour_l.shape[0]
     after = max(0, -dmin)
     census = np.int16(3 * bit_cost)
     limit = np.int16(3 * ad_max)
-    ad_scale = np.int16(3 // channels)
-    for x in range(width):
-        start = width - 1 - x + dmin + after
-        code = codes_l[y, x]
-        right = codes_r[y, start : start + ndisp]
-        row = out[x]
-        for k in range(ndisp):
-            row[k] = np.int16(census * np.int16(popcount(code ^ right[k])))
-        if ad_max > 0:
+    right = codes_r[y]
+    if ad_max <= 0:
+        for x in range(width):
+            start = width - 1 - x + dmin + after
+            code = codes_l[y, x]
+            row = out[x]
+            window = right[start : start + ndisp]
             for k in range(ndisp):
-                ad[k] = 0
-            for c in range(channels):
-                value = colour_l[c, y, x]
-                other = colour_r[c, y, start : start + ndisp]
-                for k in range(ndisp):
-                    ad[k] += np.int16(abs(np.int16(value - other[k])))
+                row[k] = np.int16(census * np.int16(popcount(code ^ window[k])))
+    elif colour_l.shape[0] == 3:
+        r0, r1, r2 = colour_r[0, y], colour_r[1, y], colour_r[2, y]
+        for x in range(width):
+            start = width - 1 - x + dmin + after
+            code = codes_l[y, x]
+            l0, l1, l2 = colour_l[0, y, x], colour_l[1, y, x], colour_l[2, y, x]
+            row = out[x]
+            window = right[start : start + ndisp]
+            c0, c1, c2 = r0[start : start + ndisp], r1[start : start + ndisp], r2[start : start + ndisp]
             for k in range(ndisp):
-                row[k] += min(np.int16(ad_scale * ad[k]), limit)
+                ad = np.int16(
+                    np.int16(abs(np.int16(l0 - c0[k])))
+                    + np.int16(abs(np.int16(l1 - c1[k])))
+                    + np.int16(abs(np.int16(l2 - c2[k])))
+                )
+                row[k] = np.int16(census * np.int16(popcount(code ^ window[k])) + min(ad, limit))
+    else:
+        r0 = colour_r[0, y]
+        for x in range(width):
+            start = width - 1 - x + dmin + after
+            code = codes_l[y, x]
+            l0 = colour_l[0, y, x]
+            row = out[x]
+            window = right[start : start + ndisp]
+            c0 = r0[start : start + ndisp]
+            for k in range(ndisp):
+                ad = np.int16(3 * np.int16(abs(np.int16(l0 - c0[k]))))
+                row[k] = np.int16(census * np.int16(popcount(code ^ window[k])) + min(ad, limit))
 
 
 @nb.njit(cache=True, parallel=True)
@@ -151,30 +175,28 @@ def _volume_rows(
     radius = box // 2
     ring = np.empty((box, width, ndisp), dtype=np.int16)
     vertical = np.empty((width + box - 1) * ndisp, dtype=np.int16)
-    sums = np.empty(width * ndisp, dtype=np.int16)
-    ad = np.empty(ndisp, dtype=np.int16)
     for t in range(box - 1):  # rows y0 - radius .. y0 + radius - 1
         yy = min(max(y0 - radius + t, 0), height - 1)
         pixel_cost_row(
-            codes_l, codes_r, colour_l, colour_r, yy, dmin, ndisp, bit_cost, ad_max, ad,
+            codes_l, codes_r, colour_l, colour_r, yy, dmin, ndisp, bit_cost, ad_max,
             ring[(y0 - radius + t) % box],
         )  # fmt: skip
     for y in range(y0, y1):
         yy = min(y + radius, height - 1)
         pixel_cost_row(
-            codes_l, codes_r, colour_l, colour_r, yy, dmin, ndisp, bit_cost, ad_max, ad,
+            codes_l, codes_r, colour_l, colour_r, yy, dmin, ndisp, bit_cost, ad_max,
             ring[(y + radius) % box],
         )  # fmt: skip
-        _box_row(ring, width, ndisp, box, reciprocal, vertical, sums, out[y - y_begin], pad_cost)
+        _box_row(ring, width, ndisp, box, reciprocal, vertical, out[y - y_begin], pad_cost)
 
 
 @nb.njit(cache=True)
-def _box_row(ring, width, ndisp, box, reciprocal, vertical, sums, out_row, pad_cost):
+def _box_row(ring, width, ndisp, box, reciprocal, vertical, out_row, pad_cost):
     """``out_row[x, k]``: the mean over the ring's rows and ``box`` columns around ``x``.
 
-    ``vertical`` and ``sums`` are int16 scratch rows of ``(width + box - 1) * ndisp``: the
-    column sums, with ``box // 2`` repeated edge columns on each side, then the box sums.
-    Each sum is one flat loop over ``(x, k)``.
+    ``vertical`` is an int16 scratch row of ``(width + box - 1) * ndisp``: the column sums,
+    with ``box // 2`` repeated edge columns on each side (one flat loop over ``(x, k)``);
+    then each pixel's ``box`` columns are summed, averaged and stored in one loop.
     """
     radius = box // 2
     lanes = out_row.shape[1]
@@ -191,18 +213,20 @@ def _box_row(ring, width, ndisp, box, reciprocal, vertical, sums, out_row, pad_c
         for k in range(ndisp):
             vertical[e * ndisp + k] = body[k]
             vertical[(radius + width + e) * ndisp + k] = body[n - ndisp + k]
-    total = sums[:n]
-    for i in range(n):
-        total[i] = vertical[i]
-    for dx in range(1, box):
-        shifted = vertical[dx * ndisp : dx * ndisp + n]
-        for i in range(n):
-            total[i] += shifted[i]
     for x in range(width):
         dst = out_row[x]
-        src = total[x * ndisp : (x + 1) * ndisp]
-        for k in range(ndisp):
-            dst[k] = np.int16(np.float32(src[k]) * reciprocal)
+        if box == 3:
+            a = vertical[x * ndisp : (x + 1) * ndisp]
+            b = vertical[(x + 1) * ndisp : (x + 2) * ndisp]
+            c = vertical[(x + 2) * ndisp : (x + 3) * ndisp]
+            for k in range(ndisp):
+                dst[k] = np.int16(np.float32(np.int16(a[k] + b[k] + c[k])) * reciprocal)
+        else:
+            for k in range(ndisp):
+                total = np.int16(0)
+                for dx in range(box):
+                    total += vertical[(x + dx) * ndisp + k]
+                dst[k] = np.int16(np.float32(total) * reciprocal)
         for k in range(ndisp, lanes):
             dst[k] = pad_cost
 
