@@ -17,7 +17,7 @@ Each OpenCV option maps onto a keyword of :func:`dcstereo.match` through one tab
 ``P1`` and ``P2``, whose units are OpenCV's, ``preFilterCap``, ``uniquenessRatio`` and the
 speckle filter; with the paper's ``dc`` also ``disp12MaxDiff`` and ``mode``, which map onto
 ``sgm``'s left-right check and paths) is accepted, kept and reported by its getter, but
-changes nothing; :meth:`StereoDC.unusedOptions` lists those
+changes nothing; ``StereoDC.unusedOptions()`` lists those
 set to another value than OpenCV's default, and ``strict=True`` refuses them instead.
 """
 
@@ -55,7 +55,7 @@ class OpenCVOption:
     name : str
         OpenCV's keyword (and the stem of its getter and setter: ``getP1``, ``setP1``).
     default : int or None
-        :meth:`StereoDC.create`'s default: OpenCV's for every setting but
+        ``StereoDC.create``'s default: OpenCV's for every setting but
         ``numDisparities`` (64) and ``blockSize`` (None: the method's window). For the
         settings beyond the range and the window, that value leaves the method's own
         default (OpenCV's 0 often means "choose for me").
