@@ -51,8 +51,12 @@ def test_format_matches_opencv_on_the_same_pair(low):
     # the sentinel: OpenCV marks its pixels without an estimate (min - 1) * 16, and so do we
     sentinel = (low - 1) * 16
     assert set(np.unique(theirs[theirs < low * 16])) == {sentinel}
-    assert set(np.unique(ours[ours < low * 16])) == {sentinel}
-    assert ours.max() <= (low + 15) * 16
+    # the default method (sgm) fills its map: every pixel has a disparity; without its
+    # fill, the pixels without an estimate have the sentinel
+    assert (ours >= low * 16).all()
+    unfilled = StereoDC.create(**settings, fill=False).compute(left, right)
+    assert set(np.unique(unfilled[unfilled < low * 16])) == {sentinel}
+    assert ours.max() <= (low + 15) * 16 and unfilled.max() <= (low + 15) * 16
     # the same disparities where both have one: within a pixel almost everywhere
     both = (ours != sentinel) & (theirs != sentinel)
     assert both.mean() > 0.6
@@ -60,16 +64,25 @@ def test_format_matches_opencv_on_the_same_pair(low):
     assert close.mean() > 0.95
 
 
-def test_values_are_those_of_match():
+@pytest.mark.parametrize("options", [{}, {"fill": False}, {"method": "dc"}])
+def test_values_are_those_of_match(options):
     left, right, _ = gray_pair()
-    result = dcstereo.match(left, right, max_disparity=15, min_disparity=0, window=5)
-    ours = StereoDC.create(0, 16, 5).compute(left, right)
+    result = dcstereo.match(left, right, max_disparity=15, min_disparity=0, window=5, **options)
+    ours = StereoDC.create(0, 16, 5, **options).compute(left, right)
     np.testing.assert_array_equal(ours, expected_fixed(result.disparity, 0, 15))
-    assert np.isnan(result.disparity).any()  # some pixels have the sentinel
+    # sgm, the default, fills its map; unfilled, some pixels have the sentinel
+    assert np.isnan(result.disparity).any() == bool(options)
 
 
 @pytest.mark.parametrize(
-    "options", [{"fill": True}, {"subpixel": "parabola"}, {"occlusion_cost": 5.0, "median": 3}]
+    "options",
+    [
+        {"fill": False},
+        {"subpixel": "parabola"},
+        {"p2": 300, "median": 3},
+        {"method": "dc", "fill": True},
+        {"method": "dc", "occlusion_cost": 5.0, "median": 3},
+    ],
 )
 def test_our_options_reach_match(options):
     left, right, _ = gray_pair()
@@ -158,7 +171,10 @@ def test_reprojection_round_trip_with_opencv():
     points = cv2.reprojectImageTo3D(
         fixed.astype(np.float32) / 16, calibration.reprojection_matrix()
     )
+    # the disparities OpenCV reprojects: sgm's sub-pixel estimates in 1/16 pixel steps
     disparity = matcher.match(left, right).disparity
+    np.testing.assert_array_equal(to_fixed_point(disparity, 0, 15), fixed)
+    disparity = np.where(fixed >= 0, fixed / np.float32(16), np.float32(np.nan))
     z = depth(disparity, calibration)
     known = np.isfinite(z)
     assert known.mean() > 0.6
@@ -209,7 +225,15 @@ def test_setters_change_and_check():
         value = {"blockSize": 7, "numDisparities": 32, "mode": StereoDC.MODE_HH}.get(row.name, 3)
         getattr(matcher, "set" + stem)(value)
         assert getattr(matcher, "get" + stem)() == value
-    assert matcher.match_keywords() == {"min_disparity": 3, "max_disparity": 34, "window": 7}
+    # sgm reads disp12MaxDiff (its lr_tolerance) and mode (its paths: 8 but for MODE_HH4)
+    assert matcher.match_keywords() == {
+        "min_disparity": 3, "max_disparity": 34, "window": 7, "lr_tolerance": 3, "paths": 8,
+    }  # fmt: skip
+    matcher.setMethod("dc")  # the paper's method has neither
+    assert matcher.match_keywords() == {
+        "min_disparity": 3, "max_disparity": 34, "window": 7, "method": "dc",
+    }  # fmt: skip
+    matcher.setMethod(None)
     with pytest.raises(ValueError, match="blockSize must be a positive odd integer, got 4"):
         matcher.setBlockSize(4)
     assert matcher.getBlockSize() == 7  # a refused change changes nothing
@@ -256,23 +280,61 @@ def test_opencv_usual_arguments_are_accepted_without_effect():
     )
     matcher = StereoDC.create(**usual)
     assert matcher.getP2() == 32 * 3 * 25 and matcher.getMode() == 2
+    # sgm, the default, reads disp12MaxDiff and mode (here its own defaults, 1 and 8
+    # paths); the others change nothing
     assert matcher.unusedOptions() == [
-        "P1", "P2", "disp12MaxDiff", "preFilterCap", "uniquenessRatio",
-        "speckleWindowSize", "speckleRange", "mode",
+        "P1", "P2", "preFilterCap", "uniquenessRatio", "speckleWindowSize", "speckleRange",
     ]  # fmt: skip
+    assert matcher.match_keywords() == {
+        "min_disparity": 0, "max_disparity": 15, "window": 5, "lr_tolerance": 1, "paths": 8,
+    }  # fmt: skip
     plain = StereoDC.create(minDisparity=0, numDisparities=16, blockSize=5)
     assert plain.unusedOptions() == []
     np.testing.assert_array_equal(matcher.compute(left, right), plain.compute(left, right))
     positional = StereoDC.create(*usual.values())
     assert positional.match_keywords() == matcher.match_keywords()
+    # the paper's dc reads none of them
+    dc = StereoDC.create(**usual, method="dc")
+    assert dc.unusedOptions() == [
+        "P1", "P2", "disp12MaxDiff", "preFilterCap", "uniquenessRatio",
+        "speckleWindowSize", "speckleRange", "mode",
+    ]  # fmt: skip
+    plain_dc = StereoDC.create(minDisparity=0, numDisparities=16, blockSize=5, method="dc")
+    assert dc.match_keywords() == plain_dc.match_keywords()
+    np.testing.assert_array_equal(dc.compute(left, right), plain_dc.compute(left, right))
     with pytest.raises(ValueError, match="P1 has no effect with method"):
         StereoDC.create(numDisparities=16, P1=200, strict=True)
     StereoDC.create(numDisparities=16, P1=0, strict=True)  # OpenCV's default: fine
 
 
+@pytest.mark.parametrize(
+    ("setting", "value", "keyword", "expected"),
+    [
+        ("disp12MaxDiff", 3, "lr_tolerance", 3),
+        ("disp12MaxDiff", -1, "lr_tolerance", None),  # OpenCV's "no check"
+        ("mode", StereoDC.MODE_HH4, "paths", 4),
+        ("mode", StereoDC.MODE_HH, "paths", 8),
+    ],
+)
+def test_disp12maxdiff_and_mode_reach_sgm_not_dc(setting, value, keyword, expected):
+    left, right, _ = gray_pair()
+    matcher = StereoDC.create(numDisparities=16, **{setting: value})
+    assert matcher.match_keywords()[keyword] == expected and matcher.unusedOptions() == []
+    result = dcstereo.match(left, right, max_disparity=15, **{keyword: expected})
+    fixed = matcher.compute(left, right)
+    np.testing.assert_array_equal(fixed, expected_fixed(result.disparity, 0, 15))
+    if expected not in (1, 8):  # not sgm's own default: the map changes
+        assert (fixed != StereoDC.create(numDisparities=16).compute(left, right)).any()
+    # the paper's dc has no such setting: kept, without effect, or refused when strict
+    dc = StereoDC.create(numDisparities=16, method="dc", **{setting: value})
+    assert keyword not in dc.match_keywords() and dc.unusedOptions() == [setting]
+    with pytest.raises(ValueError, match=f"{setting} has no effect with method 'dc'"):
+        StereoDC.create(numDisparities=16, method="dc", strict=True, **{setting: value})
+
+
 def test_a_mapped_setting_reaches_match(monkeypatch):
     # a method that reads an equivalent gets the value (here the table maps speckleRange
-    # onto dc's `uniqueness`, as the new method's rows will be mapped)
+    # onto dc's `uniqueness`, as disp12MaxDiff and mode are mapped onto sgm's keywords)
     rows = tuple(
         stereo_dc.OpenCVOption(row.name, row.default, "uniqueness", lambda v: v / 10, "test")
         if row.name == "speckleRange"
@@ -280,7 +342,7 @@ def test_a_mapped_setting_reaches_match(monkeypatch):
         for row in OPENCV_OPTIONS
     )
     monkeypatch.setattr(stereo_dc, "OPENCV_OPTIONS", rows)
-    matcher = StereoDC.create(numDisparities=16, speckleRange=35)
+    matcher = StereoDC.create(numDisparities=16, speckleRange=35, method="dc")
     assert matcher.match_keywords()["uniqueness"] == 3.5 and matcher.unusedOptions() == []
     assert "uniqueness" not in StereoDC.create(numDisparities=16, method="dsi3").match_keywords()
     assert StereoDC.create(numDisparities=16, speckleRange=35, method="dsi3").unusedOptions() == [
