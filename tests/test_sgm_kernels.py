@@ -184,7 +184,7 @@ CASES = [
 @pytest.mark.parametrize("colour", [False, True])
 @pytest.mark.parametrize("case", CASES)
 def test_sgm_equals_twin(case, colour):
-    left, right = _costs_inputs(len(str(case)), colour, height=8, width=26)
+    left, right = _costs_inputs(len(str(case)), colour, height=8 + colour, width=26)  # odd too
     right = np.roll(left, -3, axis=1) // 2 + right // 2  # something to match
     params = MatchParams(method="sgm", fill=False, median=0, **case)
     result = sgm.match_sgm(left, right, params)

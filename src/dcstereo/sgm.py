@@ -224,7 +224,7 @@ def _run(left, right, params, want_confidence):
 
     disparity = np.empty((height, width), dtype=np.float32)
     flags = np.empty((height, width), dtype=np.uint8)
-    margin = np.empty((height, width) if want_confidence else (0, 0), dtype=np.float32)
+    margin = np.empty((height, width if want_confidence else 0), dtype=np.float32)
     per_row = width * lanes * 2 * 3
     strip = max(1, VOLUME_BYTES // per_row - 2 * STRIP_MARGIN)
     for s0 in range(0, height, strip):

@@ -186,68 +186,112 @@ def final_pass(
     nearer surface, which hides this pixel from the right view) and ``FLAG_MISMATCH``
     otherwise; a choice whose right pixel lies beyond the image is ``FLAG_BORDER``.
 
-    ``confidence`` (float32, the shape of ``disparity``, or empty: not wanted) receives
+    ``confidence`` (float32, the shape of ``disparity``, or of no columns: not wanted) receives
     ``(rival - best) / rival`` of each pixel's totals, ``rival`` the least total of the
     disparities two or more away from the chosen one (NaN where there is none or it is 0).
     """
     height, width = luma.shape
     lanes = cost.size // (height * width)
-    stride = lanes + 2
-    for r in nb.prange(y1 - y0):
-        y = y0 + r
-        row = y * width * lanes
-        hbuf = _path_buffer(width, lanes)  # left to right, every pixel's values kept
-        back = _path_buffer(2, lanes)  # right to left, two alternating slots
-        total = np.empty(width * lanes, dtype=np.int16)
-        best_k = np.empty(width, dtype=np.int64)
-        right_best = np.full(width, 1 << 30, dtype=np.int64)
-        right_d = np.full(width, -(1 << 30), dtype=np.int64)
-        hmin = 0
-        for x in range(width):  # left to right
-            if x == 0:
-                hmin = path_step(cost, row, hbuf, width * stride, hbuf, 0, lanes, p1, 0, 0)
-            else:
-                p2 = _gradient_p2(luma, y, x, y, x - 1, p2_table)
-                hmin = path_step(
-                    cost, row + x * lanes, hbuf, (x - 1) * stride, hbuf, x * stride, lanes,
-                    p1, p2, hmin,
-                )  # fmt: skip
-        back_min = 0
-        parts = (down, up, hbuf)
-        for x in range(width - 1, -1, -1):  # right to left, the totals and their least
-            c_off = row + x * lanes
-            q = (x % 2) * stride
-            if x == width - 1:
-                p_off, p2, pmin = 2 * stride, 0, 0
-            else:
-                p_off, pmin = ((x + 1) % 2) * stride, back_min
-                p2 = _gradient_p2(luma, y, x, y, x + 1, p2_table)
-            back_min, k, value = path_total_step(
-                cost, c_off, back, p_off, back, q, lanes, p1, p2, pmin, parts,
-                (c_off, c_off, x * stride + 1), total, x * lanes,
+    rows = y1 - y0
+    for i in nb.prange((rows + 1) // 2):  # two rows at a time: two chains of dependent steps
+        ra = 2 * i
+        pair = ra + 1 < rows
+        rb = ra + 1 if pair else ra
+        hbuf_a, hbuf_b = _path_buffer(width, lanes), _path_buffer(width, lanes)
+        back_a, back_b = _path_buffer(2, lanes), _path_buffer(2, lanes)
+        total_a = np.empty(width * lanes, dtype=np.int16)
+        total_b = np.empty(width * lanes, dtype=np.int16)
+        best_a = np.empty(width, dtype=np.int64)
+        best_b = np.empty(width, dtype=np.int64)
+        _horizontal_rows(
+            cost, luma, down, up, y0 + ra, y0 + rb, pair, lanes, p1, p2_table,
+            hbuf_a, hbuf_b, back_a, back_b, total_a, total_b, best_a, best_b, ndisp,
+        )  # fmt: skip
+        _choose_row(
+            total_a, best_a, lanes, width, dmin, ndisp, subpixel, tolerance, disparity[ra],
+            flags[ra], confidence[ra],
+        )  # fmt: skip
+        if pair:
+            _choose_row(
+                total_b, best_b, lanes, width, dmin, ndisp, subpixel, tolerance, disparity[rb],
+                flags[rb], confidence[rb],
             )  # fmt: skip
-            k = min(k, ndisp - 1)
-            best_k[x] = k
-            if confidence.size:
-                confidence[r, x] = _margin(total, x * lanes, k, ndisp, value)
-        for x in range(width):  # the right view keeps the best of the left pixels choosing it
-            k = best_k[x]
-            xr = x - dmin - k
-            value = total[x * lanes + k]
-            if 0 <= xr < width and value < right_best[xr]:
-                right_best[xr] = value
-                right_d[xr] = dmin + k
-        for x in range(width):
-            k = best_k[x]
-            d = dmin + k
-            xr = x - d
-            if xr < 0 or xr >= width:
-                disparity[r, x] = np.nan
-                flags[r, x] = FLAG_BORDER
-            elif tolerance >= 0 and abs(right_d[xr] - d) > tolerance:
-                disparity[r, x] = np.nan
-                flags[r, x] = FLAG_OCCLUDED if right_d[xr] > d else FLAG_MISMATCH
-            else:
-                offset = _subpixel(total, x * lanes, k, ndisp, subpixel)
-                disparity[r, x] = np.float32(d + offset)
-                flags[r, x] = 0
+
+
+@nb.njit(cache=True)
+def _horizontal_rows(
+    cost, luma, down, up, ya, yb, pair, lanes, p1, p2_table, hbuf_a, hbuf_b, back_a, back_b,
+    total_a, total_b, best_a, best_b, ndisp,
+):  # fmt: skip
+    """The two horizontal paths of rows ``ya`` and ``yb`` (``yb`` only with ``pair``), the
+    totals of their pixels and the first least of each: the steps of the two rows are
+    interleaved, so that the processor runs one row's while the other's wait on their
+    predecessor's least value."""
+    width = luma.shape[1]
+    stride = lanes + 2
+    row_a, row_b = ya * width * lanes, yb * width * lanes
+    zero = width * stride  # the slot of zeros: the predecessor of a path's first pixel
+    ha = path_step(cost, row_a, hbuf_a, zero, hbuf_a, 0, lanes, p1, 0, 0)
+    hb = path_step(cost, row_b, hbuf_b, zero, hbuf_b, 0, lanes, p1, 0, 0) if pair else 0
+    for x in range(1, width):  # left to right
+        prev, here = (x - 1) * stride, x * stride
+        p2 = _gradient_p2(luma, ya, x, ya, x - 1, p2_table)
+        ha = path_step(cost, row_a + x * lanes, hbuf_a, prev, hbuf_a, here, lanes, p1, p2, ha)
+        if pair:
+            p2 = _gradient_p2(luma, yb, x, yb, x - 1, p2_table)
+            hb = path_step(cost, row_b + x * lanes, hbuf_b, prev, hbuf_b, here, lanes, p1, p2, hb)
+    parts_a, parts_b = (down, up, hbuf_a), (down, up, hbuf_b)
+    ma = mb = 0
+    for x in range(width - 1, -1, -1):  # right to left, the totals and their least
+        q = (x % 2) * stride
+        if x == width - 1:
+            p_off, p2a, p2b = 2 * stride, 0, 0
+        else:
+            p_off = ((x + 1) % 2) * stride
+            p2a = _gradient_p2(luma, ya, x, ya, x + 1, p2_table)
+            p2b = _gradient_p2(luma, yb, x, yb, x + 1, p2_table)
+        offs = x * lanes
+        c_off = row_a + offs
+        ma, k, _ = path_total_step(
+            cost, c_off, back_a, p_off, back_a, q, lanes, p1, p2a, ma, parts_a,
+            (c_off, c_off, x * stride + 1), total_a, offs,
+        )  # fmt: skip
+        best_a[x] = min(k, ndisp - 1)
+        if pair:
+            c_off = row_b + offs
+            mb, k, _ = path_total_step(
+                cost, c_off, back_b, p_off, back_b, q, lanes, p1, p2b, mb, parts_b,
+                (c_off, c_off, x * stride + 1), total_b, offs,
+            )  # fmt: skip
+            best_b[x] = min(k, ndisp - 1)
+
+
+@nb.njit(cache=True)
+def _choose_row(total, best_k, lanes, width, dmin, ndisp, subpixel, tolerance, disparity,
+                flags, confidence):  # fmt: skip
+    """Winner-take-all, left-right check and sub-pixel fit of one row (see ``final_pass``)."""
+    right_best = np.full(width, 1 << 30, dtype=np.int64)
+    right_d = np.full(width, -(1 << 30), dtype=np.int64)
+    for x in range(width):  # the right view keeps the best of the left pixels choosing it
+        k = best_k[x]
+        value = total[x * lanes + k]
+        if confidence.size:
+            confidence[x] = _margin(total, x * lanes, k, ndisp, value)
+        xr = x - dmin - k
+        if 0 <= xr < width and value < right_best[xr]:
+            right_best[xr] = value
+            right_d[xr] = dmin + k
+    for x in range(width):
+        k = best_k[x]
+        d = dmin + k
+        xr = x - d
+        if xr < 0 or xr >= width:
+            disparity[x] = np.nan
+            flags[x] = FLAG_BORDER
+        elif tolerance >= 0 and abs(right_d[xr] - d) > tolerance:
+            disparity[x] = np.nan
+            flags[x] = FLAG_OCCLUDED if right_d[xr] > d else FLAG_MISMATCH
+        else:
+            offset = _subpixel(total, x * lanes, k, ndisp, subpixel)
+            disparity[x] = np.float32(d + offset)
+            flags[x] = 0
