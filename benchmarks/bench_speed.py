@@ -144,9 +144,9 @@ def load_case(case):
     every method searches the same disparities.
     """
     if case["kind"] == "middlebury":
-        from dcstereo.datasets import load_middlebury
+        from dcstereo.datasets import load_scene, middlebury_dir
 
-        scene = load_middlebury(case["name"])
+        scene = load_scene(middlebury_dir() / case["name"])
         left, right, truth = scene.left, scene.right, None
         low, high = scene.min_disparity, scene.max_disparity
     else:
@@ -717,7 +717,9 @@ def parse_args(argv):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--one", help=argparse.SUPPRESS)
     parser.add_argument(
-        "--scenes", help="comma-separated Middlebury scenes, or 'none' (default: every scene)"
+        "--scenes",
+        help="comma-separated scene folders under the Middlebury folder (any layout), 'all' "
+        "of them, or 'none' (default: the four v2 scenes)",
     )
     parser.add_argument(
         "--methods",
@@ -801,7 +803,7 @@ def main(argv=None):
     import numba
 
     import dcstereo
-    from dcstereo.datasets import list_middlebury, middlebury_dir
+    from dcstereo.datasets import find_scenes, list_middlebury, middlebury_dir
     from dcstereo.evaluation import BT_SUFFIX
 
     try:
@@ -859,10 +861,11 @@ def main(argv=None):
     elif args.scenes.strip().lower() == "none":
         names = []
     else:
-        names = comma_list(args.scenes)
-        missing = [n for n in names if n not in list_middlebury()]
+        known = [folder.name for folder in find_scenes(middlebury_dir())]
+        names = known if args.scenes.strip().lower() == "all" else comma_list(args.scenes)
+        missing = [n for n in names if n not in known]
         if missing:
-            return fail(f"unknown scene(s) {', '.join(missing)}; found {list_middlebury()}")
+            return fail(f"unknown scene(s) {', '.join(missing)}; found {known}")
     cases = [{"kind": "middlebury", "name": name, "same_range": args.same_range} for name in names]
 
     workdir = Path(tempfile.mkdtemp(prefix="bench_speed_"))
