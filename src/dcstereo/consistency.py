@@ -1,6 +1,6 @@
-"""Fill what a left-right check removed: occlusions from the background, mismatches from
-their most similar neighbour.
+"""Fill what a left-right check removed: occlusions and mismatches, each its own way.
 
+Occlusions are filled from the background, mismatches from their most similar neighbour.
 A left pixel fails the check of :mod:`dcstereo.sgm` either because the right view cannot
 see it (an occlusion: its right pixel belongs to a nearer surface,
 :data:`~dcstereo.result.FLAG_OCCLUDED`, or lies beyond the image,
@@ -58,7 +58,8 @@ def fill_inconsistent(result: DisparityResult, left: np.ndarray) -> DisparityRes
     >>> right = rng.integers(0, 256, (30, 60), dtype=np.uint8)
     >>> left = np.roll(right, 4, axis=1)
     >>> raw = dcstereo.match(left, right, max_disparity=8, method="sgm", fill=False)
-    >>> bool(np.isnan(raw.disparity).any()), bool(np.isnan(fill_inconsistent(raw, left).disparity).any())
+    >>> filled = fill_inconsistent(raw, left)
+    >>> bool(np.isnan(raw.disparity).any()), bool(np.isnan(filled.disparity).any())
     (True, False)
     """
     from .sgm import colour_channels

@@ -56,8 +56,9 @@ _SCANLINE_COSTS = ("sad", "bt")
 
 
 def costs_of(method: str) -> tuple[str, ...]:
-    """The costs (``cost=``) that ``method`` takes."""
+    """Return the costs (``cost=``) that ``method`` takes."""
     return METHOD_COSTS.get(base_method(method), _SCANLINE_COSTS)
+
 
 #: Method defaults of the options whose default depends on the method (``None`` given or
 #: left out: the method's value). ``sgm`` returns a filled, median-filtered map; the
@@ -506,7 +507,8 @@ class MatchParams:
                 object.__setattr__(self, "lr_tolerance", tolerance)
             if not is_integer(tolerance) or tolerance < 0:
                 raise ValueError(
-                    f"lr_tolerance must be None (no check) or a non-negative integer, got {tolerance!r}"
+                    "lr_tolerance must be None (no check) or a non-negative integer, "
+                    f"got {tolerance!r}"
                 )
 
     def _check_orientations(self):
