@@ -700,15 +700,17 @@ def test_subpixel_is_a_recorded_option_that_older_folders_lack(pairs_dir, tmp_pa
 
     pairs = find_pairs(pairs_dir)[:2]
     out = tmp_path / "out"
-    run_batch(pairs, out, max_disparity=MAX_DISPARITY)
+    # the older folders were made by dc (sgm, the default now, refines by default)
+    run_batch(pairs, out, max_disparity=MAX_DISPARITY, method="dc")
     recorded = json.loads((out / "batch.json").read_text())
     assert recorded["subpixel"] is None
     # a batch.json written before the option existed resumes as made without it
     del recorded["subpixel"]
     (out / "batch.json").write_text(json.dumps(recorded))
-    assert run_batch(pairs, out, max_disparity=MAX_DISPARITY).skipped == [p.name for p in pairs]
+    again = run_batch(pairs, out, max_disparity=MAX_DISPARITY, method="dc")
+    assert again.skipped == [p.name for p in pairs]
     with pytest.raises(ValueError, match=r"other options: subpixel None \(now equiangular\)"):
-        run_batch(pairs, out, max_disparity=MAX_DISPARITY, subpixel="equiangular")
+        run_batch(pairs, out, max_disparity=MAX_DISPARITY, method="dc", subpixel="equiangular")
     # from the command line, the refined maps
     fine = tmp_path / "fine"
     args = ["batch", str(pairs_dir), "-o", str(fine), "--max-disparity", str(MAX_DISPARITY)]

@@ -6,7 +6,8 @@ arrays of the chunks running at once are held to ``api.BAND_ARRAY_BYTES`` (512 M
 together, fewer chunks at a time, and where one array alone would pass it the rows run
 one at a time; ``tiling.match_tiled`` (``dcstereo run --tile-rows``) matches bands of
 rows on their own. Here the bounds are set to a few KiB so that a 48 x 64 pair takes
-every one of these paths, and each must give the map of the unbounded run, bit for bit.
+every one of these paths, and each must give the map of the unbounded run, bit for bit
+(``sgm``'s tiles where their context reaches the image's edges, as ``tiling`` promises).
 When memory runs out all the same, ``match`` says so in one line (``MemoryError``), and
 ``dcstereo run`` prints that line; this is checked with a real failed allocation, in a
 process whose address space is capped.
@@ -53,6 +54,12 @@ CASES = (
 #: fits 64 KiB, four fit 256 KiB; DC_BAND_BYTES 0 makes dc's and dsi3-gcp's costs twice.
 BOUNDS = [(0, 0), (4096, 4096), (64 * 1024, 0), (256 * 1024, 0), (256 * 1024, 64 * 1024)]
 
+#: Output rows per tile. sgm's paths cross the bands, so its tiles equal the whole map only
+#: where each band's context (``window // 2 + sgm.STRIP_MARGIN``, 33 rows) reaches both
+#: edges of the image (the ``tiling`` module's text): 16-row bands of this 48-row pair do,
+#: 13-row ones do not.
+TILE_ROWS = {"sgm": 16}
+
 
 def _pair():
     rng = np.random.default_rng(77)
@@ -90,18 +97,20 @@ def test_small_memory_bounds_and_tiles_give_the_unbounded_map(name, options, two
         ):
             got = dcstereo.match(left, right, max_disparity=MAX_DISPARITY, **options)
             _same(got, expected, f"bounds {band_bytes}, {dc_bytes}")
-            tiled = match_tiled(left, right, tile_rows=13, max_disparity=MAX_DISPARITY, **options)
+            rows = TILE_ROWS.get(name, 13)
+            tiled = match_tiled(left, right, tile_rows=rows, max_disparity=MAX_DISPARITY, **options)
             _same(tiled, expected, f"tiled, bounds {band_bytes}, {dc_bytes}")
 
 
 def test_the_bounds_reach_the_paths():
     # the bounds above are read where the paths are chosen (not frozen at import): a band
-    # array of this pair fits the default bounds, not 4 KiB
-    params = dcstereo.MatchParams(max_disparity=MAX_DISPARITY, cost="bt")
+    # array of this pair fits the default bounds, not 4 KiB (the paths of the scanline
+    # methods: sgm's strips have a bound of their own, sgm.VOLUME_BYTES)
+    params = dcstereo.MatchParams(max_disparity=MAX_DISPARITY, method="dc", cost="bt")
     assert api._band_array_fits(params, 64)
     with mock.patch.object(api, "BAND_ARRAY_BYTES", 4096):
         assert not api._band_array_fits(params, 64)
-    dc = dcstereo.MatchParams(max_disparity=MAX_DISPARITY)
+    dc = dcstereo.MatchParams(max_disparity=MAX_DISPARITY, method="dc")
     assert api._dc_band_mode(dc, 64) == 2  # the costs kept
     with mock.patch.object(api, "DC_BAND_BYTES", 0):
         assert api._dc_band_mode(dc, 64) == 3  # the costs made twice
@@ -166,15 +175,17 @@ def test_a_real_failed_allocation_is_one_line_in_the_library_and_the_cli(tmp_pat
 
 
 def test_the_cli_tiles_a_pair_as_match_does(pair, two_threads):
+    # dc with BT costs: the bounds are those of the scanline methods' band arrays
     folder, _ = pair
     out = folder / "tiled.pfm"
     with mock.patch.object(api, "BAND_ARRAY_BYTES", 0), mock.patch.object(api, "DC_BAND_BYTES", 0):
         done = CliRunner().invoke(
             main, ["run", str(folder / "left.png"), str(folder / "right.png"), "-o", str(out),
-                   "--max-disparity", "12", "--tile-rows", "5", "--cost", "bt", "-q"],
+                   "--max-disparity", "12", "--tile-rows", "5", "--method", "dc", "--cost", "bt",
+                   "-q"],
         )  # fmt: skip
     assert done.exit_code == 0, done.output
     left = io.read_image(folder / "left.png")
     right = io.read_image(folder / "right.png")
-    expected = dcstereo.match(left, right, max_disparity=12, cost="bt")
+    expected = dcstereo.match(left, right, max_disparity=12, method="dc", cost="bt")
     np.testing.assert_array_equal(io.read_disparity(out), expected.disparity)
