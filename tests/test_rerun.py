@@ -15,7 +15,7 @@ from dcstereo import io, viz
 from dcstereo.cli import main
 from dcstereo.confidence import confidence
 from dcstereo.geometry import Calibration, depth, point_cloud
-from dcstereo.result import FLAG_BORDER, FLAG_OCCLUDED
+from dcstereo.result import FLAG_BORDER, FLAG_MISMATCH, FLAG_OCCLUDED
 from dcstereo.synthetic import synthetic_sequence
 
 rr = pytest.importorskip("rerun")
@@ -86,16 +86,18 @@ def test_log_rerun_entities_and_shapes(matched, tmp_path):
     assert disparity.shape == (height, width, 3) and disparity.dtype == np.uint8
     np.testing.assert_array_equal(disparity, viz.colorize(result.disparity, vmin=0, vmax=12))
     assert image_of(entities, "confidence").shape == (height, width, 3)
-    # the occlusion classes: 1 occluded, 2 beyond the border, 0 an estimate
+    # the occlusion classes: 1 occluded, 2 beyond the border, 3 a mismatch (sgm's
+    # left-right check), 0 an estimate
     classes = image_of(entities, "occlusion", "SegmentationImage")
     expected = np.zeros((height, width), dtype=np.uint8)
     expected[(result.flags & FLAG_OCCLUDED) != 0] = 1
+    expected[(result.flags & FLAG_MISMATCH) != 0] = 3
     expected[(result.flags & FLAG_BORDER) != 0] = 2
     np.testing.assert_array_equal(classes, expected)
-    assert {1, 2} <= set(np.unique(classes))
+    assert {1, 2, 3} <= set(np.unique(classes))
     labels = entities["occlusion"]["AnnotationContext:context"][0][1][0]
     assert [entry["class_description"]["info"]["label"] for entry in labels] == [
-        "estimate", "occluded", "border",
+        "estimate", "occluded", "border", "mismatch",
     ]  # fmt: skip
     # the depth in the baseline's unit, 0 where there is none, and its meter
     z = image_of(entities, "world/camera/depth", "DepthImage")
@@ -126,7 +128,8 @@ def test_log_rerun_entities_and_shapes(matched, tmp_path):
 
 
 def test_features_of_dc_are_points_on_the_image(matched, tmp_path):
-    left, _, result = matched
+    left, right, _ = matched
+    result = dcstereo.match(left, right, max_disparity=12, method="dc")
     assert len(result.features)
     with viz.rerun_recording(tmp_path / "f.rrd") as recording:
         viz.log_rerun(result, left, recording=recording)

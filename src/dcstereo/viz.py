@@ -325,7 +325,8 @@ RERUN_ENTITIES = {
     "world/camera/depth": "the depth (a depth image, shown in 3-D through the camera)",
     "world/points": "the coloured point cloud",
     "disparity": "the disparity in colour (turbo over the searched range; black: none)",
-    "occlusion": "why a pixel has no estimate: occluded (1) or beyond the border (2)",
+    "occlusion": "why a pixel has no estimate: occluded (1), beyond the border (2) or "
+    "a mismatch (3, sgm's left-right check)",
     "confidence": "the confidence in colour (viridis over 0..1; black: none)",
 }
 
@@ -334,6 +335,7 @@ OCCLUSION_CLASSES = (
     (0, "estimate", (0, 0, 0, 0)),
     (1, "occluded", (255, 255, 255, 255)),
     (2, "border", (128, 128, 128, 255)),
+    (3, "mismatch", (255, 0, 255, 255)),
 )
 
 _LOG = logging.getLogger(__name__)
@@ -499,7 +501,7 @@ def log_rerun(
     ...     log_rerun(result, left, recording=recording, confidence=sure, frame=0)
     """
     from .geometry import Calibration, depth, point_cloud
-    from .result import FLAG_BORDER, FLAG_OCCLUDED, DisparityResult
+    from .result import FLAG_BORDER, FLAG_MISMATCH, FLAG_OCCLUDED, DisparityResult
 
     flags = None
     features = None
@@ -569,6 +571,7 @@ def log_rerun(
     classes_image = np.zeros(shape, dtype=np.uint8)
     if flags is not None:
         classes_image[(flags & FLAG_OCCLUDED) != 0] = 1
+        classes_image[(flags & FLAG_MISMATCH) != 0] = 3
         classes_image[(flags & FLAG_BORDER) != 0] = 2
     else:
         classes_image[~np.isfinite(disparity) if occluded is None else occluded] = 1
