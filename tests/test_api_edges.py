@@ -39,7 +39,12 @@ def same(a, b):
         {"max_disparity": 6, "window": np.int64(5)},
         {"max_disparity": 6, "occlusion_cost": np.float32(10.0), "method": "dc"},
         {"max_disparity": 6, "occlusion_cost": np.int64(10), "method": "dsi5"},
-        {"max_disparity": 6, "max_candidates": np.uint8(0), "edge_guard": np.int64(3), "method": "dc"},
+        {
+            "max_disparity": 6,
+            "max_candidates": np.uint8(0),
+            "edge_guard": np.int64(3),
+            "method": "dc",
+        },
         {"max_disparity": 6, "uniqueness": np.float32(2.0), "lr_check": np.False_, "method": "dc"},
         {"max_disparity": 6, "fill": np.False_, "vs_relative": np.True_, "method": "dc"},
         {"max_disparity": 6, "p1": np.int64(30), "p2_gradient": np.float32(4.0)},

@@ -191,7 +191,6 @@ def test_sgm_confidence_is_the_margin_of_its_aggregated_costs(pair):
     # the twin: the totals of the naive aggregation, the margin over the least rival two or
     # more disparities away, NaN where filled
     import naive_sgm
-
     from dcstereo import sgm
     from dcstereo.signal import padded_signal
 

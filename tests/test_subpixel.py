@@ -161,7 +161,8 @@ def test_run_subpixel(pair):
     for fit in ("equiangular", "parabola"):
         out = folder / f"d-{fit}.pfm"
         result = invoke("run", folder / "left.png", folder / "right.png", "-o", out,
-                        "--max-disparity", 10, "--subpixel", fit, "--method", "dc", "-q")  # fmt: skip
+                        "--max-disparity", 10, "--subpixel", fit, "--method", "dc",
+                        "-q")  # fmt: skip
         assert result.exit_code == 0, result.output
         plain = match(left, right, max_disparity=10, method="dc")
         expected = refine_subpixel(plain, left, right, fit=fit)

@@ -114,9 +114,7 @@ def test_bad_match_options_fail_before_any_band():
 def test_tiled_on_dask_equals_untiled(dask_client):
     left, right = _pair(5, 40, 56)
     whole = match(left, right, max_disparity=12, method="dc")
-    tiled = match_tiled(
-        left, right, tile_rows=9, client=dask_client, max_disparity=12, method="dc"
-    )
+    tiled = match_tiled(left, right, tile_rows=9, client=dask_client, max_disparity=12, method="dc")
     assert_same_result(tiled, whole)
 
 

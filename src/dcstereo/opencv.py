@@ -101,7 +101,7 @@ def _import_cv2():
 
 
 def _bgr8(image: np.ndarray) -> np.ndarray:
-    """An RGB(A) image of any supported dtype as 8-bit BGR (OpenCV's channel order)."""
+    """Return an RGB(A) image of any supported dtype as 8-bit BGR (OpenCV's channel order)."""
     rgb = np.asarray(image)[:, :, :3]
     if rgb.dtype == np.uint8:
         scaled = rgb

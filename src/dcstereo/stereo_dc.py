@@ -93,23 +93,32 @@ OPENCV_OPTIONS = (
     ),
     OpenCVOption("blockSize", None, "window", None, "odd side of the matching window"),
     OpenCVOption(
-        "P1", 0, None, None,
+        "P1",
+        0,
+        None,
+        None,
         "smoothness penalty of a change of 1 pixel; sgm's are in its own cost units "
         "(give p1= instead: OpenCV's 8 * channels * blockSize**2 would mean another thing)",
-    ),  # fmt: skip
+    ),
     OpenCVOption("P2", 0, None, None, "smoothness penalty of a larger change (sgm: p2=)"),
     OpenCVOption(
-        "disp12MaxDiff", 0, "lr_tolerance", lambda v: None if v < 0 else int(v),
+        "disp12MaxDiff",
+        0,
+        "lr_tolerance",
+        lambda v: None if v < 0 else int(v),
         "left-right check tolerance in pixels (sgm's lr_tolerance; negative: no check)",
-    ),  # fmt: skip
+    ),
     OpenCVOption("preFilterCap", 0, None, None, "clip of the x-derivative prefilter"),
     OpenCVOption("uniquenessRatio", 0, None, None, "margin of the best cost, percent"),
     OpenCVOption("speckleWindowSize", 0, None, None, "speckle filter: region size"),
     OpenCVOption("speckleRange", 0, None, None, "speckle filter: disparity variation"),
     OpenCVOption(
-        "mode", MODE_SGBM, "paths", lambda v: 4 if v == MODE_HH4 else 8,
+        "mode",
+        MODE_SGBM,
+        "paths",
+        lambda v: 4 if v == MODE_HH4 else 8,
         "aggregation paths: MODE_HH4 gives sgm's 4 paths, the others its 8",
-    ),  # fmt: skip
+    ),
 )
 
 # the keywords StereoDC fills from OpenCV's settings (given as options they would clash)

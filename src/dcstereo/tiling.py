@@ -1,11 +1,12 @@
 """Row-band tiling of :func:`dcstereo.match` for images too large to match at once.
 
-The scanline methods (all but ``sgm``) match each scanline on its own, and the window cost of row ``y`` reads only
-rows ``y - r .. y + r`` (``r = window // 2``; rows beyond the image edge are the replicated
-edge row). A band of output rows ``y0 .. y1 - 1`` therefore needs the input rows
-``y0 - r .. y1 - 1 + r`` (clipped to the image) and nothing else, and matching that band on
-its own gives bit for bit the rows of the whole-image result: the band's own edge padding
-only touches its first and last ``r`` rows, which are context, not output. The bands can
+The scanline methods (all but ``sgm``) match each scanline on its own, and the window cost
+of row ``y`` reads only rows ``y - r .. y + r`` (``r = window // 2``; rows beyond the image
+edge are the replicated edge row). A band of output rows ``y0 .. y1 - 1`` therefore needs
+the input rows ``y0 - r .. y1 - 1 + r`` (clipped to the image) and nothing else, and
+matching that band on its own gives bit for bit the rows of the whole-image result: the
+band's own edge padding only touches its first and last ``r`` rows, which are context, not
+output. The bands can
 run one after the other (memory: one band) or as one Dask task each. The one step that
 reads across rows of the map, the ``median`` post-filter, runs once on the stitched map
 (then ``fill``).
