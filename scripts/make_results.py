@@ -148,12 +148,18 @@ def update_readme(path: Path, table: str) -> None:
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=middlebury_dir(),
-                        help="folder of the Middlebury scene folders (default: %(default)s)")  # fmt: skip
-    parser.add_argument("--docs", type=Path, default=Path("docs"),
-                        help="where RESULTS.md and img/ are written (default: %(default)s)")  # fmt: skip
-    parser.add_argument("--readme", type=Path, default=Path("README.md"),
-                        help="README whose table (between the results markers) is rewritten")  # fmt: skip
+    parser.add_argument(
+        "--data", type=Path, default=middlebury_dir(),
+        help="folder of the Middlebury scene folders (default: %(default)s)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--docs", type=Path, default=Path("docs"),
+        help="where RESULTS.md and img/ are written (default: %(default)s)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--readme", type=Path, default=Path("README.md"),
+        help="README whose table (between the results markers) is rewritten",
+    )  # fmt: skip
     parser.add_argument("--json", type=Path, help="also write every row (scores, times) here")
     args = parser.parse_args(argv)
     images = args.docs / "img"
@@ -192,8 +198,21 @@ def main(argv=None):
     defaults = {
         k: v
         for k, v in dataclasses.asdict(MatchParams(max_disparity=15)).items()
-        if k in ("window", "cost", "census_window", "ad_truncation", "p1", "p2", "p2_gradient",
-                 "paths", "lr_tolerance", "subpixel", "fill", "median")  # fmt: skip
+        if k
+        in (
+            "window",
+            "cost",
+            "census_window",
+            "ad_truncation",
+            "p1",
+            "p2",
+            "p2_gradient",
+            "paths",
+            "lr_tolerance",
+            "subpixel",
+            "fill",
+            "median",
+        )  # fmt: skip
     }
     opencv_text = ""
     if opencv:

@@ -67,7 +67,10 @@ def box_mean(costs, box):
             total = 0
             for dy in range(-radius, radius + 1):
                 for dx in range(-radius, radius + 1):
-                    total = total + costs[min(max(y + dy, 0), height - 1), min(max(x + dx, 0), width - 1)]
+                    total = (
+                        total
+                        + costs[min(max(y + dy, 0), height - 1), min(max(x + dx, 0), width - 1)]
+                    )
             out[y, x] = total // (box * box)
     return out
 

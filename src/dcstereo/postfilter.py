@@ -11,11 +11,10 @@ the matches the method trusts most, and its path passes through them).
 ``fill``: the filled pixels then take the filtered background.
 """
 
+import functools
 from dataclasses import replace
 
 import numpy as np
-
-import functools
 
 from . import _postfilter_kernels
 from .kernels import median as median_kernels
@@ -77,7 +76,7 @@ def median_filter(result: DisparityResult, size: int = 5) -> DisparityResult:
     return replace(result, disparity=out)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _network(size: int) -> np.ndarray:
     return median_kernels.median_network(size * size)
 

@@ -74,7 +74,7 @@ def census_bit_cost(window: tuple[int, int]) -> int:
 
 
 def largest_pixel_cost(params: MatchParams) -> int:
-    """The largest per-pixel cost of ``params``' cost (before the box average)."""
+    """Return the largest per-pixel cost of ``params``' cost (before the box average)."""
     rows, cols = params.census_window
     ad = params.ad_truncation if params.cost == "census-ad" else 0
     return census_bit_cost(params.census_window) * (rows * cols - 1) + int(ad)
@@ -96,7 +96,7 @@ def check_sgm_bounds(params: MatchParams) -> None:
 
 
 def colour_channels(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The two views' channels on the 0..255 scale as ``(C, H, W)`` int16, rounded.
+    """Return the two views' channels on the 0..255 scale as ``(C, H, W)`` int16, rounded.
 
     Colour views give their three channels (an alpha channel is ignored); where either is
     gray, both give their intensity (luma), so the two always have as many channels.
@@ -138,8 +138,10 @@ def p2_table(params: MatchParams) -> np.ndarray:
 
 
 def _reversed_right(array: np.ndarray, before: int, after: int) -> np.ndarray:
-    """The right view's ``array`` (``(..., H, W)``) for the cost kernel: padded along its
-    last axis by ``before`` and ``after`` repeated edge columns, then reversed.
+    """Return the right view's ``array`` (``(..., H, W)``) as the cost kernel reads it.
+
+    Padded along its last axis by ``before`` and ``after`` repeated edge columns, then
+    reversed.
     """
     widths = [(0, 0)] * (array.ndim - 1) + [(before, after)]
     return np.ascontiguousarray(np.pad(array, widths, mode="edge")[..., ::-1])
@@ -149,7 +151,7 @@ _WORKSPACE = threading.local()
 
 
 def _volumes(size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Three int16 volumes of ``size`` values: the costs and the two sums of paths.
+    """Return three int16 volumes of ``size`` values: the costs and the two sums of paths.
 
     Kept from call to call in each thread (the largest asked for so far, at most
     :data:`VOLUME_BYTES` together): fresh volumes larger than the allocator's reuse bound
@@ -164,13 +166,16 @@ def _volumes(size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def release_workspace() -> None:
-    """Free the volumes this thread keeps between ``sgm`` runs (the costs and the sums of
-    paths, kept to save the zeroing of fresh pages: see the module's text)."""
+    """Free the volumes this thread keeps between ``sgm`` runs.
+
+    The costs and the sums of paths, kept to save the zeroing of fresh pages (see the
+    module's text).
+    """
     _WORKSPACE.volumes = None
 
 
 def _census(image: np.ndarray, rows: int, cols: int, out: np.ndarray) -> None:
-    """The census codes of ``image``'s intensity (``census_transform``) into ``out``."""
+    """Write the census codes of ``image``'s intensity (``census_transform``) into ``out``."""
     signal = padded_signal(image, 0)
     padded = np.pad(signal, ((rows // 2, rows // 2), (cols // 2, cols // 2)), mode="edge")
     census_kernels.census_transform(padded, rows, cols, out)
@@ -182,7 +187,7 @@ def match_sgm(left: np.ndarray, right: np.ndarray, params: MatchParams) -> Dispa
 
 
 def sgm_confidence(left: np.ndarray, right: np.ndarray, params: MatchParams) -> np.ndarray:
-    """The confidence of each pixel's ``sgm`` choice: its margin over the best rival.
+    """Return the confidence of each pixel's ``sgm`` choice: its margin over the best rival.
 
     ``(rival - best) / rival`` of the aggregated costs, ``rival`` the least of the
     disparities two or more pixels from the chosen one: in ``[0, 1]``, near 0 where another
@@ -192,7 +197,7 @@ def sgm_confidence(left: np.ndarray, right: np.ndarray, params: MatchParams) -> 
 
 
 def _run(left, right, params, want_confidence):
-    """The pipeline; returns the result (filled when ``params.fill``) and the confidence."""
+    """Run the pipeline; return the result (filled when ``params.fill``) and the confidence."""
     height, width = left.shape[:2]
     dmin, ndisp = params.min_disparity, params.num_disparities
     lanes = -(-ndisp // LANES) * LANES

@@ -25,8 +25,9 @@ from numba.extending import intrinsic, overload
 
 @nb.njit(cache=True, parallel=True)
 def census_transform(padded, rows, cols, out):
-    """Census codes over a ``rows x cols`` window into ``out`` (``(H, W)``, uint32 for up to
-    32 bits, else uint64).
+    """Write the census codes over a ``rows x cols`` window into ``out``.
+
+    ``out`` is ``(H, W)``, uint32 for up to 32 bits, else uint64.
 
     ``padded`` is the int32 intensity padded by ``rows // 2`` rows and ``cols // 2``
     columns on each side, repeating its edges (``signal.padded_signal``). Bit order: the
@@ -66,8 +67,10 @@ def _ctpop(typingctx, value):
         fn = cgutils.get_or_insert_function(
             builder.module, ir.FunctionType(kind, [kind]), f"llvm.ctpop.i{width}"
         )
-        return builder.zext(builder.call(fn, [args[0]]), ir.IntType(64)) if width < 64 else (
-            builder.call(fn, [args[0]])
+        return (
+            builder.zext(builder.call(fn, [args[0]]), ir.IntType(64))
+            if width < 64
+            else (builder.call(fn, [args[0]]))
         )
 
     return types.int64(value), codegen
@@ -115,7 +118,11 @@ def pixel_cost_row(codes_l, codes_r, colour_l, colour_r, y, dmin, ndisp, bit_cos
             l0, l1, l2 = colour_l[0, y, x], colour_l[1, y, x], colour_l[2, y, x]
             row = out[x]
             window = right[start : start + ndisp]
-            c0, c1, c2 = r0[start : start + ndisp], r1[start : start + ndisp], r2[start : start + ndisp]
+            c0, c1, c2 = (
+                r0[start : start + ndisp],
+                r1[start : start + ndisp],
+                r2[start : start + ndisp],
+            )
             for k in range(ndisp):
                 ad = np.int16(
                     np.int16(abs(np.int16(l0 - c0[k])))
@@ -142,7 +149,7 @@ def cost_volume(
     codes_l, codes_r, colour_l, colour_r, dmin, ndisp, bit_cost, ad_max, box, reciprocal,
     pad_cost, y_begin, out,
 ):  # fmt: skip
-    """The box-averaged cost volume of rows ``y_begin..``: ``out[y - y_begin, x, k]``, int16.
+    """Write the box-averaged cost volume of rows ``y_begin..``: ``out[y - y_begin, x, k]``.
 
     ``out`` is ``(rows, W, Dp)``. Each cell is the mean, rounded down, of the per-pixel
     costs (``pixel_cost_row``) over the ``box x box`` square around ``(y, x)`` at the same
@@ -169,8 +176,10 @@ def _volume_rows(
     codes_l, codes_r, colour_l, colour_r, dmin, ndisp, bit_cost, ad_max, box, reciprocal,
     pad_cost, y0, y1, y_begin, out,
 ):  # fmt: skip
-    """Rows ``y0..y1 - 1`` of :func:`cost_volume` (a function of its own: compiled outside
-    the parallel loop, its loops are vectorized)."""
+    """Make rows ``y0..y1 - 1`` of :func:`cost_volume`.
+
+    A function of its own: compiled outside the parallel loop, its loops are vectorized.
+    """
     height, width = codes_l.shape
     radius = box // 2
     ring = np.empty((box, width, ndisp), dtype=np.int16)
@@ -232,8 +241,10 @@ def _box_row(ring, width, ndisp, box, reciprocal, vertical, out_row, pad_cost):
 
 
 def box_reciprocal(box: int, largest: int) -> np.float32:
-    """Return the float32 ``r`` nearest above ``1 / box**2``, checked to give the floor of
-    ``s / box**2`` as ``int(float32(s) * r)`` for every sum ``0 <= s <= largest``.
+    """Return the float32 ``r`` nearest above ``1 / box**2``, checked exact.
+
+    Checked to give the floor of ``s / box**2`` as ``int(float32(s) * r)`` for every sum
+    ``0 <= s <= largest``.
 
     Raises ``ValueError`` when it does not (costs too large for the box, or a sum past the
     int16 box sums).

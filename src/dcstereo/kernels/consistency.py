@@ -10,7 +10,7 @@ DIRECTIONS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, -1), (1, -1), (-1, 
 
 @nb.njit(cache=True)
 def _nearest_similar(disparity, colour, y, x, steps):
-    """The estimate of the most similar pixel met first along each of the 8 directions.
+    """Return the estimate of the most similar pixel met first along the 8 directions.
 
     Along each direction the first pixel with a finite disparity is met; of those met, the
     one whose colour (summed absolute differences over the channels of ``colour[c, y,

@@ -15,7 +15,7 @@ import numpy as np
 
 
 def _batcher(n):
-    """The compare-exchanges ``(i, j)``, ``i < j``, of Batcher's odd-even merge sort of n = 2**p."""
+    """Return the exchanges ``(i, j)``, ``i < j``, of Batcher's odd-even merge sort of 2**p."""
     pairs = []
     p = 1
     while p < n:
@@ -31,7 +31,7 @@ def _batcher(n):
 
 
 def median_network(count: int) -> np.ndarray:
-    """The exchanges ``(i, j)`` that bring the median of ``count`` values to ``count // 2``.
+    """Return the exchanges ``(i, j)`` that bring the median of ``count`` values to the middle.
 
     ``count`` odd. An int64 array ``(E, 2)``; after exchanging (min to ``i``, max to ``j``)
     in order, position ``count // 2`` holds the median.

@@ -67,7 +67,7 @@ def _path_buffer(slots, lanes):
 
 @nb.njit(cache=True)
 def vertical_pass(cost, luma, y_first, y_last, step, p1, p2_table, diagonals, sums):
-    """The paths from above (``step`` 1) or below (-1), rows ``y_first`` to ``y_last``.
+    """Aggregate the paths from above (``step`` 1) or below (-1), rows ``y_first..y_last``.
 
     ``cost`` and ``sums`` are ``(H, W, Dp)`` int16 volumes of a strip of rows, flattened
     (C order), and ``luma`` (int32, ``(H, W)``) the strip's intensity; row ``y_first``
@@ -98,7 +98,11 @@ def vertical_pass(cost, luma, y_first, y_last, step, p1, p2_table, diagonals, su
             if first:
                 p0, p2_0, mins[0] = zero, 0, 0
             else:
-                p0, p2_0, mins[0] = q0, _gradient_p2(luma, y, x, yq, x, p2_table), prev_min[0, x + 1]
+                p0, p2_0, mins[0] = (
+                    q0,
+                    _gradient_p2(luma, y, x, yq, x, p2_table),
+                    prev_min[0, x + 1],
+                )
             if diagonals:
                 q1 = (slots + x + 1) * stride
                 q2 = (2 * slots + x + 1) * stride
@@ -121,7 +125,9 @@ def vertical_pass(cost, luma, y_first, y_last, step, p1, p2_table, diagonals, su
                 cur_min[1, x + 1] = mins[1]
                 cur_min[2, x + 1] = mins[2]
             else:
-                paths_step(cost, c_off, prev, (p0,), cur, (q0,), lanes, p1, (p2_0,), mins, sums, c_off)
+                paths_step(
+                    cost, c_off, prev, (p0,), cur, (q0,), lanes, p1, (p2_0,), mins, sums, c_off
+                )
             cur_min[0, x + 1] = mins[0]
         prev, cur = cur, prev
         prev_min, cur_min = cur_min, prev_min
@@ -223,10 +229,12 @@ def _horizontal_rows(
     cost, luma, down, up, ya, yb, pair, lanes, p1, p2_table, hbuf_a, hbuf_b, back_a, back_b,
     total_a, total_b, best_a, best_b, ndisp,
 ):  # fmt: skip
-    """The two horizontal paths of rows ``ya`` and ``yb`` (``yb`` only with ``pair``), the
-    totals of their pixels and the first least of each: the steps of the two rows are
-    interleaved, so that the processor runs one row's while the other's wait on their
-    predecessor's least value."""
+    """Run the two horizontal paths of rows ``ya`` and ``yb``, and their pixels' totals.
+
+    ``yb`` only with ``pair``. ``best_a``/``best_b`` receive each pixel's first least total.
+    The steps of the two rows are interleaved, so that the processor runs one row's while
+    the other's wait on their predecessor's least value.
+    """
     width = luma.shape[1]
     stride = lanes + 2
     row_a, row_b = ya * width * lanes, yb * width * lanes

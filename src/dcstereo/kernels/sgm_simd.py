@@ -67,7 +67,7 @@ def path_step(cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin):
 
 
 def path_start(cost, c_off, cur, q_off, n):
-    """The first pixel of a path: ``L(p, k) = C(p, k)`` into ``cur[q_off + 1 + k]``.
+    """Start a path: ``L(p, k) = C(p, k)`` into ``cur[q_off + 1 + k]``.
 
     Returns ``min_k L(p, k)``.
     """
@@ -102,7 +102,9 @@ def paths_step(cost, c_off, prev, p_offs, cur, q_offs, n, p1, p2s, pmins, sums, 
         sums[s_off + k] = total
 
 
-def path_total_step(cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin, parts, offs, total, t_off):
+def path_total_step(
+    cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin, parts, offs, total, t_off
+):
     """:func:`path_step`, then the total of the pixel: the path's value plus three parts.
 
     ``total[t_off + k] = L(p, k) + parts[0][offs[0] + k] + parts[1][offs[1] + k] +
@@ -180,7 +182,7 @@ def _reduce_min(builder, vector):
 
 
 def _saturated_i16(builder, value):
-    """An ``int64`` clamped to the ``int16`` range, as ``i16``."""
+    """Clamp an ``int64`` to the ``int16`` range, as ``i16``."""
     high, low = ir.Constant(_I64, HIGH), ir.Constant(_I64, LOW)
     value = builder.select(builder.icmp_signed(">", value, high), high, value)
     value = builder.select(builder.icmp_signed("<", value, low), low, value)
