@@ -139,3 +139,37 @@ def choose(sums, dmin, tolerance, subpixel):
                     offset = (a - c) / (2 * den) if den > 0 else 0.0
                 disparity[y, x] = np.float32(d + offset)
     return disparity, flags
+
+
+def fill(disparity, mismatched, colour):
+    """The fill of ``consistency.fill_inconsistent``: mismatches from their most similar
+    neighbour along 8 directions, everything else (and a mismatch with none) from the
+    background of its row; only estimates are read."""
+    height, width = disparity.shape
+    directions = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (-1, -1), (1, -1), (-1, 1))
+    out = disparity.copy()
+    for y in range(height):
+        for x in range(width):
+            if not np.isnan(disparity[y, x]):
+                continue
+            value = np.nan
+            if mismatched[y, x]:
+                best = None
+                for dx, dy in directions:
+                    xx, yy = x + dx, y + dy
+                    while 0 <= xx < width and 0 <= yy < height and np.isnan(disparity[yy, xx]):
+                        xx, yy = xx + dx, yy + dy
+                    if 0 <= xx < width and 0 <= yy < height:
+                        distance = int(
+                            np.abs(colour[:, y, x].astype(int) - colour[:, yy, xx]).sum()
+                        )
+                        if best is None or distance < best:
+                            best, value = distance, disparity[yy, xx]
+            if np.isnan(value):
+                row = disparity[y]
+                left = [v for v in row[:x] if not np.isnan(v)]
+                right = [v for v in row[x + 1 :] if not np.isnan(v)]
+                sides = ([left[-1]] if left else []) + ([right[0]] if right else [])
+                value = min(sides) if sides else np.nan
+            out[y, x] = value
+    return out

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+import dcstereo
 import naive_sgm
 from dcstereo import sgm
 from dcstereo.kernels import census as census_kernels
@@ -205,3 +206,53 @@ def test_strips_are_exact_where_one_strip_holds_the_image(monkeypatch):
     strips = sgm.match_sgm(left, right, params)
     np.testing.assert_array_equal(strips.disparity, whole.disparity)
     np.testing.assert_array_equal(strips.flags, whole.flags)
+
+
+@pytest.mark.parametrize("channels", [1, 3])
+def test_fill_equals_twin(channels):
+    from dcstereo.consistency import fill_with_colour
+    from dcstereo.result import FLAG_FILLED, FLAG_MISMATCH, FLAG_OCCLUDED, DisparityResult
+
+    rng = np.random.default_rng(channels)
+    for _ in range(20):
+        height, width = (int(v) for v in rng.integers(1, 14, 2))
+        disparity = rng.integers(0, 9, (height, width)).astype(np.float32)
+        holes = rng.random((height, width)) < rng.uniform(0.1, 0.9)
+        disparity[holes] = np.nan
+        flags = np.where(holes, FLAG_OCCLUDED, 0).astype(np.uint8)
+        mismatch = holes & (rng.random((height, width)) < 0.5)
+        flags[mismatch] = FLAG_MISMATCH
+        colour = rng.integers(0, 4, (channels, height, width)).astype(np.int16)  # ties
+        result = DisparityResult(disparity, flags, MatchParams(max_disparity=8), np.zeros(height))
+        filled = fill_with_colour(result, colour)
+        expected = naive_sgm.fill(disparity, mismatch, colour)
+        np.testing.assert_array_equal(filled.disparity, expected)
+        done = holes & np.isfinite(expected)
+        np.testing.assert_array_equal(filled.flags, flags | np.where(done, FLAG_FILLED, 0))
+
+
+def test_sgm_kernels_run_as_plain_python(tmp_path):
+    # NUMBA_DISABLE_JIT=1: the kernels and the plain forms of the vector code run as Python
+    # (coverage sees them) and give the compiled result
+    import os
+    import subprocess
+    import sys
+
+    rng = np.random.default_rng(4)
+    left = rng.integers(0, 256, (7, 21, 3), dtype=np.uint8)
+    right = np.roll(left, -2, axis=1)
+    np.savez(tmp_path / "pair.npz", left=left, right=right)
+    options = {"max_disparity": 5, "min_disparity": -1}
+    compiled = dcstereo.match(left, right, **options)
+    code = (
+        "import numpy as np, dcstereo\n"
+        f"pair = np.load({str(tmp_path / 'pair.npz')!r})\n"
+        f"r = dcstereo.match(pair['left'], pair['right'], **{options!r})\n"
+        f"np.savez({str(tmp_path / 'plain.npz')!r}, d=r.disparity, f=r.flags)\n"
+    )
+    env = dict(os.environ, NUMBA_DISABLE_JIT="1")
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    plain = np.load(tmp_path / "plain.npz")
+    np.testing.assert_array_equal(plain["d"], compiled.disparity)
+    np.testing.assert_array_equal(plain["f"], compiled.flags)
