@@ -24,6 +24,9 @@ def twin(disparity, flags, size):
         values = sorted(float(v) for v in window.ravel() if np.isfinite(v))
         n = len(values)
         middle = values[n // 2] if n % 2 else (values[n // 2 - 1] + values[n // 2]) / 2
+        middle = np.float32(middle)
+        if middle != disparity[y, x]:  # a median that moved points inside the right image
+            middle = min(max(middle, np.float32(x - (width - 1))), np.float32(x))
         out[y, x] = np.float32(middle)
     return out
 
@@ -123,13 +126,22 @@ def test_what_is_left_alone():
 
 def test_a_spike_and_a_streak_go():
     d = np.full((9, 20), 6.0, dtype=np.float32)
-    d[4, 3] = 13.0  # a spike
+    d[4, 7] = 13.0  # a spike
     d[2, 8:15] = 2.0  # a one-row streak, as a scanline DP leaves
-    d[:, :2] = np.nan
+    d[:, :6] = np.nan  # (left of column 6 a disparity of 6 points outside the right image)
     result = replace(random_result(0, 9, 20), disparity=d, flags=np.zeros(d.shape, np.uint8))
     out = median_filter(result, 3).disparity
-    np.testing.assert_array_equal(out[:, 2:], 6.0)
-    assert np.isnan(out[:, :2]).all()
+    np.testing.assert_array_equal(out[:, 6:], 6.0)
+    assert np.isnan(out[:, :6]).all()
+
+
+def test_a_median_points_inside_the_right_image():
+    d = np.minimum(np.arange(12, dtype=np.float32), 4.0)[None].repeat(5, axis=0)
+    result = replace(random_result(0, 5, 12), disparity=d, flags=np.zeros(d.shape, np.uint8))
+    out = median_filter(result, 5).disparity
+    # the medians of the first two columns, 1 and 1.5, point left of the right image: they
+    # are limited to the columns' own 0 and 1
+    np.testing.assert_array_equal(out, d)
 
 
 def test_match_filters_after_subpixel_and_before_filling(pair):
