@@ -12,7 +12,7 @@ from dcstereo.tiling import match_tiled
 from test_cli import invoke
 
 
-def twin(disparity, flags, size):
+def twin(disparity, flags, size, params):
     """The filter as its docstring says, pixel by pixel: sorted values, the middle one(s)."""
     radius = size // 2
     height, width = disparity.shape
@@ -25,8 +25,10 @@ def twin(disparity, flags, size):
         n = len(values)
         middle = values[n // 2] if n % 2 else (values[n // 2 - 1] + values[n // 2]) / 2
         middle = np.float32(middle)
-        if middle != disparity[y, x]:  # a median that moved points inside the right image
-            middle = min(max(middle, np.float32(x - (width - 1))), np.float32(x))
+        low = max(x - (width - 1), params.min_disparity)  # the disparities the pixel can have
+        high = min(x, params.max_disparity)
+        if middle != disparity[y, x] and low <= high:  # a median that moved stays among them
+            middle = min(max(middle, np.float32(low)), np.float32(high))
         out[y, x] = np.float32(middle)
     return out
 
@@ -47,7 +49,8 @@ def random_result(seed, height=13, width=29, subpixel=True, low=0, values=9):
     d[rng.random(d.shape) < 0.25] = np.nan  # no estimate: an even count happens
     flags = np.where(np.isnan(d), FLAG_OCCLUDED, 0).astype(np.uint8)
     flags[(rng.random(d.shape) < 0.1) & ~np.isnan(d)] |= FLAG_FEATURE
-    return replace(result, disparity=d, flags=flags)
+    params = replace(result.params, min_disparity=low, max_disparity=low + values)
+    return replace(result, disparity=d, flags=flags, params=params)
 
 
 @pytest.mark.parametrize("size", [3, 5, 7, MAX_MEDIAN])
@@ -55,7 +58,9 @@ def random_result(seed, height=13, width=29, subpixel=True, low=0, values=9):
 def test_kernel_equals_its_twin(size, seed):
     result = random_result(seed)
     filtered = median_filter(result, size)
-    np.testing.assert_array_equal(filtered.disparity, twin(result.disparity, result.flags, size))
+    np.testing.assert_array_equal(
+        filtered.disparity, twin(result.disparity, result.flags, size, result.params)
+    )
     assert (filtered.disparity != result.disparity)[np.isfinite(result.disparity)].sum() > 20
 
 
@@ -68,7 +73,9 @@ def test_the_sliding_histogram_equals_the_twin(subpixel, size, seed, low, values
     _, nbins, exact = _postfilter_kernels.value_buckets(result.disparity, MAX_BINS, bins)
     assert nbins > 0 and exact == (not subpixel)  # the histogram's path, both of its modes
     filtered = median_filter(result, size)
-    np.testing.assert_array_equal(filtered.disparity, twin(result.disparity, result.flags, size))
+    np.testing.assert_array_equal(
+        filtered.disparity, twin(result.disparity, result.flags, size, result.params)
+    )
 
 
 def test_buckets_are_ordered_and_as_fine_as_the_span_allows():
@@ -86,7 +93,7 @@ def test_buckets_are_ordered_and_as_fine_as_the_span_allows():
         assert np.all(np.diff(bins[finite][order]) >= 0)  # a larger value, never a lower one
         np.testing.assert_array_equal(
             median_filter(replace(result, disparity=wide), 5).disparity,
-            twin(wide, result.flags, 5),
+            twin(wide, result.flags, 5, result.params),
         )
 
 
@@ -97,7 +104,9 @@ def test_maps_the_histogram_does_not_take_are_sorted():
     wide = replace(result, disparity=d)
     bins = np.empty(d.shape, dtype=np.int32)
     assert _postfilter_kernels.value_buckets(d, MAX_BINS, bins) == (0.0, 0, False)
-    np.testing.assert_array_equal(median_filter(wide, 5).disparity, twin(d, result.flags, 5))
+    np.testing.assert_array_equal(
+        median_filter(wide, 5).disparity, twin(d, result.flags, 5, result.params)
+    )
     empty = replace(result, disparity=np.full_like(d, np.nan))
     assert _postfilter_kernels.value_buckets(empty.disparity, MAX_BINS, bins)[1] == 0
     assert np.isnan(median_filter(empty, 3).disparity).all()

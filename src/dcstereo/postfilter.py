@@ -40,8 +40,8 @@ def median_filter(result: DisparityResult, size: int = 5) -> DisparityResult:
     -------
     DisparityResult
         The same flags, occlusions and features; the feature pixels keep their values. A
-        median that would point outside the right image (``x - d`` below 0 or past the last
-        column) is limited to the nearest disparity that does not.
+        median that moved outside the disparities the pixel can have (the searched range, and
+        ``x - d`` inside the right image) is limited to the nearest of them.
 
     Examples
     --------
@@ -68,25 +68,29 @@ def median_filter(result: DisparityResult, size: int = 5) -> DisparityResult:
         moved = moved & ~full
         if moved.any():  # the rest (windows with holes, or cut by the edge): sorted one by one
             _postfilter_kernels.median_rows(d, moved, radius, out)
-        return replace(result, disparity=_inside(out, d))
+        return replace(result, disparity=_inside(out, d, result.params))
     bins = np.empty(d.shape, dtype=np.int32)
     low, nbins, exact = _postfilter_kernels.value_buckets(d, MAX_BINS, bins)
     if nbins:  # a histogram of value buckets slid along the rows
         _postfilter_kernels.median_rows_binned(d, bins, moved, radius, nbins, low, exact, out)
     else:  # a span too wide for the histogram: each window sorted
         _postfilter_kernels.median_rows(d, moved, radius, out)
-    return replace(result, disparity=_inside(out, d))
+    return replace(result, disparity=_inside(out, d, result.params))
 
 
-def _inside(out: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """Limit the medians that moved to the disparities pointing inside the right image.
+def _inside(out: np.ndarray, d: np.ndarray, params) -> np.ndarray:
+    """Limit the medians that moved to the disparities the pixel can have.
 
     Near the left edge the window's median can exceed the column (a match left of the
-    right image's first pixel); it becomes the nearest disparity the pixel can have.
+    right image's first pixel); it becomes the nearest disparity of the searched range that
+    points inside the right image. A pixel that has none (a filled one at the edge) keeps
+    its median.
     """
     cols = np.arange(out.shape[1], dtype=np.float32)
-    limited = np.clip(out, cols - (out.shape[1] - 1), cols)
-    return np.where(out != d, limited, out)
+    low = np.maximum(cols - (out.shape[1] - 1), np.float32(params.min_disparity))
+    high = np.minimum(cols, np.float32(params.max_disparity))
+    limit = (out != d) & (low <= high)
+    return np.where(limit, np.clip(out, low, high), out)
 
 
 @functools.cache
