@@ -15,7 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from . import _postfilter_kernels
+from .kernels import postfilter as postfilter_kernels
 from .params import MAX_MEDIAN, check_median
 from .result import FLAG_FEATURE, DisparityResult
 
@@ -58,11 +58,11 @@ def median_filter(result: DisparityResult, size: int = 5) -> DisparityResult:
     moved = np.isfinite(d) & ((result.flags & FLAG_FEATURE) == 0)
     out = d.copy()
     bins = np.empty(d.shape, dtype=np.int32)
-    low, nbins, exact = _postfilter_kernels.value_buckets(d, MAX_BINS, bins)
+    low, nbins, exact = postfilter_kernels.value_buckets(d, MAX_BINS, bins)
     if nbins:  # a histogram of value buckets slid along the rows
-        _postfilter_kernels.median_rows_binned(d, bins, moved, size // 2, nbins, low, exact, out)
+        postfilter_kernels.median_rows_binned(d, bins, moved, size // 2, nbins, low, exact, out)
     else:  # a span too wide for the histogram: each window sorted
-        _postfilter_kernels.median_rows(d, moved, size // 2, out)
+        postfilter_kernels.median_rows(d, moved, size // 2, out)
     return replace(result, disparity=out)
 
 

@@ -85,7 +85,8 @@ independent and run in parallel.
 
 import numpy as np
 
-from . import _kernels, _redert_kernels
+from .kernels import redert as redert_kernels
+from .kernels import rows
 from .params import MatchParams
 from .result import DisparityResult
 from .signal import SIGNAL_STEPS, check_pair, padded_signal
@@ -181,14 +182,14 @@ def match_redert(
     flags = np.empty((height, width), dtype=np.uint8)
     slopes = np.empty((height, width), dtype=np.float32)
     total = np.empty(height, dtype=np.float64)
-    nchunks = _kernels.chunk_count(height)
+    nchunks = rows.chunk_count(height)
     steps, oq = orientation_steps(params.orientations)
     scale = redert_cost_scale(params.window, steps)
     occlusion = float(np.rint(params.occlusion_cost * scale))
     discount = float(np.rint(params.occlusion_discount * params.occlusion_cost * scale))
     # one state per discounted pixel; without a discount the plain model (one state)
     run_cap = 1 + params.occlusion_discount_pixels if discount > 0 else 1
-    _redert_kernels.match_redert_rows(
+    redert_kernels.match_redert_rows(
         left_p,
         right_p,
         params.min_disparity,

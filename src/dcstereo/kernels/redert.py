@@ -1,9 +1,11 @@
-"""Compiled kernels of the ``redert`` method: sheared-window costs, the DP, the row driver.
+"""The method of Redert et al. [6] (``redert``): sheared-window costs, the DP, the row driver.
 
-Kernels that call each other live in this one file because numba's on-disk cache
-does not notice edits made in other files. See :mod:`dcstereo.redert` for the model.
+The orientation-and-occlusion DP the paper compares with in section 4 (Fig. 4),
+reconstructed (``../shared/paper/NOTES.md``, "[6]"; :mod:`dcstereo.redert` describes the
+model): the DP state carries a disparity and a surface orientation (a disparity slope),
+the right image's window is sheared by the orientation, and occlusions are states.
 
-Conventions (shared with ``_kernels.py``):
+Conventions (shared with :mod:`.dp` and :mod:`.costs`):
 
 * A left pixel ``x`` matches the right pixel ``j = x - d``; ``d = dmin + k``.
 * ``steps`` is the sampling resolution: right-image positions and disparities inside a
@@ -14,7 +16,7 @@ Conventions (shared with ``_kernels.py``):
 * The matching signal is an integer; right-image samples at ``1 / steps`` positions
   are linear interpolations ``(steps - f) * R[q] + f * R[q + 1]`` (``f`` steps), compared
   with ``steps * L``, so every window cost is an exact integer in units of ``1 / steps``
-  signal step (``steps`` times the cost of ``_kernels.row_costs`` at slope 0).
+  signal step (``steps`` times the cost of ``costs.row_costs`` at slope 0).
 * ``node[x, k, o]`` is the cost of matching left pixel ``x`` alone at disparity
   ``dmin + k`` with orientation ``o``; ``seg[x, k, o]`` the cost of the segment of
   orientation ``o`` ending at that node (see :func:`sheared_costs`); ``inf`` where the
@@ -28,9 +30,8 @@ Conventions (shared with ``_kernels.py``):
 import numba as nb
 import numpy as np
 
-# Reason flags (uint8 bits), mirrored in result.py.
-FLAG_OCCLUDED = 1
-FLAG_BORDER = 2
+from .dp import FLAG_BORDER, FLAG_OCCLUDED
+from .rows import chunk_bounds
 
 # Back-pointer code of an unreachable state (the others: see ``scanline_dp``).
 CODE_NONE = 0
@@ -118,7 +119,7 @@ def pixel_cost(columns, e_lo, x, e, q, radius):
 
     The left window column ``x + s`` (``s = -radius..radius``) is compared with the right
     position ``x + s - (e + q s) / steps`` (``columns`` from :func:`sample_columns`).
-    Like ``_kernels.row_costs``, the window is truncated to the columns whose left and
+    Like ``costs.row_costs``, the window is truncated to the columns whose left and
     right positions both lie inside the images and the sum rescaled to the full window
     (``* W / columns used``); ``inf`` when the centre position is outside.
     """
@@ -579,12 +580,6 @@ def apply_path(
 # --------------------------------------------------------------------------- driver
 
 
-@nb.njit(cache=True)
-def _chunk_bounds(height, nchunks, c):
-    step = (height + nchunks - 1) // nchunks
-    return c * step, min(height, (c + 1) * step)
-
-
 @nb.njit(parallel=True, cache=True)
 def match_redert_rows(
     left_p,
@@ -627,7 +622,7 @@ def match_redert_rows(
         ring = max(ring, segment_shape(oq[o], steps)[0] + 1)
     ring = min(ring, width)
     for c in nb.prange(nchunks):
-        y0, y1 = _chunk_bounds(height, nchunks, c)
+        y0, y1 = chunk_bounds(height, nchunks, c)
         columns = np.empty((width, ne), dtype=np.int64)
         node = np.empty((width, ndisp, norient), dtype=np.float64)
         seg = np.empty((width, ndisp, norient), dtype=np.float64)
