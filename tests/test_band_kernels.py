@@ -20,6 +20,7 @@ from dcstereo import api
 from dcstereo.datasets import load_middlebury
 from dcstereo.kernels import (
     band_costs,
+    band_dp,  # noqa: F401 (test_band_kernels_run_as_plain_python sets its _PINS_IN_LOOP)
     band_match,
     bands,
     costs,
@@ -827,7 +828,7 @@ def test_band_kernels_run_as_plain_python():
             # the pins in the cells' vector code (AVX-512) and in scalar code (AVX2), each
             # host's compiled kernel running only its own: both here
             for in_loop in (False, True):
-                t.simd_dp._PINS_IN_LOOP = in_loop
+                t.band_dp._PINS_IN_LOOP = in_loop
                 t.assert_same(t.segmented(left, right, -1, 4, 1, 900.0, five, 300.0, partner),
                               t.banded(left, right, -1, 4, 1, 900.0, five, 300.0, partner))
             t.assert_same(t.per_row(left, right, -1, 4, 1, 900.0, five, 300.0, bt=True),

@@ -212,7 +212,7 @@ def _band_rows(
 
 #: The most memory (bytes) that the band cost arrays of one call take together: the arrays
 #: the band kernels make before their DP for the Birchfield-Tomasi cost (``match_band_rows``'
-#: and ``match_block_bands``' ``bt``) and for ``dc``'s kept array (mode 2). Each running
+#: and ``match_block_bands``' ``bt``) and for ``dc``'s kept array (``bands.SEARCH``). Each running
 #: chunk makes one array, so the chunks are capped to fit (``_array_chunks``); where one
 #: array alone would not fit, the rows run one at a time (a ``(W, D)`` array each). The
 #: array is kept even where it leaves the caches: on noise strips of 256 rows, one thread,
@@ -314,17 +314,17 @@ def _edge_guard(params: MatchParams, width: int) -> int:
     return min(params.effective_edge_guard, width)
 
 
-#: Largest band cost array (bytes) that ``dc`` keeps (``match_band_rows``' ``bands.SEARCH``:
-#: the costs made once, read by the block match, the search and the DP). Beyond it the
-#: array leaves the caches and streams through memory three times (3000 x 2000 x 256: 50 MB
-#: per band), so ``dc`` makes the costs twice instead, a column at a time
-#: (``bands.SEARCH_TWICE``, "mode 3": once for the block match, once inside the DP, from the
-#: vertical sums the first pass left). On noise
-#: strips of 256 rows, one thread: 4 MiB arrays (1000 x 64) 67 ms kept against 83 made,
-#: 7.9 MiB 128 against 133, 15.9 MiB (2000 x 128) 324 against 260, 23.6 MiB 436 against
-#: 345; on the 3000 x 2000 x 256 pair mode 3 beats the row kernel (6.0 s against 7.8).
-#: Mode 3 keeps no costs for the search, so the left-right check (which walks the array's
-#: diagonals) and the BT cost keep the array past this bound, up to ``BAND_ARRAY_BYTES``.
+#: Largest band cost array (bytes) that ``dc`` keeps (``match_band_rows``' ``bands.SEARCH``,
+#: "mode 2" in docs/SPEED.md: the costs made once, read by the block match, the search and
+#: the DP). Beyond it the array leaves the caches and streams through memory three times
+#: (3000 x 2000 x 256: 50 MB per band), so ``dc`` makes the costs twice instead, a column
+#: at a time (``bands.SEARCH_TWICE``, "mode 3": once for the block match, once inside the
+#: DP, from the vertical sums the first pass left). On noise strips of 256 rows, one
+#: thread: 4 MiB arrays (1000 x 64) 67 ms kept against 83 made, 7.9 MiB 128 against 133,
+#: 15.9 MiB (2000 x 128) 324 against 260, 23.6 MiB 436 against 345; on the 3000 x 2000 x
+#: 256 pair SEARCH_TWICE beats the row kernel (6.0 s against 7.8). SEARCH_TWICE keeps no
+#: costs for the search, so the left-right check (which walks the array's diagonals) and
+#: the BT cost keep the array past this bound, up to ``BAND_ARRAY_BYTES``.
 DC_BAND_BYTES = 8 * 2**20
 
 

@@ -36,8 +36,22 @@ import numpy as np
 
 from .band_costs import _cost_column
 from .dp import FLAG_OCCLUDED, STEP_A, STEP_B, STEP_C, STEP_D, STEP_E
-from .simd import BAND_ROWS
-from .simd_dp import _PINS_IN_LOOP, _anchor_step, _cell_step, _cells3_chain, _cells5_chain
+from .simd import BAND_ROWS, _wide_vectors
+from .simd_dp import _anchor_step, _cell_step, _cells3_chain, _cells5_chain
+
+#: Whether ``band_forward`` makes the anchors inside the five-step cells' vector code (the
+#: pinned forms of ``_cells5_chain``: the column's restart at the anchor and the anchor's
+#: match steps, a select or two a block; AVX-512), or, after the column's cells, makes each
+#: pinned row's anchor from its neighbours and stores the row's restart (scalar code, a
+#: store per cell of that row; AVX2). The e-step guard (``e_off``, an addition a block) is
+#: in the vector code on both (on AVX2 in every column after the first, without a branch).
+#: With AVX-512's 32 registers the vector form was 0.93-0.99 of dc's time (docs/SPEED.md,
+#: stop 30). With AVX2's 16, where each value of ``R`` lanes takes two, the pinned forms
+#: spilled to the stack every block: the scalar form is 0.91-0.94 of dc's time on the
+#: Middlebury scenes there, and about as fast where nearly every pixel is a pair
+#: (docs/SPEED.md, stop 44). Tests exercise the branch of the host they run on (and the
+#: plain-Python one both); the pinned forms are tested against their twin on every host.
+_PINS_IN_LOOP = _wide_vectors()
 
 
 @nb.njit(cache=True)

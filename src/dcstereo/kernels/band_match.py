@@ -133,7 +133,7 @@ def band_block_match(
             left_t, right_t, dmin, radius, spread, vs, incremental, hsum = make_costs
             if fused is not None:
                 # as band_lane_costs' match, written out again: one inline helper for both
-                # made dc 1.04-1.09x slower in mode 2 and 1.06x in mode 3 (A/B in one
+                # made dc 1.04-1.09x slower in SEARCH and 1.06x in SEARCH_TWICE (A/B in one
                 # process), as a helper shared with _moved_column had before
                 x_lo, x_hi, shift = fused
                 add = x + radius

@@ -45,6 +45,12 @@ from .rows import chunk_bounds
 from .scratch import _placed
 from .simd import BAND_ROWS, cycle_counter
 
+#: The stages of ``match_band_rows`` that its ``clock`` times, in that order (``costs``:
+#: the band's cost array, made before the search, and in ``dc`` the block match of the
+#: columns it moves down a row; in free mode the forward pass makes the costs, in
+#: ``SEARCH_TWICE`` the block match and the forward pass do; ``block match``: the other
+#: columns', with ``band_strong_counts``; ``search``: the feature pairs of the band's rows,
+#: or its pins read from ``partner``, and the pinned columns).
 CLOCK_STAGES = (
     "signals", "costs", "variances", "block match", "mask", "search", "forward", "backtrack",
 )  # fmt: skip
@@ -262,7 +268,7 @@ def match_band_rows(left_p, right_p, dsi, step_costs, mode, tests, nchunks, out,
             made = False
             bt_bounds = _placed(12 * width_p * nr, np.int32, 28).reshape((12, width_p * nr))
             bt_spread = _placed(3 * ndisp * nr, np.int32, 29)
-        # free mode and mode 3 make each column's costs inside the passes: two columns
+        # FREE and SEARCH_TWICE make each column's costs inside the passes: two columns
         cost = _placed((2 if made else width) * nk, np.float64, 6)
         step_bits = _placed(width * (ndisp + 2), np.uint32, 7)
         ring = _placed(3 * nk, np.float64, 9).reshape((3, nk))

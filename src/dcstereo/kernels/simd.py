@@ -24,8 +24,13 @@ from llvmlite import ir
 from numba.core import cgutils, config, types
 from numba.extending import intrinsic, overload
 
+#: Rows of a band, the lanes of the vector code: eight float64 values fill one AVX-512
+#: vector. A module constant, not an argument, on purpose: the compiler must see the trip
+#: count of the innermost loops to turn each of them into whole vector operations without a
+#: remainder loop.
 BAND_ROWS = 8
 
+# --------------------------------------------------------------------------- IR building blocks
 
 _VEC_F64 = ir.VectorType(ir.DoubleType(), BAND_ROWS)
 _VEC_I64 = ir.VectorType(ir.IntType(64), BAND_ROWS)
@@ -336,6 +341,7 @@ def _lane_rows_compiled(src, rows, o_rows, dst, o_dst, reverse):
 # --------------------------------------------------------------------------- RGB pixels
 
 
+#: Pixels of one vector of ``_rgb_pixels`` (eight float64 values: two AVX2 registers).
 _LANES = 8
 
 

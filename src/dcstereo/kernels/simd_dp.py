@@ -33,11 +33,11 @@ from .simd import (
     _words,
 )
 
-# --------------------------------------------------------------------------- DP
+# --------------------------------------------------------------------------- the step words
 #
 # The costs are flat: cell ``k`` of band row ``r`` in column ``x`` is
 # ``cost[x * nk + (k + 1) * R + r]``; the column functions get the offsets of their columns
-# (unsigned, see above) and loop over ``p = (k + 1) * R + r``, so that a step to ``k + 1``
+# (unsigned, see band_costs) and loop over ``p = (k + 1) * R + r``, so that a step to ``k + 1``
 # is ``p + R``. The forward pass keeps the DP values of only three columns (``x``, ``x - 1``
 # and ``x - 2``: all a step reads), and records for every cell, in ``steps`` (one 32-bit
 # word per block of ``R`` cells, see ``STEP_LANE``), which steps reach its value. The
@@ -170,6 +170,15 @@ def _cells3_chain(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2):
         _set_cell_steps(steps, o_steps + p // nr, int(p % nr), c == v, False, False, a == v)
 
 
+# The b step makes each column one chain down the disparities (a cell's value is the
+# least of its earlier steps and the value of the cell above plus ``occ2``). numba's
+# vectorized form of the flat loop over ``(k, r)`` kept that chain in memory: each block
+# of 8 cells stored, loaded back by the next block, and reversed twice (the loop runs
+# down, and the vector lanes up), about 18 cycles of latency per block. Here the chain and
+# the neighbouring blocks (``prev`` at ``k + 1`` and ``k - 1``, the costs at ``k + 1``)
+# stay in registers from one block to the next: the block's new loads are ``prev`` and
+# ``prev2`` below it, its cost here and the left column's cost below it.
+
 #: Whether the cells' vector code carries the blocks it has loaded (the left and upper
 #: neighbours of the next block) in registers from one block to the next. With AVX-512's
 #: 32 registers it does. With AVX2's 16, where each value of ``R`` lanes takes two, the
@@ -177,20 +186,6 @@ def _cells3_chain(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2):
 #: again from the arrays (in L1) made dsi5 4-7 % faster (A/B in one process, tsukuba,
 #: venus, teddy). Tests exercise the branch of the host they run on.
 _CARRY = _wide_vectors()
-
-#: Whether ``band_forward`` makes the anchors inside the five-step cells' vector code (the
-#: pinned forms of ``_cells5_chain``: the column's restart at the anchor and the anchor's
-#: match steps, a select or two a block; AVX-512), or, after the column's cells, makes each
-#: pinned row's anchor from its neighbours and stores the row's restart (scalar code, a
-#: store per cell of that row; AVX2). The e-step guard (``e_off``, an addition a block) is
-#: in the vector code on both (on AVX2 in every column after the first, without a branch).
-#: With AVX-512's 32 registers the vector form was 0.93-0.99 of dc's time (docs/SPEED.md,
-#: stop 30). With AVX2's 16, where each value of ``R`` lanes takes two, the pinned forms
-#: spilled to the stack every block: the scalar form is 0.91-0.94 of dc's time on the
-#: Middlebury scenes there, and about as fast where nearly every pixel is a pair
-#: (docs/SPEED.md, stop 44). Tests exercise the branch of the host they run on (and the
-#: plain-Python one both); the pinned forms are tested against their twin on every host.
-_PINS_IN_LOOP = _wide_vectors()
 
 
 def _cells_codegen(five, guarded=False, pinning=False):
