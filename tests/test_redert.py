@@ -11,7 +11,7 @@ import dcstereo
 import naive_redert
 import synthetic
 from dcstereo import MatchParams
-from dcstereo.kernels import redert
+from dcstereo.kernels import records, redert
 from dcstereo.metrics import bad_pixel_rate, mean_abs_error
 from dcstereo.redert import match_redert, orientation_steps
 
@@ -23,28 +23,16 @@ def run_dp(node, seg, dmin, oq, occ, orient, slant, steps=4, discount=0.0, run_c
     """
     width, ndisp, norient = node.shape
     nstates = norient + 2 * run_cap + 2
-    table = np.empty((width if ring is None else ring, ndisp, nstates))
-    back = np.empty((width, ndisp, nstates), dtype=np.uint8)
-    path_x = np.empty(2 * width + 2, dtype=np.int64)
-    path_k = np.empty(2 * width + 2, dtype=np.int64)
-    path_st = np.empty(2 * width + 2, dtype=np.int64)
-    n, total = redert.scanline_dp(
-        node,
-        seg,
-        steps,
-        dmin,
-        oq,
-        occ,
-        discount,
-        run_cap,
-        orient,
-        slant,
-        table,
-        back,
-        path_x,
-        path_k,
-        path_st,
+    work = records.RedertScratch(
+        np.empty((width if ring is None else ring, ndisp, nstates)),
+        np.empty((width, ndisp, nstates), dtype=np.uint8),
+        np.empty(2 * width + 2, dtype=np.int64),
+        np.empty(2 * width + 2, dtype=np.int64),
+        np.empty(2 * width + 2, dtype=np.int64),
     )
+    model = records.redert_model(steps, oq, occ, discount, run_cap, orient, slant)
+    n, total = redert.scanline_dp(node, seg, dmin, model, work)
+    path_x, path_k, path_st = work.path_x, work.path_k, work.path_st
     if n == 0:
         return math.inf, []
     # kernel states: matched, left run counts 1..N, right run counts 1..N, border runs

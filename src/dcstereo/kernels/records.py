@@ -176,6 +176,34 @@ class Anchors(NamedTuple):
     steps: np.ndarray
 
 
+class RedertModel(NamedTuple):
+    """The model of ``redert``'s DP (``redert.scanline_dp``), its costs in kernel units.
+
+    ``steps``: the sampling resolution (positions in ``1 / steps`` pixel); ``oq`` (int64,
+    (O,)): the orientations' slopes in units of ``1 / steps``; ``occ``: an occluded pixel;
+    ``discount``: taken off the 2nd to ``run_cap``-th pixel of a run of occlusions;
+    ``orient``: a change of orientation; ``slant``: a segment that changes the disparity.
+    """
+
+    steps: int
+    oq: np.ndarray
+    occ: float
+    discount: float
+    run_cap: int
+    orient: float
+    slant: float
+
+
+class RedertScratch(NamedTuple):
+    """Scratch of ``redert.scanline_dp``: its ring ``table``, ``back`` pointers, the path."""
+
+    table: np.ndarray
+    back: np.ndarray
+    path_x: np.ndarray
+    path_k: np.ndarray
+    path_st: np.ndarray
+
+
 def dsi(dmin, ndisp, radius) -> Dsi:
     """Return a :class:`Dsi` of int64 fields."""
     return Dsi(int(dmin), int(ndisp), int(radius))
@@ -231,4 +259,17 @@ def outputs(height, width, *, partner=False, reliability=False, pairs=False) -> 
         np.empty(per_pixel, dtype=np.float32),
         np.empty((height, width, 4) if pairs else (0, 0, 4), dtype=np.float32),
         np.empty(height if pairs else 0, dtype=np.int64),
+    )
+
+
+def redert_model(steps, oq, occ, discount, run_cap, orient, slant) -> RedertModel:
+    """Return a :class:`RedertModel` of fixed field types (``oq`` as int64)."""
+    return RedertModel(
+        int(steps),
+        np.ascontiguousarray(oq, dtype=np.int64),
+        float(occ),
+        float(discount),
+        int(run_cap),
+        float(orient),
+        float(slant),
     )

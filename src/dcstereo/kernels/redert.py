@@ -31,6 +31,7 @@ import numba as nb
 import numpy as np
 
 from .dp import FLAG_BORDER, FLAG_OCCLUDED
+from .records import RedertScratch
 from .rows import chunk_bounds
 
 # Back-pointer code of an unreachable state (the others: see ``scanline_dp``).
@@ -287,24 +288,12 @@ def sheared_costs(columns, e_lo, steps, dmin, oq, radius, node, seg):
 
 
 @nb.njit(cache=True)
-def scanline_dp(
-    node,
-    seg,
-    steps,
-    dmin,
-    oq,
-    occ,
-    discount,
-    run_cap,
-    orient,
-    slant,
-    table,
-    back,
-    path_x,
-    path_k,
-    path_st,
-):
+def scanline_dp(node, seg, dmin, model, work):
     """Cheapest path of one whole scanline through the (x, d, orientation) states.
+
+    ``model`` (``records.RedertModel``): ``steps``, the slopes ``oq`` and the costs
+    ``occ``, ``discount``, ``run_cap``, ``orient``, ``slant`` below; ``work``
+    (``records.RedertScratch``): ``table``, ``back`` and the path ``path_x/k/st``.
 
     Moves into band node ``(x, k)`` (``j = x - dmin - k``; DSI cell ``(x, j)``):
 
@@ -340,6 +329,8 @@ def scanline_dp(
     columns, column ``x`` in slot ``x % ring``: at least the longest segment's length plus
     one (or the width); ``back`` (uint8, ``(W, D, states)``) every column's.
     """
+    steps, oq, occ, discount, run_cap, orient, slant = model
+    table, back, path_x, path_k, path_st = work
     width, ndisp, norient = node.shape
     s_left = norient
     s_right = norient + run_cap
@@ -547,10 +538,10 @@ def scanline_dp(
 
 
 @nb.njit(cache=True)
-def apply_path(
-    path_x, path_k, path_st, n, steps, dmin, oq, run_cap, disp_row, flag_row, orient_row
-):
+def apply_path(work, n, dmin, model, disp_row, flag_row, orient_row):
     """Write disparities, occlusions and orientations (slopes) of a backtracked path.
+
+    The path of ``scanline_dp`` in ``work`` (``n`` nodes), its ``model``.
 
     A node entered by a segment writes the segment's pixels (interpolated disparities,
     multiples of ``1 / steps``); a node entered diagonally writes its own pixel; a left
@@ -558,6 +549,8 @@ def apply_path(
     :func:`scanline_dp`) marks its pixel occluded. The path is stored end to start, so
     entry ``i + 1`` is the node before entry ``i``.
     """
+    steps, oq, run_cap = model.steps, model.oq, model.run_cap
+    path_x, path_k, path_st = work.path_x, work.path_k, work.path_st
     norient = oq.shape[0]
     for i in range(n):
         x = path_x[i]
@@ -581,25 +574,7 @@ def apply_path(
 
 
 @nb.njit(parallel=True, cache=True)
-def match_redert_rows(
-    left_p,
-    right_p,
-    dmin,
-    ndisp,
-    radius,
-    steps,
-    oq,
-    occ,
-    discount,
-    run_cap,
-    orient,
-    slant,
-    nchunks,
-    disp,
-    flags,
-    slopes,
-    total,
-):
+def match_redert_rows(left_p, right_p, dsi, model, nchunks, out, slopes):
     """Run the orientation DP on every row; rows (in chunks) are the only parallel loop.
 
     Per thread: the column sums (W x sampled disparities), the cost volume, the DP's back
@@ -607,7 +582,15 @@ def match_redert_rows(
     columns only (the longest segment's plus one: 9 x D x states float64 with the default
     orientations, where a table of every column, 4.5 MB a thread on teddy, was 129 MB on a
     3000-pixel row of 256 disparities); never H x W x D.
+
+    ``dsi`` (``records.Dsi``): the disparities and the window; ``model``
+    (``records.RedertModel``): see ``scanline_dp``; ``out`` (``records.Outputs``):
+    ``disparity``, ``flags`` and ``total`` are written, and ``slopes`` (float32, (H, W)):
+    each matched pixel's orientation.
     """
+    dmin, ndisp, radius = dsi
+    steps, oq, run_cap = model.steps, model.oq, model.run_cap
+    disp, flags, total = out.disparity, out.flags, out.total
     height, width = disp.shape
     norient = oq.shape[0]
     omax = 0
@@ -628,9 +611,13 @@ def match_redert_rows(
         seg = np.empty((width, ndisp, norient), dtype=np.float64)
         table = np.empty((ring, ndisp, norient + 2 * run_cap + 2), dtype=np.float64)
         back = np.empty((width, ndisp, norient + 2 * run_cap + 2), dtype=np.uint8)
-        path_x = np.empty(2 * width + 2, dtype=np.int64)
-        path_k = np.empty(2 * width + 2, dtype=np.int64)
-        path_st = np.empty(2 * width + 2, dtype=np.int64)
+        work = RedertScratch(
+            table,
+            back,
+            np.empty(2 * width + 2, dtype=np.int64),
+            np.empty(2 * width + 2, dtype=np.int64),
+            np.empty(2 * width + 2, dtype=np.int64),
+        )
         for y in range(y0, y1):
             if y == y0:
                 sample_columns(left_p, right_p, y, radius, steps, e_lo, columns)
@@ -641,24 +628,6 @@ def match_redert_rows(
                 disp[y, x] = np.nan
                 flags[y, x] = FLAG_BORDER
                 slopes[y, x] = np.nan
-            n, t = scanline_dp(
-                node,
-                seg,
-                steps,
-                dmin,
-                oq,
-                occ,
-                discount,
-                run_cap,
-                orient,
-                slant,
-                table,
-                back,
-                path_x,
-                path_k,
-                path_st,
-            )
-            apply_path(
-                path_x, path_k, path_st, n, steps, dmin, oq, run_cap, disp[y], flags[y], slopes[y]
-            )
+            n, t = scanline_dp(node, seg, dmin, model, work)
+            apply_path(work, n, dmin, model, disp[y], flags[y], slopes[y])
             total[y] = t
