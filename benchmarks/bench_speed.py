@@ -382,7 +382,7 @@ def vector_target():
     The band kernels hold ``BAND_ROWS`` = 8 float64 lanes per value: one register with
     AVX-512, two with AVX2, so the same code runs at quite different speeds on the two.
     """
-    from dcstereo._band_kernels import compile_target
+    from dcstereo.kernels.simd import compile_target
 
     name, features = compile_target()
     unit = next(

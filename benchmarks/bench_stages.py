@@ -1,7 +1,7 @@
 """Where dc's and dsi5's time goes inside the band kernel: the stages' cycle counts.
 
-``_band_kernels.match_band_rows`` takes an optional ``clock`` (int64, one row per chunk,
-one column per stage of ``_band_kernels.CLOCK_STAGES``): each chunk adds the processor's
+``bands.match_band_rows`` takes an optional ``clock`` (int64, one row per chunk,
+one column per stage of ``bands.CLOCK_STAGES``): each chunk adds the processor's
 cycle counter (``llvm.readcyclecounter``, the TSC on x86) between its stages to its row.
 The kernel given no clock is compiled without the counter, so the timed kernel is a
 second compiled version of the same code; its stage totals are the sums over the chunks
@@ -46,9 +46,9 @@ def counter_rate(seconds=0.2):
     """Cycle-counter ticks per second, against ``time.perf_counter``."""
     import numba
 
-    from dcstereo import _band_kernels
+    from dcstereo.kernels import simd
 
-    read = numba.njit(lambda: _band_kernels.cycle_counter())
+    read = numba.njit(lambda: simd.cycle_counter())
     read()
     t0, c0 = time.perf_counter(), read()
     while time.perf_counter() - t0 < seconds:
@@ -59,14 +59,15 @@ def counter_rate(seconds=0.2):
 
 def stage_times(left, right, min_disparity, max_disparity, method, repeat):
     """``(best call ms, least counts per stage)`` of ``method`` on a pair."""
-    from dcstereo import _band_kernels, api
+    from dcstereo import api
+    from dcstereo.kernels import bands
     from dcstereo.params import MatchParams
     from dcstereo.signal import check_image
 
     left, right = check_image(left, "left"), check_image(right, "right")
     params = MatchParams(max_disparity=max_disparity, min_disparity=min_disparity, method=method)
     run = api._match_dc if method == "dc" else api._match_dsi
-    shape = (api._band_chunks(left.shape[0]), len(_band_kernels.CLOCK_STAGES))
+    shape = (api._band_chunks(left.shape[0]), len(bands.CLOCK_STAGES))
     best_call = np.inf
     least = np.full(shape[1], np.iinfo(np.int64).max)
     for i in range(repeat + 1):
@@ -83,14 +84,14 @@ def stage_times(left, right, min_disparity, max_disparity, method, repeat):
 
 def table_rows(rows, names, rate):
     """A row per (method, stage) that the method runs, a value per input (ms)."""
-    from dcstereo import _band_kernels
+    from dcstereo.kernels import bands
 
     out = []
     for method in METHODS:
         if not any(key[1] == method for key in rows):
             continue
         per_stage = {name: rows[(name, method)][1] / rate * 1e3 for name in names}
-        for index, stage in enumerate(_band_kernels.CLOCK_STAGES):
+        for index, stage in enumerate(bands.CLOCK_STAGES):
             if max(per_stage[name][index] for name in names) == 0:
                 continue  # a stage this method does not run
             out.append({"method": method, "stage": stage} | {

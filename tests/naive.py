@@ -13,7 +13,7 @@ C, A, B, D, E = "c", "a", "b", "d", "e"
 
 
 def window_sad(left_signal, right_signal, y, x_left, x_right, radius):
-    """Eq. 4 for one DSI cell, as documented in ``_kernels.row_costs``.
+    """Eq. 4 for one DSI cell, as documented in ``costs.row_costs``.
 
     Rows outside the image are edge-replicated (the same rows in both views); columns
     ``s`` where ``x_left + s`` or ``x_right + s`` leaves an image are skipped and the sum
@@ -164,3 +164,22 @@ def path_is_admissible(nodes, steps, cost, dmin, occ, five, box, anchor_start, a
     else:
         assert i1 == x_hi or j1 == j_hi, f"path ends at {nodes[-1]}, not on the far edge"
     return total
+
+
+def naive_block_match(column):
+    """Per row of ``column`` (shape (ndisp, R)): first least index (-1: all inf) and the
+    uniqueness ratio (second least over ``|k - best| > 1`` over the least; 0 without a
+    match, inf over a zero least cost, 1 when both are zero)."""
+    ks, ratios = [], []
+    for values in column.T:
+        if not np.isfinite(values).any():
+            ks.append(-1)
+            ratios.append(0.0)
+            continue
+        best_k = int(np.argmin(values))  # the first of the least
+        far = [v for k, v in enumerate(values) if abs(k - best_k) > 1]
+        second = min(far, default=np.inf)
+        best = values[best_k]
+        ratios.append(second / best if best > 0 else (np.inf if second > 0 else 1.0))
+        ks.append(best_k)
+    return ks, ratios

@@ -128,3 +128,17 @@ def divide_pairs(
 
     solve(-1, width, -1, width)
     return pairs
+
+
+def pixel_variance(signal_p, y, x, radius, signal_steps):
+    """Window variance of the one pixel ``(y, x)`` of a padded signal, from exact sums.
+
+    The twin of ``features.window_variance_row`` at one pixel: the same integer sums (here
+    Python's) and the same one float64 expression.
+    """
+    win = 2 * radius + 1
+    n = win * win
+    values = [int(v) for v in np.asarray(signal_p[y : y + win, x : x + win]).ravel()]
+    s = sum(values)
+    q = sum(v * v for v in values)
+    return float(n * q - s * s) / (float(n) * float(n) * float(signal_steps) * float(signal_steps))

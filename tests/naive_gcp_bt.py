@@ -1,6 +1,6 @@
 """Slow, obviously correct twins of the Birchfield-Tomasi and ground-control-point kernels.
 
-They follow the written definitions (``_kernels.row_costs_bt`` and ``_kernels.select_gcps``)
+They follow the written definitions (``costs.row_costs_bt`` and ``gcp.select_gcps``)
 in plain Python with fractions of a gray level as floats, and share no index arithmetic
 with the kernels: the BT twin interpolates half pixels explicitly, and the GCP twin tries
 every subset of the candidates.

@@ -1,4 +1,4 @@
-"""Slow, obviously correct twins of the ``redert`` kernels (``_redert_kernels.py``).
+"""Slow, obviously correct twins of the ``redert`` kernels (``redert.py``).
 
 The cost functions follow the written definition (sheared window, linear interpolation)
 pixel by pixel; the DP is an exhaustive enumeration of every admissible path in the

@@ -190,7 +190,7 @@ def test_out_of_memory_in_a_parallel_kernel_is_a_memory_error(monkeypatch):
         except MemoryError as err:
             raise SystemError("CPUDispatcher(...) returned a result with an exception set") from err
 
-    monkeypatch.setattr(api._band_kernels, "match_band_rows", out_of_memory)
+    monkeypatch.setattr(api.bands, "match_band_rows", out_of_memory)
     left, right = pair()
     with pytest.raises(MemoryError, match=r"out of memory matching 12 x 30 images over 7 disp"):
         dcstereo.match(left, right, max_disparity=6, method="dsi3")
@@ -198,7 +198,7 @@ def test_out_of_memory_in_a_parallel_kernel_is_a_memory_error(monkeypatch):
     def other(*args):
         raise SystemError("something else")
 
-    monkeypatch.setattr(api._band_kernels, "match_band_rows", other)
+    monkeypatch.setattr(api.bands, "match_band_rows", other)
     with pytest.raises(SystemError, match="something else"):
         dcstereo.match(left, right, max_disparity=6, method="dsi3")
 

@@ -9,20 +9,33 @@ import sys
 import textwrap
 from unittest import mock
 
-import numba
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from llvmlite import ir
-from numba.core import types
-from numba.extending import intrinsic
 
 import dcstereo
-from dcstereo import _band_kernels, _kernels, api
+import naive
+from dcstereo import api
 from dcstereo.datasets import load_middlebury
+from dcstereo.kernels import (
+    band_costs,
+    band_dp,  # noqa: F401 (test_band_kernels_run_as_plain_python sets its _PINS_IN_LOOP)
+    band_match,
+    bands,
+    costs,
+    divide_bands,
+    dp,
+    features,
+    gcp,
+    records,
+    rows,
+    scratch,
+    simd,
+)
 from dcstereo.params import MAX_BT_WINDOW, MAX_WINDOW
 from dcstereo.signal import matching_signal
+from test_simd import ssd_in_form
 
 
 def padded(signal, radius):
@@ -37,37 +50,41 @@ def outputs(height, width):
     )
 
 
+def maps(out):
+    """The ``(disparity, flags, total)`` of a driver's ``records.Outputs``."""
+    return out.disparity, out.flags, out.total
+
+
 def per_row(left, right, dmin, ndisp, radius, occ2, five, slant2, bt=False):
     """``match_dsi_rows`` (SAD, or Birchfield-Tomasi with ``bt``): the reference."""
-    disp, flags, total = outputs(*left.shape)
-    _kernels.match_dsi_rows(
-        padded(left, radius), padded(right, radius), dmin, ndisp, radius, bt, occ2, five,
-        slant2, 3, disp, flags, total,
+    out = records.outputs(*left.shape)
+    rows.match_dsi_rows(
+        padded(left, radius), padded(right, radius), records.dsi(dmin, ndisp, radius), bt,
+        records.step_costs(occ2, slant2, five), 3, out,
     )  # fmt: skip
-    return disp, flags, total
+    return maps(out)
 
 
-#: ``tests`` of ``match_band_rows`` for pins given from outside (``pin_mode`` 1): no search.
-PIN_TESTS = (0.0, 0.0, False, 0.0, False, 0.0, 0, 1)
+#: ``tests`` of ``match_band_rows`` for pins given from outside (``PINS_GIVEN``): no search.
+PIN_TESTS = records.feature_tests(signal_steps=1)
 
 
 def banded(left, right, dmin, ndisp, radius, occ2, five, slant2, partner=None, nchunks=2, bt=False):
     """``match_band_rows`` without pins (as ``dsi3``/``dsi5`` call it: ``tests`` None) or
-    through the pins of ``partner`` (``pin_mode`` 1); the Birchfield-Tomasi cost with
+    through the pins of ``partner`` (``PINS_GIVEN``); the Birchfield-Tomasi cost with
     ``bt``."""
-    disp, flags, total = outputs(*left.shape)
     anchored = partner is not None
-    if partner is None:
-        partner = np.empty((0, 0), dtype=np.int64)
+    out = records.outputs(*left.shape, partner=anchored)
+    if anchored:
+        out.partner[:] = partner
     # every argument given, as api._band_rows gives them: an omitted one is a type of its
     # own, and numba would compile (and the suite wait for) one more version of the kernel
-    _band_kernels.match_band_rows(
-        padded(left, radius), padded(right, radius), dmin, ndisp, radius, occ2, five, slant2,
-        int(anchored), partner, PIN_TESTS if anchored else None, nchunks, disp, flags, total,
-        np.empty((0, 0, 4), dtype=np.float32), np.empty(0, dtype=np.int64), None,
-        True if bt else None, None,
+    bands.match_band_rows(
+        padded(left, radius), padded(right, radius), records.dsi(dmin, ndisp, radius),
+        records.step_costs(occ2, slant2, five), bands.PINS_GIVEN if anchored else bands.FREE,
+        PIN_TESTS if anchored else None, nchunks, out, None, True if bt else None, None,
     )  # fmt: skip
-    return disp, flags, total
+    return maps(out)
 
 
 def segmented(left, right, dmin, ndisp, radius, occ2, five, slant2, partner, bt=False):
@@ -79,28 +96,26 @@ def segmented(left, right, dmin, ndisp, radius, occ2, five, slant2, partner, bt=
     left_p, right_p = padded(left, radius), padded(right, radius)
     cost = np.empty((width, ndisp))
     vcol = np.empty((width, ndisp), dtype=np.int32)
-    table = np.empty((width + 2, ndisp + 2))
-    path_x = np.empty(2 * width + 2, dtype=np.int64)
-    path_k = np.empty(2 * width + 2, dtype=np.int64)
-    path_s = np.empty(2 * width + 2, dtype=np.uint8)
+    path = dp.path_scratch(width, ndisp)
+    step_costs = records.step_costs(occ2, slant2, five)
     for y in range(height):
-        costs = _kernels.row_costs_bt if bt else _kernels.row_costs
-        costs(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, False)
+        row_costs = costs.row_costs_bt if bt else costs.row_costs
+        row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, False)
         disp[y] = np.nan
-        flags[y] = _kernels.FLAG_BORDER
+        flags[y] = dp.FLAG_BORDER
         row_total = 0.0
         a = b = -1
         pins = [(x, int(partner[y, x])) for x in range(width) if partner[y, x] >= 0]
         for c, e in [*pins, (width, width)]:
             if c < width or a < width - 1:
                 start, end = a >= 0, c < width
-                n, t = _kernels.scanline_dp(
-                    cost, dmin, occ2, five, slant2,
+                n, t = dp.scanline_dp(
+                    cost, dmin, step_costs,
                     a if start else 0, c if end else width - 1,
                     b if start else 0, e if end else width - 1,
-                    start, end, table, path_x, path_k, path_s,
+                    start, end, path,
                 )  # fmt: skip
-                _kernels.apply_path(path_x, path_k, path_s, n, dmin, disp[y], flags[y])
+                dp.apply_path(path, n, dmin, disp[y], flags[y])
                 row_total += t
             if c < width:
                 disp[y, c] = c - e
@@ -169,21 +184,20 @@ def test_band_equals_per_row_on_random_inputs(five, seed):
 
 def block_per_row(left, right, dmin, ndisp, radius, bt=False):
     """``match_block_rows`` (SAD, or Birchfield-Tomasi with ``bt``): the per-row kernel."""
-    disp, flags, total = outputs(*left.shape)
-    _kernels.match_block_rows(
-        padded(left, radius), padded(right, radius), dmin, ndisp, radius, bt, 3, disp, flags,
-        total,
-    )  # fmt: skip
-    return disp, flags, total
+    out = records.outputs(*left.shape)
+    rows.match_block_rows(
+        padded(left, radius), padded(right, radius), records.dsi(dmin, ndisp, radius), bt, 3, out
+    )
+    return maps(out)
 
 
 def block_banded(left, right, dmin, ndisp, radius, nchunks=2, bt=False):
-    disp, flags, total = outputs(*left.shape)
-    _band_kernels.match_block_bands(
-        padded(left, radius), padded(right, radius), dmin, ndisp, radius, nchunks, disp, flags,
-        total, True if bt else None,
+    out = records.outputs(*left.shape)
+    bands.match_block_bands(
+        padded(left, radius), padded(right, radius), records.dsi(dmin, ndisp, radius), nchunks,
+        out, True if bt else None,
     )  # fmt: skip
-    return disp, flags, total
+    return maps(out)
 
 
 def block_naive(left, right, dmin, ndisp, radius):
@@ -194,12 +208,12 @@ def block_naive(left, right, dmin, ndisp, radius):
     cost = np.empty((width, ndisp))
     vcol = np.empty((width, ndisp), dtype=np.int32)
     for y in range(height):
-        _kernels.row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, False)
+        costs.row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, cost, False)
         row_total = 0.0
         for x in range(width):
             k = int(np.argmin(cost[x]))  # the first of equal least costs
             if np.isinf(cost[x, k]):
-                disp[y, x], flags[y, x] = np.nan, _kernels.FLAG_BORDER
+                disp[y, x], flags[y, x] = np.nan, dp.FLAG_BORDER
             else:
                 disp[y, x], flags[y, x] = dmin + k, 0
                 row_total += cost[x, k]
@@ -227,7 +241,7 @@ def test_band_block_breaks_ties_at_the_first_disparity_in_every_kind_of_column()
     expected = block_naive(left, right, -3, 9, 2)
     got = block_banded(left, right, -3, 9, 2)
     assert_same(expected, got)
-    x_lo, x_hi = _band_kernels._integer_columns(40, -3, 9, 2)
+    x_lo, x_hi = band_costs._integer_columns(40, -3, 9, 2)
     assert 0 < x_lo < x_hi < 40  # both kinds of column occur
     # rows 6.. do not see the changed pixel: all their costs are 0, the first finite cell
     # (right pixel x - d inside the image) wins
@@ -286,15 +300,15 @@ def test_pins_of_the_ground_control_points_give_gcp_row(tmp_path):
     base = rng.integers(0, 4081, (height, width + 8)).astype(np.int32)
     left, right = base[:, 4 : 4 + width], base[:, 1 : 1 + width]  # disparity 3
     right = right + rng.integers(0, 30, right.shape).astype(np.int32)
-    disp, flags, total = outputs(height, width)
-    partner = np.empty((height, width), dtype=np.int64)
+    out = records.outputs(height, width, partner=True)
     left_p, right_p = padded(left, radius), padded(right, radius)
-    _kernels.match_gcp_rows(
-        left_p, right_p, 0, ndisp, radius, False, 3000.0, 1.2, 0.0, 16, 2, disp, flags, total,
-        partner,
+    gcp.match_gcp_rows(
+        left_p, right_p, records.dsi(0, ndisp, radius), False, records.step_costs(3000.0),
+        records.feature_tests(uniqueness=1.2, var_floor=0.0, signal_steps=16), 2, out,
     )  # fmt: skip
+    partner = out.partner
     assert (partner >= 0).sum() > height  # there are control points to go through
-    expected = (disp, flags, total)
+    expected = maps(out)
     assert_same(expected, segmented(left, right, 0, ndisp, radius, 3000.0, False, 0.0, partner))
     assert_same(expected, banded(left, right, 0, ndisp, radius, 3000.0, False, 0.0, partner))
 
@@ -341,10 +355,10 @@ def test_gcp_runs_as_dc_does_by_the_band_array():
     def modes_run(**kw):
         with (
             mock.patch.object(api, "_band_rows", wraps=api._band_rows) as bands,
-            mock.patch.object(_kernels, "match_gcp_rows", wraps=_kernels.match_gcp_rows) as rows,
+            mock.patch.object(gcp, "match_gcp_rows", wraps=gcp.match_gcp_rows) as rows,
         ):
             dcstereo.match(left, right, max_disparity=7, method="dsi3-gcp", **kw)
-        return [call.args[8] for call in bands.call_args_list] + [0] * rows.call_count
+        return [call.kwargs["mode"] for call in bands.call_args_list] + [0] * rows.call_count
 
     assert modes_run() == [2]
     assert modes_run(cost="bt") == [2]
@@ -359,7 +373,7 @@ def test_gcp_diagonals_are_the_two_least_costs_of_each_right_pixel():
     # _gcp_diagonals over every column of a band against each right pixel's costs sorted:
     # the least, and the second counted with repeats (ties are common: small integers)
     rng = np.random.default_rng(21)
-    nr = _band_kernels.BAND_ROWS
+    nr = simd.BAND_ROWS
     for width, dmin, ndisp in ((30, 0, 7), (25, -4, 9), (12, 3, 20), (9, -12, 6), (16, 0, 1)):
         cost = rng.integers(0, 6, (width, ndisp + 2, nr)).astype(np.float64)
         cost[:, 0] = cost[:, -1] = np.inf
@@ -367,7 +381,7 @@ def test_gcp_diagonals_are_the_two_least_costs_of_each_right_pixel():
         second = np.full(width * nr, np.inf)
         flat = cost.ravel()
         for x in range(width):
-            _band_kernels._gcp_diagonals(
+            gcp._gcp_diagonals(
                 flat, np.uint64(x * (ndisp + 2) * nr), x, dmin, ndisp, width, least, second
             )
         for j in range(width):
@@ -470,7 +484,7 @@ def test_band_costs_equal_row_costs():
         left = rng.integers(0, 4081, (height, width)).astype(np.int32)
         right = rng.integers(0, 4081, (height, width)).astype(np.int32)
         left_p, right_p = padded(left, radius), padded(right, radius)
-        nr = _band_kernels.BAND_ROWS
+        nr = simd.BAND_ROWS
         win = 2 * radius + 1
         nk = (ndisp + 2) * nr
         left_t = np.empty(win * (width + 2 * radius) * nr, dtype=np.int64)
@@ -487,13 +501,13 @@ def test_band_costs_equal_row_costs():
                 rows[t * nr : (t + 1) * nr] = np.minimum(
                     y0 + t + np.arange(nr), left_p.shape[0] - 1
                 )
-            _band_kernels.band_lane_signals(left_p, right_p, rows, win, left_t, right_t)
-            _band_kernels.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread,
+            band_costs.band_lane_signals(left_p, right_p, rows, win, left_t, right_t)
+            band_costs.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread,
                                           vs, False, hsum, out)  # fmt: skip
             band = out.reshape(width, ndisp + 2, nr)
             assert np.isinf(band[:, 0]).all() and np.isinf(band[:, -1]).all()
             for r in range(min(nr, height - y0)):
-                _kernels.row_costs(left_p, right_p, y0 + r, dmin, ndisp, radius, vcol, expected,
+                costs.row_costs(left_p, right_p, y0 + r, dmin, ndisp, radius, vcol, expected,
                                    False)  # fmt: skip
                 assert band[:, 1:-1, r].tobytes() == expected.tobytes()
 
@@ -523,7 +537,7 @@ def test_lanes_of_any_height_and_more_chunks_than_bands(height):
 def load_band_signals(left_p, right_p, t, run, height, radius, rows, left_t, right_t):
     """``band_lane_signals`` at band step ``t`` as ``match_band_rows`` loads them (lane ``r``
     on row ``r * run + t``): the window rows at ``t == 0``, then the leaving and entering."""
-    nr = _band_kernels.BAND_ROWS
+    nr = simd.BAND_ROWS
     win = 2 * radius + 1
     if t == 0:
         for tt in range(win):
@@ -534,7 +548,7 @@ def load_band_signals(left_p, right_p, t, run, height, radius, rows, left_t, rig
         y = np.arange(nr) * run + t
         rows[:nr] = np.where(y < height, y - 1, 0)
         rows[nr : 2 * nr] = np.where(y < height, y + 2 * radius, 0)
-    _band_kernels.band_lane_signals(left_p, right_p, rows, win if t == 0 else 2, left_t, right_t)
+    band_costs.band_lane_signals(left_p, right_p, rows, win if t == 0 else 2, left_t, right_t)
 
 
 @pytest.mark.parametrize("dtype", [np.int64, np.int32])
@@ -543,7 +557,7 @@ def test_incremental_lane_costs_equal_row_costs(dtype):
     # and band_lane_variance window_variance_row (both views), with int64 buffers and with
     # the int32 buffers of match_band_rows
     rng = np.random.default_rng(12)
-    nr = _band_kernels.BAND_ROWS
+    nr = simd.BAND_ROWS
     for dmin, ndisp, radius, width, height in (
         (-3, 7, 2, 13, 19), (4, 6, 1, 9, 8), (0, 12, 3, 5, 3), (-9, 4, 0, 6, 17), (2, 5, 1, 1, 9),
     ):  # fmt: skip
@@ -570,21 +584,21 @@ def test_incremental_lane_costs_equal_row_costs(dtype):
         run = -(-height // nr)
         for t in range(run):
             load_band_signals(left_p, right_p, t, run, height, radius, rows, left_t, right_t)
-            _band_kernels.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread,
+            band_costs.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread,
                                           vs, t > 0, hsum, out)  # fmt: skip
             for v, sig_t in enumerate((left_t, right_t)):
-                _band_kernels.band_lane_variance(sig_t, width, radius, 3, t > 0, colsum[v],
+                band_costs.band_lane_variance(sig_t, width, radius, 3, t > 0, colsum[v],
                                                  colsq[v], hs[0], hs[1], var[v])  # fmt: skip
             band = out.reshape(width, ndisp + 2, nr)
             assert np.isinf(band[:, 0]).all() and np.isinf(band[:, -1]).all()
             for r in range(nr):
                 if r * run + t >= height:
                     continue
-                _kernels.row_costs(left_p, right_p, r * run + t, dmin, ndisp, radius, vcol,
+                costs.row_costs(left_p, right_p, r * run + t, dmin, ndisp, radius, vcol,
                                    expected, False)  # fmt: skip
                 assert band[:, 1:-1, r].tobytes() == expected.tobytes()
                 for v, signal_p in enumerate((left_p, right_p)):
-                    _kernels.window_variance_row(signal_p, r * run + t, radius, 3, col_row[0],
+                    features.window_variance_row(signal_p, r * run + t, radius, 3, col_row[0],
                                                  col_row[1], var_row, False)  # fmt: skip
                     lane = var[v].reshape(width, nr)[:, r]
                     if v == 1:  # the right view is stored right to left
@@ -601,10 +615,10 @@ def test_lane_variance_of_wide_windows_equals_the_integer_one(radius):
     # summed afresh and moved down a row; and the search's variance of a window from its
     # integer sums (_window_variance), which makes the numerator in int64 at every size
     rng = np.random.default_rng(40 + radius)
-    nr = _band_kernels.BAND_ROWS
+    nr = simd.BAND_ROWS
     win = 2 * radius + 1
     assert 151**4 * 4080**2 < 2**53 <= 153**4 * 4080**2
-    window_sums = ssd_in_form(_band_kernels.SSD_WIDE)
+    window_sums = ssd_in_form(simd.SSD_WIDE)
     width, height = 24, win + 2
     signal = np.where(rng.random((height + 1, width)) < 0.99, 4080, rng.integers(0, 4081))
     signal_p = padded(signal.astype(np.int32), radius)
@@ -626,26 +640,26 @@ def test_lane_variance_of_wide_windows_equals_the_integer_one(radius):
             rows[:nr] = np.arange(nr)
             rows[nr : 2 * nr] = np.minimum(np.arange(nr) + win, last)
         nt = win if t == 0 else 2
-        _band_kernels.band_lane_signals(signal_p, signal_p, rows, nt, sig_t, sig_t.copy())
-        _band_kernels.band_lane_variance(sig_t, width, radius, 16, t > 0, colsum, colsq, hs[0],
+        band_costs.band_lane_signals(signal_p, signal_p, rows, nt, sig_t, sig_t.copy())
+        band_costs.band_lane_variance(sig_t, width, radius, 16, t > 0, colsum, colsq, hs[0],
                                          hs[1], var)  # fmt: skip
         for r in range(nr):  # (no lane's window reaches the padded signal's last row)
-            _kernels.window_variance_row(signal_p, r + t, radius, 16, col_row[0], col_row[1],
+            features.window_variance_row(signal_p, r + t, radius, 16, col_row[0], col_row[1],
                                          var_row, False)  # fmt: skip
             assert var.reshape(width, nr)[:, r].tobytes() == var_row.tobytes(), (t, r)
             # the search's right-view variance: from the SSD's sums of the window
             n, norm = win * win, float(win * win) ** 2 * 16.0**2
             for x in range(width):
                 _, sm, sq = window_sums(signal_p, signal_p, r + t, x, x, radius)
-                assert _band_kernels._window_variance(sm, sq, n, norm) == var_row[x], (t, r, x)
-    wide = _band_kernels.SSD_WIDE
-    _, sm, sq = _band_kernels._window_ssd(signal_p, signal_p, 1, 3, 3, radius, wide)  # twin
+                assert features._window_variance(sm, sq, n, norm) == var_row[x], (t, r, x)
+    wide = simd.SSD_WIDE
+    _, sm, sq = simd._window_ssd(signal_p, signal_p, 1, 3, 3, radius, wide)  # twin
     assert (sm, sq) == tuple(window_sums(signal_p, signal_p, 1, 3, 3, radius)[1:])
 
 
 def lane_cost_scratch(width, ndisp, radius):
     """int32 ``left_t``, ``right_t``, ``spread`` and the int64 ``rows`` of a band's cost pass."""
-    nr = _band_kernels.BAND_ROWS
+    nr = simd.BAND_ROWS
     left_t = np.empty(max(2 * radius + 1, 2) * (width + 2 * radius) * nr, dtype=np.int32)
     rows = np.empty(max(2 * radius + 1, 2) * nr, dtype=np.int64)
     return left_t, np.empty_like(left_t), rows, np.empty(2 * ndisp * nr, dtype=np.int32)
@@ -658,7 +672,7 @@ def test_block_match_on_made_costs_equals_the_one_on_the_band_array():
     # makes the same array; the same with the moved columns made and matched at once
     # (fused: _moved_costs_keyed)
     rng = np.random.default_rng(13)
-    nr = _band_kernels.BAND_ROWS
+    nr = simd.BAND_ROWS
     for dmin, ndisp, radius, width, height in (
         (-3, 7, 2, 13, 19), (4, 6, 1, 9, 8), (0, 12, 3, 25, 3), (-9, 4, 0, 6, 17), (2, 5, 1, 1, 9),
         (0, 30, 2, 40, 20),
@@ -668,13 +682,13 @@ def test_block_match_on_made_costs_equals_the_one_on_the_band_array():
         right = (rng.integers(0, 6, (height, width)) * 800).astype(np.int32)
         left_p, right_p = padded(left, radius), padded(right, radius)
         nk = (ndisp + 2) * nr
-        x_int_lo, x_int_hi = _band_kernels._integer_columns(width, dmin, ndisp, radius)
+        x_int_lo, x_int_hi = band_costs._integer_columns(width, dmin, ndisp, radius)
         left_t, right_t, rows, spread = lane_cost_scratch(width, ndisp, radius)
         vs_array, vs_made, vs_fused = (
             np.empty(width * ndisp * nr, dtype=np.int32) for _ in range(3)
         )
-        shift = _band_kernels._key_shift(ndisp + 2)
-        assert _band_kernels._keys_fit(4000, radius, shift)
+        shift = band_costs._key_shift(ndisp + 2)
+        assert band_costs._keys_fit(4000, radius, shift)
         fused = (x_int_lo, x_int_hi, shift)
         hsum = np.empty(ndisp * nr, dtype=np.int32)
         out, again = np.empty(width * nk), np.empty(width * nk)
@@ -685,15 +699,15 @@ def test_block_match_on_made_costs_equals_the_one_on_the_band_array():
         run = -(-height // nr)
         for t in range(run):
             load_band_signals(left_p, right_p, t, run, height, radius, rows, left_t, right_t)
-            _band_kernels.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread,
+            band_costs.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread,
                                           vs_array, int(t > 0), hsum, out)  # fmt: skip
-            _band_kernels.band_block_match(out, width, ndisp, x_int_lo, x_int_hi, pre, suf,
+            band_match.band_block_match(out, width, ndisp, x_int_lo, x_int_hi, pre, suf,
                                            k_array, r_array)  # fmt: skip
-            _band_kernels.band_block_match(
+            band_match.band_block_match(
                 col, width, ndisp, x_int_lo, x_int_hi, pre, suf, k_made, r_made,
                 (left_t, right_t, dmin, radius, spread, vs_made, int(t > 0), hsum),
             )  # fmt: skip
-            _band_kernels.band_block_match(
+            band_match.band_block_match(
                 col, width, ndisp, x_int_lo, x_int_hi, pre, suf, k_fused, r_fused,
                 (left_t, right_t, dmin, radius, spread, vs_fused, int(t > 0), hsum), None, None,
                 fused,
@@ -702,8 +716,8 @@ def test_block_match_on_made_costs_equals_the_one_on_the_band_array():
                 np.testing.assert_array_equal(k_got, k_array)
                 assert r_got.tobytes() == r_array.tobytes()
                 assert vs_got.tobytes() == vs_array.tobytes()
-            ready = _band_kernels.SUMS_READY
-            _band_kernels.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread,
+            ready = band_costs.SUMS_READY
+            band_costs.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread,
                                           vs_made, ready, hsum, again)  # fmt: skip
             assert again.tobytes() == out.tobytes()
             assert vs_made.tobytes() == vs_array.tobytes()
@@ -715,7 +729,7 @@ def test_block_match_of_the_wanted_columns_only(guard):
     # get the values of the full block match and the others those of an empty column;
     # the counts are those of a plain count over the lanes
     rng = np.random.default_rng(31 + guard)
-    nr = _band_kernels.BAND_ROWS
+    nr = simd.BAND_ROWS
     left_out = 0
     for width, ndisp in ((1, 3), (9, 5), (40, 12), (23, 30)):
         nk = (ndisp + 2) * nr
@@ -727,7 +741,7 @@ def test_block_match_of_the_wanted_columns_only(guard):
         var[rng.random(width * nr) < 0.97] = 0.0  # strong pixels are few: columns left out
         floor = 50.0
         counts = np.full(width + 1, -7, dtype=np.int64)
-        _band_kernels.band_strong_counts(var, width, floor, counts)
+        divide_bands.band_strong_counts(var, width, floor, counts)
         strong = (var.reshape(width, nr) >= floor).any(axis=1)
         assert list(counts) == [0] + list(np.cumsum(strong))
         wanted = np.array(
@@ -736,8 +750,8 @@ def test_block_match_of_the_wanted_columns_only(guard):
         pre, suf = np.empty(nk), np.empty(nk)
         full_k, part_k = (np.empty(width * nr, dtype=np.int64) for _ in range(2))
         full_r, part_r = np.empty(width * nr), np.empty(width * nr)
-        _band_kernels.band_block_match(cost, width, ndisp, 0, width, pre, suf, full_k, full_r)
-        _band_kernels.band_block_match(
+        band_match.band_block_match(cost, width, ndisp, 0, width, pre, suf, full_k, full_r)
+        band_match.band_block_match(
             cost, width, ndisp, 0, width, pre, suf, part_k, part_r, None, (counts, guard)
         )
         lanes = np.repeat(wanted, nr)
@@ -758,7 +772,7 @@ def test_largest_window_sums_fit_the_int32_buffers(bt):
     most = 8160 if bt else 4080  # the largest summed integer of a pixel
     assert most * win**2 < 2**31 <= most * (win + 2) ** 2
     radius, width, ndisp, dmin = win // 2, win, 2, 0
-    nr = _band_kernels.BAND_ROWS
+    nr = simd.BAND_ROWS
     left_p = np.full((win + 1, width + 2 * radius), 4080, dtype=np.int32)
     right_p = np.zeros_like(left_p)
     left_t = np.empty(win * (width + 2 * radius) * nr, dtype=np.int32)
@@ -770,12 +784,12 @@ def test_largest_window_sums_fit_the_int32_buffers(bt):
     out = np.empty(width * (ndisp + 2) * nr)
     for incremental in (False, True):
         rows = np.repeat(np.arange(win) + incremental, nr)[: (2 if incremental else win) * nr]
-        _band_kernels.band_lane_signals(left_p, right_p, rows, rows.size // nr, left_t, right_t)
+        band_costs.band_lane_signals(left_p, right_p, rows, rows.size // nr, left_t, right_t)
         if bt:
-            _band_kernels.band_lane_costs_bt(left_t, right_t, width, dmin, ndisp, radius, bounds,
+            band_costs.band_lane_costs_bt(left_t, right_t, width, dmin, ndisp, radius, bounds,
                                              spread, vs, incremental, hsum, out)  # fmt: skip
         else:
-            _band_kernels.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius,
+            band_costs.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius,
                                           spread[: 2 * ndisp * nr], vs, incremental, hsum,
                                           out)  # fmt: skip
         band = out.reshape(width, ndisp + 2, nr)[:, 1:-1]
@@ -786,11 +800,11 @@ def test_largest_window_sums_fit_the_int32_buffers(bt):
 
 @pytest.mark.parametrize("dtype", [np.uint8, np.bool_, np.int32, np.int64, np.float64])
 def test_scratch_starts_at_its_slot_of_the_page(dtype):
-    page, step = 4096, _band_kernels.PLACE_STEP
+    page, step = 4096, scratch.PLACE_STEP
     offsets = set()
     for slot in (0, 1, 2, 26, 63, 64, 65):
         for n in (1, 17, 5000):
-            arr = _band_kernels._placed(n, dtype, slot)
+            arr = scratch._placed(n, dtype, slot)
             assert arr.shape == (n,) and arr.dtype == dtype
             assert arr.flags.c_contiguous and arr.flags.writeable
             assert arr.ctypes.data % page == slot * step % page
@@ -814,7 +828,7 @@ def test_band_kernels_run_as_plain_python():
             # the pins in the cells' vector code (AVX-512) and in scalar code (AVX2), each
             # host's compiled kernel running only its own: both here
             for in_loop in (False, True):
-                t._band_kernels._PINS_IN_LOOP = in_loop
+                t.band_dp._PINS_IN_LOOP = in_loop
                 t.assert_same(t.segmented(left, right, -1, 4, 1, 900.0, five, 300.0, partner),
                               t.banded(left, right, -1, 4, 1, 900.0, five, 300.0, partner))
             t.assert_same(t.per_row(left, right, -1, 4, 1, 900.0, five, 300.0, bt=True),
@@ -832,7 +846,7 @@ def test_band_kernels_run_as_plain_python():
             t.block_banded(left.astype(np.int32), right.astype(np.int32), -1, 4, 1, bt=True))
         gcp = dict(max_disparity=4, window=3, method="dsi3-gcp")
         assert len(t.gcp_bands_equal_rows(left, right, gcp).features) > 0  # modes 2 and 3
-        placed = t._band_kernels._placed(17, np.float64, 3)
+        placed = t.scratch._placed(17, np.float64, 3)
         assert placed.shape == (17,) and placed.ctypes.data % 4096 == 3 * 448 % 4096
         print("ok")
         """
@@ -863,33 +877,14 @@ def test_band_equals_per_row_on_middlebury(middlebury_root, scene):
 # --------------------------------------------------------------------------- dc on bands
 
 
-def naive_block_match(column):
-    """Per row of ``column`` (shape (ndisp, R)): first least index (-1: all inf) and the
-    uniqueness ratio (second least over ``|k - best| > 1`` over the least; 0 without a
-    match, inf over a zero least cost, 1 when both are zero)."""
-    ks, ratios = [], []
-    for values in column.T:
-        if not np.isfinite(values).any():
-            ks.append(-1)
-            ratios.append(0.0)
-            continue
-        best_k = int(np.argmin(values))  # the first of the least
-        far = [v for k, v in enumerate(values) if abs(k - best_k) > 1]
-        second = min(far, default=np.inf)
-        best = values[best_k]
-        ratios.append(second / best if best > 0 else (np.inf if second > 0 else 1.0))
-        ks.append(best_k)
-    return ks, ratios
-
-
 def check_block_match(values, cost, x_int_lo, x_int_hi, scratch, wta_k, wta_ratio):
     """``band_block_match`` on ``values`` (width, ndisp, R) in the padded ``cost`` vs the twin."""
     width, ndisp, nr = values.shape
     cost[:, 1:-1] = values
-    _band_kernels.band_block_match(cost.ravel(), width, ndisp, x_int_lo, x_int_hi, scratch[0],
+    band_match.band_block_match(cost.ravel(), width, ndisp, x_int_lo, x_int_hi, scratch[0],
                                    scratch[1], wta_k, wta_ratio)  # fmt: skip
     for x in range(width):
-        ks, ratios = naive_block_match(values[x])
+        ks, ratios = naive.naive_block_match(values[x])
         assert list(wta_k[x * nr : (x + 1) * nr]) == ks
         np.testing.assert_array_equal(wta_ratio[x * nr : (x + 1) * nr], ratios)
 
@@ -897,7 +892,7 @@ def check_block_match(values, cost, x_int_lo, x_int_hi, scratch, wta_k, wta_rati
 @pytest.mark.parametrize("seed", range(6))
 def test_band_block_match_equals_the_naive_one(seed):
     rng = np.random.default_rng(300 + seed)
-    nr = _band_kernels.BAND_ROWS
+    nr = simd.BAND_ROWS
     for _ in range(20):
         ndisp = int(rng.integers(1, 40))
         width = int(rng.integers(1, 12))
@@ -920,417 +915,6 @@ def test_band_block_match_equals_the_naive_one(seed):
         check_block_match(fractional, cost, width, 0, scratch, wta_k, wta_ratio)
 
 
-def _compiled(function):
-    """``function`` called from compiled code (its vector form, through ``overload``).
-
-    One compiled caller per number of arguments, each spelled out: an overload inlined in
-    numba's IR (``_cells5_chain``'s) cannot be called with ``*args``.
-    """
-    callers = {}
-
-    def call(*args):
-        if len(args) not in callers:
-            names = ", ".join(f"a{i}" for i in range(len(args)))
-            scope = {"function": function}
-            exec(f"def caller({names}):\n    return function({names})", scope)
-            callers[len(args)] = numba.njit(scope["caller"])
-        return callers[len(args)](*args)
-
-    return call
-
-
-@pytest.mark.parametrize("seed", range(4))
-def test_keyed_column_vector_code_equals_its_twin_and_the_naive_one(seed):
-    # the keyed column's LLVM vector code (compiled) and its plain-Python twin, on columns
-    # of both parities of block count, at an offset in the band and in the outputs
-    rng = np.random.default_rng(700 + seed)
-    nr = _band_kernels.BAND_ROWS
-    compiled = _compiled(_band_kernels._keyed_column)
-    for ndisp in list(range(1, 9)) + [int(n) for n in rng.integers(9, 70, 6)]:
-        nblocks = ndisp + 2
-        scale = _band_kernels._key_scale(nblocks)
-        cells = rng.integers(0, 4, (ndisp, nr)).astype(np.float64)  # ties and zeros
-        cells[rng.random(cells.shape) < 0.2] = np.inf
-        cells[:, int(rng.integers(0, nr))] = np.inf  # a lane with no match
-        if rng.random() < 0.5:  # the keys' range: costs up to 2**31 - 1
-            cells = np.where(np.isinf(cells), cells, 2.0**31 - 1 - cells)
-        column = np.full((nblocks, nr), np.inf)
-        column[1:-1] = cells
-        cost = np.concatenate([rng.random(3 * nblocks * nr), column.ravel()])
-        o = np.uint64(3 * nblocks * nr)
-        expected_k, expected_ratio = naive_block_match(cells)
-        numbers = np.arange(nblocks + int(rng.integers(0, 3)), dtype=np.float64)
-        for run in (_band_kernels._keyed_column, compiled):
-            wta_k = np.full(3 * nr, 99, dtype=np.int64)
-            wta_ratio = np.full(3 * nr, -5.0)
-            run(cost, o, nblocks, scale, numbers, wta_k, wta_ratio, np.uint64(nr))
-            assert list(wta_k[nr : 2 * nr]) == expected_k
-            np.testing.assert_array_equal(wta_ratio[nr : 2 * nr], expected_ratio)
-            assert (wta_k[:nr] == 99).all() and (wta_k[2 * nr :] == 99).all()
-            assert (wta_ratio[:nr] == -5.0).all() and (wta_ratio[2 * nr :] == -5.0).all()
-
-
-def test_floor_log2_compiled_equals_its_twin():
-    # the sparse table's level of an interval of n candidates: lzcnt against bit_length
-    compiled = _compiled(_band_kernels._floor_log2)
-    values = [1, 2, 3, 4, 5, 7, 8, 9, 1023, 1024, 1025, 2**40 - 1, 2**40, 2**62, 2**63 - 1]
-    for n in values + [int(n) for n in np.random.default_rng(5).integers(1, 2**31, 50)]:
-        expected = int(np.floor(np.log2(float(n)))) if n < 2**50 else n.bit_length() - 1
-        assert _band_kernels._floor_log2(n) == expected == compiled(np.int64(n)), n
-
-
-def ssd_in_form(form):
-    """Compiled: ``_window_ssd`` in ``form``, a constant there (as the search calls it)."""
-
-    @numba.njit
-    def window_ssd(left_p, right_p, y, x, j, radius):
-        return _band_kernels._window_ssd(left_p, right_p, y, x, j, radius, form)
-
-    return window_ssd
-
-
-def numpy_window_sums(left, right, y, x, j, win):
-    """``_window_ssd``'s ``(ssd, sm, sq)`` of windows ``(y, x)`` and ``(y, j)``, by numpy."""
-    right_window = right[y : y + win, j : j + win].astype(np.int64)
-    diff = left[y : y + win, x : x + win].astype(np.int64) - right_window
-    return (
-        float((diff * diff).sum()),
-        int(right_window.sum()),
-        int((right_window * right_window).sum()),
-    )
-
-
-@pytest.mark.parametrize("seed", range(3))
-def test_window_ssd_vector_code_equals_its_twin_and_numpy(seed):
-    # the SSD and the right window's sum and sum of squares; windows of one to 25 pixels a
-    # side (a row of more than R pixels takes several masked loads), against the image's
-    # edges (nothing past the window is read: a read past the array's end could fault), on
-    # signals whose squares need 64 bits
-    rng = np.random.default_rng(900 + seed)
-    wide, short = (ssd_in_form(f) for f in (_band_kernels.SSD_WIDE, _band_kernels.SSD_SHORT))
-    for radius in range(13):
-        win = 2 * radius + 1
-        height, width = win + int(rng.integers(0, 3)), win + int(rng.integers(0, 20))
-        high = 2**25 if rng.random() < 0.5 else 4081  # 625 squares of 2**26: below 2**63
-        left = rng.integers(-high, high, (height, width)).astype(np.int32)
-        right = rng.integers(-high, high, (height, width)).astype(np.int32)
-        for y, x, j in [(height - win, width - win, width - win), (0, 0, width - win)] + [
-            (int(rng.integers(0, height - win + 1)), int(rng.integers(0, width - win + 1)),
-             int(rng.integers(0, width - win + 1)))
-            for _ in range(5)
-        ]:  # fmt: skip
-            expected = numpy_window_sums(left, right, y, x, j, win)
-            bound = max(abs(int(left.min())), abs(int(left.max())), high)
-            narrow = bool(_band_kernels._narrow_sums(2 * high, bound, radius))
-            assert narrow == (high == 4081 and radius <= 2)  # 25 * (2 * 4081)**2 < 2**31
-            forms = [wide] + [short] * (narrow and win <= _band_kernels.BAND_ROWS)
-            assert len(forms) == 1 + (radius <= 2 and high == 4081)
-            for got in (
-                _band_kernels._window_ssd(left, right, y, x, j, radius, _band_kernels.SSD_WIDE),
-                *(form(left, right, y, x, j, radius) for form in forms),
-            ):
-                assert tuple(got) == expected
-                assert isinstance(got[0], float)
-
-
-@pytest.mark.parametrize("radius", [0, 1, 2, 3])
-def test_narrow_window_ssd_holds_sums_up_to_its_bound(radius):
-    # the search's SSD in 32-bit lanes (SSD_SHORT, windows of at most R pixels a side)
-    # where _narrow_sums says the sums fit: at the largest signal that fits (the SSD and the
-    # right window's sum of squares just below 2**31) the sums are exact; one more and it
-    # says no
-    win = 2 * radius + 1
-    top = int(np.sqrt((2**31 - 1) / win**2))
-    while win * win * top * top >= 2**31:
-        top -= 1
-    assert win * win * (top + 1) ** 2 >= 2**31
-    assert _band_kernels._narrow_sums(top, top, radius)
-    assert not _band_kernels._narrow_sums(top + 1, top, radius)
-    assert not _band_kernels._narrow_sums(top, top + 1, radius)
-    assert not _band_kernels._narrow_sums(-1, 0, radius)
-    assert not _band_kernels._narrow_sums(2**40, 2**40, radius)  # no int64 overflow
-    forms = [ssd_in_form(f) for f in (_band_kernels.SSD_SHORT, _band_kernels.SSD_WIDE)]
-    width = win + 9
-    rng = np.random.default_rng(70 + radius)
-    for fill in ("full", "mixed"):
-        left = np.zeros((win + 2, width), dtype=np.int32)
-        right = np.full((win + 2, width), top, dtype=np.int32)
-        if fill == "mixed":
-            right[rng.random(right.shape) < 0.3] = 0
-        for y, x, j in ((0, 0, 0), (2, 3, 9), (1, 9, 4)):
-            expected = numpy_window_sums(left, right, y, x, j, win)
-            for form in forms:
-                assert tuple(form(left, right, y, x, j, radius)) == expected
-        if fill == "full":
-            # the sums at the bound: one more in the signal would pass 2**31
-            assert expected[0] == expected[2] == win * win * top * top
-            assert expected[2] + win * win * (2 * top + 1) >= 2**31
-
-
-def _transposer(n):
-    """Compiled: transpose an ``n x n`` int32 block in place with ``_transpose_block``."""
-
-    @intrinsic
-    def transpose(typingctx, block):
-        def codegen(context, builder, sig, args):
-            data = context.make_array(sig.args[0])(context, builder, args[0]).data
-            vtype = ir.VectorType(ir.IntType(32), n)
-            rows = [
-                builder.bitcast(builder.gep(data, [ir.Constant(ir.IntType(64), r * n)]),
-                                vtype.as_pointer())
-                for r in range(n)
-            ]  # fmt: skip
-            loaded = [builder.load(p, align=4) for p in rows]  # numpy's data: 4-byte aligned
-            out = _band_kernels._transpose_block(builder, loaded)
-            for value, pointer in zip(out, rows, strict=True):
-                builder.store(value, pointer, align=4)
-            return context.get_dummy_value()
-
-        return types.void(block), codegen
-
-    return numba.njit(lambda block: transpose(block))
-
-
-@pytest.mark.parametrize("n", [2, 4, 8, 16])
-def test_transpose_block_of_any_power_of_two(n):
-    # the 8 x 8 shuffles of the lanes' rows (BAND_ROWS) and the generic rounds for the
-    # other sizes
-    block = np.random.default_rng(n).integers(-(2**31), 2**31, (n, n)).astype(np.int32)
-    got = block.copy()
-    _transposer(n)(got)
-    assert (got == block.T).all()
-
-
-@pytest.mark.parametrize("dtype", [np.int32, np.int64])
-def test_lane_signals_are_the_rows_as_lanes(dtype):
-    # band_lane_signals against numpy's transposition, for padded widths below, at and
-    # around multiples of R (the vector code's last block overlaps the one before), rows
-    # in any order and repeated; int32 runs the vector code, int64 the loop
-    rng = np.random.default_rng(31)
-    nr = _band_kernels.BAND_ROWS
-    for width_p in list(range(1, 3 * nr + 2)) + [437, 438, 450]:
-        height, nt = int(rng.integers(1, 12)), int(rng.integers(1, 4))
-        left_p = rng.integers(-(2**31), 2**31, (height, width_p)).astype(dtype)
-        right_p = rng.integers(-(2**31), 2**31, (height, width_p)).astype(dtype)
-        rows = rng.integers(0, height, nt * nr).astype(np.int64)
-        left_t = np.full(nt * width_p * nr + 5, 7, dtype=dtype)  # 5 past the end: untouched
-        right_t = left_t.copy()
-        _band_kernels.band_lane_signals(left_p, right_p, rows, nt, left_t, right_t)
-        lanes = rows.reshape(nt, nr)
-        expected_left = left_p[lanes].transpose(0, 2, 1)  # (t, xp, r)
-        expected_right = right_p[lanes][:, :, ::-1].transpose(0, 2, 1)  # stored right to left
-        assert (left_t[:-5].reshape(nt, width_p, nr) == expected_left).all(), width_p
-        assert (right_t[:-5].reshape(nt, width_p, nr) == expected_right).all(), width_p
-        assert (left_t[-5:] == 7).all() and (right_t[-5:] == 7).all()
-
-
-@pytest.mark.parametrize("seed", range(3))
-def test_column_vector_code_equals_its_plain_python_twin(seed):
-    # the DP cells of a column (five- and three-step) and a moved cost column: the LLVM
-    # vector code against the plain-Python functions it stands for, byte for byte
-    rng = np.random.default_rng(800 + seed)
-    nr = _band_kernels.BAND_ROWS
-    for ndisp in (1, 2, 3, 7, 16, 33):
-        nk = (ndisp + 2) * nr
-        k_lo = int(rng.integers(0, ndisp))
-        k_hi = int(rng.integers(k_lo, ndisp))
-        # small integer values (ties between the steps) and inf cells
-        ring = rng.integers(0, 6, (3, nk)).astype(np.float64)
-        ring[rng.random(ring.shape) < 0.15] = np.inf
-        cost = rng.integers(0, 4, 3 * nk).astype(np.float64)
-        cost[rng.random(cost.shape) < 0.1] = np.inf
-        o_here, o_left, o_steps = np.uint64(2 * nk), np.uint64(nk), np.uint64(ndisp + 2)
-        results = []
-        for run in (_band_kernels._cells5_chain, _compiled(_band_kernels._cells5_chain)):
-            cur = ring[0].copy()
-            steps = np.full(3 * (ndisp + 2), 0xFFFFFFFF, dtype=np.uint32)
-            run(cur, ring[1], ring[2], cost, o_here, o_left, steps, o_steps, k_lo, k_hi, 2.0, 1.0)
-            results.append((cur, steps))
-        for run in (_band_kernels._cells3_chain, _compiled(_band_kernels._cells3_chain)):
-            cur = ring[0].copy()
-            steps = np.full(3 * (ndisp + 2), 0xFFFFFFFF, dtype=np.uint32)
-            run(cur, ring[1], cost, o_here, steps, o_steps, k_lo, k_hi, 2.0)
-            results.append((cur, steps))
-        for a, b in (results[:2], results[2:]):
-            np.testing.assert_array_equal(a[0], b[0])
-            np.testing.assert_array_equal(a[1], b[1])
-            # the words of blocks k_lo + 1 .. k_hi + 1 of column 1 and nothing else written
-            untouched = np.ones(a[1].size, dtype=bool)
-            untouched[int(o_steps) + k_lo + 1 : int(o_steps) + k_hi + 2] = False
-            assert (a[1][untouched] == 0xFFFFFFFF).all()
-        width_p = int(rng.integers(3, 9))
-        n = ndisp * nr
-        left_t = rng.integers(0, 4081, 2 * width_p * nr).astype(np.int32)
-        right_t = rng.integers(0, 4081, 2 * width_p * nr + n).astype(np.int32)
-        vs = rng.integers(0, 40000, 3 * n).astype(np.int32)
-        hsum = rng.integers(0, 200000, n).astype(np.int32)
-        moved = []
-        for run in (_band_kernels._moved_costs, _compiled(_band_kernels._moved_costs)):
-            arrays = vs.copy(), hsum.copy(), np.full(n + 2 * nr, -1.0)
-            offsets = np.uint64(nr), np.uint64(0), np.uint64(2 * n), np.uint64(0), np.uint64(nr)
-            run(left_t, right_t, *arrays, *offsets, np.uint64(n), width_p)
-            moved.append(arrays)
-        for a, b in zip(*moved, strict=True):
-            np.testing.assert_array_equal(a, b)
-        assert (moved[0][2][nr:-nr] != -1.0).all() and (moved[0][2][:nr] == -1.0).all()
-
-
-@pytest.mark.parametrize("seed", range(3))
-def test_pinned_cells_in_the_vector_code_restart_the_column_and_block_the_e_step(seed):
-    # _cells5_chain's pins (e_off, pin_k), vector code and twin, against what band_forward
-    # stored before: the pinned lanes' prev2 set to inf (the e-step guard), the anchor
-    # column's pinned lanes set to 0 at the anchor, occ2, 2 occ2, ... below, inf above
-    rng = np.random.default_rng(820 + seed)
-    for ndisp in (1, 2, 3, 7, 16, 33):
-        check_pinned_cells(rng, ndisp)
-
-
-def check_pinned_cells(rng, ndisp):
-    nr = _band_kernels.BAND_ROWS
-    run5 = _band_kernels._cells5_chain
-    nk = (ndisp + 2) * nr
-    k_lo = int(rng.integers(0, ndisp))
-    k_hi = int(rng.integers(k_lo, ndisp))
-    ring = rng.integers(0, 6, (3, nk)).astype(np.float64)
-    ring[rng.random(ring.shape) < 0.15] = np.inf
-    ring[0, (k_hi + 2) * nr :] = np.inf  # above the range: inf, as band_forward leaves it
-    cost = rng.integers(0, 4, 3 * nk).astype(np.float64)
-    cost[rng.random(cost.shape) < 0.1] = np.inf
-    fixed = (cost, np.uint64(2 * nk), np.uint64(nk))  # the costs, o_here, o_left
-    o_steps, occ2, slant2 = np.uint64(ndisp + 2), 2.0, 1.0
-    guarded = rng.random(nr) < 0.5
-    e_off = np.where(guarded, np.inf, 0.0)
-    pinned = rng.random(nr) < 0.5
-    pin_k = np.where(pinned, rng.integers(k_lo, k_hi + 1, nr), -1).astype(np.float64)
-
-    def cells(run, prev2, *pins, anchors=None):
-        cur = ring[0].copy()
-        steps = np.zeros(3 * (ndisp + 2), dtype=np.uint32)
-        more = () if anchors is None else (*anchors, nr)  # written at o_pin = R
-        run(cur, ring[1], prev2, *fixed, steps, o_steps, k_lo, k_hi, occ2, slant2, *pins, *more)
-        return cur.reshape(ndisp + 2, nr), steps
-
-    def anchor_values(guard):
-        # band_forward's scalar form: each pinned lane's anchor by a match step (c, d, e;
-        # no a, no b) and the first of them that reaches it; sentinels elsewhere
-        total = np.full(3 * nr, -7.0)
-        codes = np.full(3 * nr, -7, dtype=np.int64)
-        cost, o_here, o_left = fixed
-        prev, prev2 = ring[1], ring[2]
-        for r in np.flatnonzero(pinned):
-            q = (int(pin_k[r]) + 1) * nr + r
-            h2 = 2.0 * cost[int(o_here) + q]
-            u = h2 + cost[int(o_left) + q] + slant2
-            c = prev[q] + h2
-            d = prev[q + nr] + cost[int(o_here) + q + nr] + u
-            e = (
-                (prev2[q - nr] + e_off[r] if guard else prev2[q - nr])
-                + cost[int(o_left) + q - nr]
-                + u
-            )
-            best = min(min(c, d), e)
-            total[nr + r] = best
-            step = _band_kernels.STEP_E if e == best else _band_kernels.STEP_NONE
-            step = _band_kernels.STEP_D if d == best else step
-            codes[nr + r] = _band_kernels.STEP_C if c == best else step
-        return total, codes
-
-    def restart(values):
-        out = values.copy()
-        for r in np.flatnonzero(pinned):
-            k_a = int(pin_k[r])
-            for k in range(k_lo, k_hi + 1):
-                out[k + 1, r] = (k_a - k) * occ2 if k <= k_a else np.inf
-        return out
-
-    blocked = ring[2].copy().reshape(ndisp + 2, nr)
-    blocked[:, guarded] = np.inf
-    guarded_values, guarded_steps = cells(run5, blocked.ravel())
-    free_values = cells(run5, ring[2].copy())[0]
-    for pins, want in (
-        ((e_off, None), guarded_values),
-        ((None, pin_k), restart(free_values)),
-        ((e_off, pin_k), restart(guarded_values)),
-    ):
-        for run in (run5, _compiled(run5)):
-            if pins[1] is None:
-                values, steps = cells(run, ring[2].copy(), *pins)
-                # the guard alone: the steps of prev2 at inf, too
-                np.testing.assert_array_equal(steps, guarded_steps)
-            else:  # the pinned lanes' anchor values and steps, the others' untouched
-                anchors = np.full(3 * nr, -7.0), np.full(3 * nr, -7, dtype=np.int64)
-                values, steps = cells(run, ring[2].copy(), *pins, anchors=anchors)
-                expected = anchor_values(pins[0] is not None)
-                np.testing.assert_array_equal(anchors[0], expected[0])
-                np.testing.assert_array_equal(anchors[1], expected[1])
-            np.testing.assert_array_equal(values, want)
-
-
-def check_moved_costs_keyed(ndisp, left_t, right_t, vs, hsum, width_p):
-    """``_moved_costs_keyed`` (twin and vector code) against ``_moved_costs`` and the naive
-    block match of the column it made; nothing outside the column's ``R`` matches written."""
-    nr = _band_kernels.BAND_ROWS
-    n = ndisp * nr
-    shift = _band_kernels._key_shift(ndisp + 2)
-    offsets = np.uint64(nr), np.uint64(0), np.uint64(2 * n), np.uint64(0), np.uint64(nr)
-    plain = vs.copy(), hsum.copy(), np.full(n + 2 * nr, -1.0)
-    _band_kernels._moved_costs(left_t, right_t, *plain, *offsets, np.uint64(n), width_p)
-    column = plain[2][nr : nr + n].reshape(ndisp, nr)
-    assert (column >= 0).all() and ((column + 1) * 2**shift < 2**31).all()  # the keys fit
-    expected_k, expected_ratio = naive_block_match(column)
-    compiled = _compiled(_band_kernels._moved_costs_keyed)
-    for run in (_band_kernels._moved_costs_keyed, compiled):
-        arrays = vs.copy(), hsum.copy(), np.full(n + 2 * nr, -1.0)
-        wta_k = np.full(3 * nr, 99, dtype=np.int64)
-        wta_ratio = np.full(3 * nr, -5.0)
-        run(left_t, right_t, *arrays, *offsets, np.uint64(n), width_p, shift, wta_k, wta_ratio,
-            np.uint64(nr))  # fmt: skip
-        for a, b in zip(arrays, plain, strict=True):
-            assert a.tobytes() == b.tobytes()
-        assert list(wta_k[nr : 2 * nr]) == expected_k
-        np.testing.assert_array_equal(wta_ratio[nr : 2 * nr], expected_ratio)
-        assert (wta_k[:nr] == 99).all() and (wta_k[2 * nr :] == 99).all()
-        assert (wta_ratio[:nr] == -5.0).all() and (wta_ratio[2 * nr :] == -5.0).all()
-    return column
-
-
-@pytest.mark.parametrize("seed", range(3))
-def test_moved_costs_keyed_makes_the_costs_and_their_block_match(seed):
-    # the cost pass's column made and matched at once (keys (h << shift) | (k + 1) in 32
-    # bits, the four least kept per lane): the costs of _moved_costs and the block match of
-    # band_block_match, on costs of the matching signal's size, on few values (ties and
-    # zeros) and on costs whose keys come within a few units of 2**31; fewer than four
-    # disparities too (the four least then hold "none")
-    rng = np.random.default_rng(830 + seed)
-    nr = _band_kernels.BAND_ROWS
-    zeros = ties = near = 0
-    for ndisp in (1, 2, 3, 4, 5, 7, 16, 33, 62):
-        n = ndisp * nr
-        shift = _band_kernels._key_shift(ndisp + 2)
-        assert 2**shift > ndisp + 2 >= 2 ** (shift - 1)  # as _key_scale's scale
-        width_p = int(rng.integers(3, 9))
-        # the matching signal: costs up to some 2**18, all different
-        left_t = rng.integers(0, 4081, 2 * width_p * nr).astype(np.int32)
-        right_t = rng.integers(0, 4081, 2 * width_p * nr + n).astype(np.int32)
-        vs = rng.integers(0, 40000, 3 * n).astype(np.int32)
-        hsum = rng.integers(40000, 200000, n).astype(np.int32)
-        check_moved_costs_keyed(ndisp, left_t, right_t, vs, hsum, width_p)
-        # equal signals, few sums: ties, zero costs (ratio inf or 1) and equal neighbours
-        flat = np.zeros(2 * width_p * nr + n, dtype=np.int32)
-        vs = (rng.integers(0, 3, 3 * n) * 5).astype(np.int32)
-        vs[:n] = 0  # the leaving column (o_sub 0): h = hsum + the entering one (o_add 2n)
-        hsum = (rng.integers(0, 2, n) * 5).astype(np.int32)
-        column = check_moved_costs_keyed(ndisp, flat[:-n], flat, vs, hsum, width_p)
-        zeros += (column == 0).sum()
-        ties += sum(len(set(lane)) < ndisp for lane in column.T)
-        # the largest costs whose keys fit: (h + 1) << shift just below 2**31
-        # (the entering sums add up to 10)
-        hsum = ((2**31 >> shift) - 12 - rng.integers(0, 10, n) * 5).astype(np.int32)
-        column = check_moved_costs_keyed(ndisp, flat[:-n], flat, vs, hsum, width_p)
-        near += (column + 1 >= (2**31 >> shift) - 2).sum()
-    assert zeros > 0 and ties > 0 and near > 0
-
-
 def test_keys_fit_says_whether_every_key_is_below_two_to_the_31():
     # the cost pass matches its columns only where (span * win**2 + 1) << shift < 2**31
     # (every key below the "none" of 2**31 - 1); exact at the edge, no overflow far past it
@@ -1339,13 +923,13 @@ def test_keys_fit_says_whether_every_key_is_below_two_to_the_31():
             for shift in (1, 2, 5, 7, 9, 12, 30, 31, 40):
                 win = 2 * radius + 1
                 expected = (span * win * win + 1) << shift < 2**31
-                assert _band_kernels._keys_fit(span, radius, shift) == expected
+                assert band_costs._keys_fit(span, radius, shift) == expected
                 if expected:  # the edge: a cost one higher would not fit
                     limit = (2**31 >> shift) - 1  # the largest h + 1
-                    assert _band_kernels._keys_fit(limit - 1, 0, shift)
-                    assert not _band_kernels._keys_fit(limit, 0, shift)
-    assert not _band_kernels._keys_fit(-1, 2, 5)
-    assert _band_kernels._keys_fit(4080, 2, _band_kernels._key_shift(258))  # 256 disparities
+                    assert band_costs._keys_fit(limit - 1, 0, shift)
+                    assert not band_costs._keys_fit(limit, 0, shift)
+    assert not band_costs._keys_fit(-1, 2, 5)
+    assert band_costs._keys_fit(4080, 2, band_costs._key_shift(258))  # 256 disparities
 
 
 @pytest.mark.parametrize("seed", range(4))
@@ -1361,10 +945,10 @@ def test_signal_bounds_are_the_two_views_min_and_max(seed):
         right = rng.integers(low, high + 1, shape).astype(np.int32)
         for a, b in ((left, right), (right, left), (left, left)):
             expected = (int(min(a.min(), b.min())), int(max(a.max(), b.max())))
-            assert _band_kernels._signal_bounds(a, b) == expected
+            assert bands._signal_bounds(a, b) == expected
     extreme = np.array([[np.iinfo(np.int32).min]], dtype=np.int32)
     top = np.array([[np.iinfo(np.int32).max]], dtype=np.int32)
-    low, high = _band_kernels._signal_bounds(extreme, top)
+    low, high = bands._signal_bounds(extreme, top)
     assert high - low == 2**32 - 1  # int64: no overflow
 
 
@@ -1373,7 +957,7 @@ def test_lane_costs_match_the_columns_they_move():
     # columns inside the range that it moves down a row (done 1) as band_block_match does
     # on its array, and leaves every other column's outputs alone (done 0), band after band
     rng = np.random.default_rng(14)
-    nr = _band_kernels.BAND_ROWS
+    nr = simd.BAND_ROWS
     matched = 0
     for dmin, ndisp, radius, width, height in (
         (-3, 7, 2, 30, 19), (4, 6, 1, 29, 24), (0, 12, 3, 25, 17), (-9, 4, 0, 16, 17),
@@ -1383,8 +967,8 @@ def test_lane_costs_match_the_columns_they_move():
         right = (rng.integers(0, 6, (height, width)) * 800).astype(np.int32)
         left_p, right_p = padded(left, radius), padded(right, radius)
         nk = (ndisp + 2) * nr
-        x_lo, x_hi = _band_kernels._integer_columns(width, dmin, ndisp, radius)
-        shift = _band_kernels._key_shift(ndisp + 2)
+        x_lo, x_hi = band_costs._integer_columns(width, dmin, ndisp, radius)
+        shift = band_costs._key_shift(ndisp + 2)
         left_t, right_t, rows, spread = lane_cost_scratch(width, ndisp, radius)
         vs_plain, vs_fused = (np.empty(width * ndisp * nr, dtype=np.int32) for _ in range(2))
         hsum = np.empty(ndisp * nr, dtype=np.int32)
@@ -1396,13 +980,13 @@ def test_lane_costs_match_the_columns_they_move():
         run = -(-height // nr)
         for t in range(run):
             load_band_signals(left_p, right_p, t, run, height, radius, rows, left_t, right_t)
-            _band_kernels.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread,
+            band_costs.band_lane_costs(left_t, right_t, width, dmin, ndisp, radius, spread,
                                           vs_plain, int(t > 0), hsum, out)  # fmt: skip
-            _band_kernels.band_block_match(out, width, ndisp, x_lo, x_hi, pre, suf, wta_k,
+            band_match.band_block_match(out, width, ndisp, x_lo, x_hi, pre, suf, wta_k,
                                            wta_ratio)  # fmt: skip
             k_fused[:] = -99
             r_fused[:] = -5.0
-            _band_kernels.band_lane_costs(
+            band_costs.band_lane_costs(
                 left_t, right_t, width, dmin, ndisp, radius, spread, vs_fused, int(t > 0), hsum,
                 fused, (x_lo, x_hi, shift, k_fused, r_fused, done),
             )  # fmt: skip
@@ -1410,7 +994,7 @@ def test_lane_costs_match_the_columns_they_move():
             assert vs_fused.tobytes() == vs_plain.tobytes()
             movable = [
                 x_lo <= x < x_hi
-                and _band_kernels._movable(x + radius, x - radius - 1, width, dmin, ndisp, t > 0)
+                and band_costs._movable(x + radius, x - radius - 1, width, dmin, ndisp, t > 0)
                 for x in range(width)
             ]
             np.testing.assert_array_equal(done, np.array(movable, dtype=np.uint8))
@@ -1423,7 +1007,7 @@ def test_lane_costs_match_the_columns_they_move():
                     assert (k_fused[lanes] == -99).all() and (r_fused[lanes] == -5.0).all()
             matched += done.sum()
             # band_block_match told which columns are done fills in exactly the others
-            _band_kernels.band_block_match(fused, width, ndisp, x_lo, x_hi, pre, suf, k_fused,
+            band_match.band_block_match(fused, width, ndisp, x_lo, x_hi, pre, suf, k_fused,
                                            r_fused, None, None, done)  # fmt: skip
             np.testing.assert_array_equal(k_fused, wta_k)
             assert r_fused.tobytes() == wta_ratio.tobytes()
@@ -1432,7 +1016,7 @@ def test_lane_costs_match_the_columns_they_move():
 
 def naive_feature_mask(var_l, wta_k, wta_ratio, width, dmin, radius, var_floor, uniq, guard):
     """The cheap up-front tests of ``divide_row``, one pixel at a time: the twin of the mask."""
-    nr = _band_kernels.BAND_ROWS
+    nr = simd.BAND_ROWS
     keep = np.zeros(width * nr, dtype=np.uint8)
     for r in range(nr):
         for x in range(radius, width - radius):
@@ -1457,7 +1041,7 @@ def naive_feature_mask(var_l, wta_k, wta_ratio, width, dmin, radius, var_floor, 
 @pytest.mark.parametrize("seed", range(6))
 def test_band_feature_mask_equals_the_naive_one(seed):
     rng = np.random.default_rng(500 + seed)
-    nr = _band_kernels.BAND_ROWS
+    nr = simd.BAND_ROWS
     for _ in range(20):
         width = int(rng.integers(1, 30))
         radius = int(rng.integers(0, 4))
@@ -1469,15 +1053,17 @@ def test_band_feature_mask_equals_the_naive_one(seed):
         # neighbours often agree, so that the guard passes now and then
         wta_k[nr:] = np.where(rng.random(wta_k.size - nr) < 0.6, wta_k[:-nr], wta_k[nr:])
         wta_ratio = rng.choice([0.0, 1.0, 1.5, 2.0, np.inf], width * nr)
-        tests = (1.0, 1.0, True, 2.0, True, 1.5, guard, 4)
+        tests = records.feature_tests(ser_min=1.0, vs_max=1.0, vs_relative=True, var_floor=2.0,
+                                      lr_check=True, uniqueness=1.5, edge_guard=guard,
+                                      signal_steps=4)  # fmt: skip
         keep = np.full(width * nr, 7, dtype=np.uint8)
-        _band_kernels.band_feature_mask(var_l, wta_k, wta_ratio, width, dmin, radius, tests, keep)
+        divide_bands.band_feature_mask(var_l, wta_k, wta_ratio, width, dmin, radius, tests, keep)
         expected = naive_feature_mask(var_l, wta_k, wta_ratio, width, dmin, radius, 2.0, 1.5, guard)
         np.testing.assert_array_equal(keep, expected)
 
 
 def dc_by_rows(left, right, **options):
-    """``dc`` through the row-by-row kernel (``_kernels.match_dc_rows``): the reference."""
+    """``dc`` through the row-by-row kernel (``divide.match_dc_rows``): the reference."""
     return dc_in_mode(0, left, right, **options)
 
 
@@ -1585,8 +1171,8 @@ def test_dc_on_bands_with_keys_too_wide_for_32_bits(window):
     texture = rng.integers(0, 256, (66, 190)).astype(np.uint8)
     texture[0, :2] = 0, 255  # the signal's whole span, 0 .. 4080
     left, right = texture[:, 8:178], texture[:, 20:]  # d = 12
-    shift = _band_kernels._key_shift(64)
-    assert _band_kernels._keys_fit(4080, window // 2, shift) == (window == 63)
+    shift = band_costs._key_shift(64)
+    assert band_costs._keys_fit(4080, window // 2, shift) == (window == 63)
     kw = dict(max_disparity=61, window=window, feature_floor=0.0)
     expected = dc_by_rows(left, right, **kw)
     with mock.patch.object(api, "_band_chunks", lambda height: 1):
@@ -1681,23 +1267,19 @@ def test_band_cost_arrays_fit_the_memory_bound_together():
     # alone does not fit, the rows run one at a time; the maps never change
     params = dcstereo.MatchParams(max_disparity=7, cost="bt", method="dc")
     one = api._band_bytes(params, 40)
-    assert one == 40 * 10 * _band_kernels.BAND_ROWS * 8
+    assert one == 40 * 10 * simd.BAND_ROWS * 8
     rng = np.random.default_rng(12)
     left = rng.integers(0, 256, (48, 40)).astype(np.uint8)  # 6 bands
     right = np.roll(left, 3, axis=1)
 
     def chunks_run(method, **kw):
         with (
-            mock.patch.object(
-                _band_kernels, "match_band_rows", wraps=_band_kernels.match_band_rows
-            ) as bands,
-            mock.patch.object(
-                _band_kernels, "match_block_bands", wraps=_band_kernels.match_block_bands
-            ) as blocks,
+            mock.patch.object(bands, "match_band_rows", wraps=bands.match_band_rows) as band_calls,
+            mock.patch.object(bands, "match_block_bands", wraps=bands.match_block_bands) as blocks,
         ):
             got = dcstereo.match(left, right, max_disparity=7, method=method, **kw)
-        used = [c.args[11] for c in bands.call_args_list] + [
-            c.args[5] for c in blocks.call_args_list
+        used = [c.args[6] for c in band_calls.call_args_list] + [
+            c.args[3] for c in blocks.call_args_list
         ]
         return used, got
 
@@ -1737,7 +1319,7 @@ def test_band_lane_costs_bt_equal_row_costs_bt():
     # in the padding cells, truncated windows rescaled; widths from 1, windows wider than
     # the image, every disparity outside it, the extreme signal values
     rng = np.random.default_rng(31)
-    nr = _band_kernels.BAND_ROWS
+    nr = simd.BAND_ROWS
     for dmin, ndisp, radius, width, height in (
         (-3, 7, 2, 13, 19), (4, 6, 1, 9, 8), (0, 12, 3, 5, 3), (-9, 4, 0, 6, 17),
         (2, 5, 1, 1, 9), (0, 30, 2, 40, 30), (20, 3, 1, 10, 9),
@@ -1761,14 +1343,14 @@ def test_band_lane_costs_bt_equal_row_costs_bt():
             run = -(-height // nr)
             for t in range(run):
                 load_band_signals(left_p, right_p, t, run, height, radius, rows, left_t, right_t)
-                _band_kernels.band_lane_costs_bt(left_t, right_t, width, dmin, ndisp, radius,
+                band_costs.band_lane_costs_bt(left_t, right_t, width, dmin, ndisp, radius,
                                                  bounds, spread, vs, t > 0, hsum, out)  # fmt: skip
                 band = out.reshape(width, ndisp + 2, nr)
                 assert np.isinf(band[:, 0]).all() and np.isinf(band[:, -1]).all()
                 for r in range(nr):
                     if r * run + t >= height:
                         continue
-                    _kernels.row_costs_bt(left_p, right_p, r * run + t, dmin, ndisp, radius,
+                    costs.row_costs_bt(left_p, right_p, r * run + t, dmin, ndisp, radius,
                                           vcol, expected, False)  # fmt: skip
                     assert band[:, 1:-1, r].tobytes() == expected.tobytes()
 
@@ -1809,13 +1391,12 @@ def test_band_block_bt_equals_per_row_bt_on_random_inputs(seed):
 
 def test_band_bt_refuses_the_mode_without_a_cost_array():
     left = np.zeros((4, 6), dtype=np.int32)
-    disp, flags, total = outputs(4, 6)
+    out = records.outputs(4, 6, pairs=True)
     with pytest.raises(ValueError, match="Birchfield-Tomasi cost needs the band's cost array"):
-        _band_kernels.match_band_rows(
-            padded(left, 1), padded(left, 1), 0, 3, 1, 100.0, True, 50.0, 3,
-            np.empty((0, 0), dtype=np.int64), PIN_TESTS, 1, disp, flags, total,
-            np.empty((4, 6, 4), dtype=np.float32), np.empty(4, dtype=np.int64), None, True,
-            None,
+        bands.match_band_rows(
+            padded(left, 1), padded(left, 1), records.dsi(0, 3, 1),
+            records.step_costs(100.0, 50.0, True), bands.SEARCH_TWICE, PIN_TESTS, 1, out, None,
+            True, None,
         )  # fmt: skip
 
 

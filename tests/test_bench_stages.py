@@ -7,11 +7,12 @@ import numpy as np
 import pytest
 
 import synthetic
-from dcstereo import _band_kernels, api
+from dcstereo import api
+from dcstereo.kernels import bands
 from dcstereo.params import MatchParams
 
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_stages.py"
-STAGES = _band_kernels.CLOCK_STAGES
+STAGES = bands.CLOCK_STAGES
 
 
 @pytest.mark.parametrize("method", ["dsi5", "dc"])

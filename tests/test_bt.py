@@ -6,8 +6,8 @@ import pytest
 import dcstereo
 import naive_gcp_bt
 import synthetic
-from dcstereo import _kernels
 from dcstereo.evaluation import parse_methods, run_method
+from dcstereo.kernels import costs
 
 BT_METHODS = ["block", "dsi3", "dsi5", "dc", "dc-linear", "dsi3-gcp"]
 
@@ -21,7 +21,7 @@ def kernel_costs(left, right, dmin, ndisp, radius, incremental=True):
     vcol = np.empty((width, ndisp), dtype=np.int32)
     rows = []
     for y in range(height):
-        _kernels.row_costs_bt(
+        costs.row_costs_bt(
             left_p, right_p, y, dmin, ndisp, radius, vcol, out, incremental and y > 0
         )
         rows.append(out.copy())
@@ -96,8 +96,8 @@ def test_bt_is_never_more_than_sad_and_zero_on_identity():
     bt = np.empty((20, 4))
     vcol = np.empty((20, 4), dtype=np.int32)
     for y in range(8):
-        _kernels.row_costs(left_p, right_p, y, 0, 4, radius, vcol, sad, False)
-        _kernels.row_costs_bt(left_p, right_p, y, 0, 4, radius, vcol, bt, False)
+        costs.row_costs(left_p, right_p, y, 0, 4, radius, vcol, sad, False)
+        costs.row_costs_bt(left_p, right_p, y, 0, 4, radius, vcol, bt, False)
         finite = np.isfinite(sad)
         np.testing.assert_array_equal(finite, np.isfinite(bt))
         assert np.all(bt[finite] <= sad[finite])

@@ -12,9 +12,10 @@ import pytest
 import dcstereo
 import naive_divide
 import synthetic
-from dcstereo import FLAG_FEATURE, _kernels
+from dcstereo import FLAG_FEATURE
 from dcstereo.cost import window_variance
 from dcstereo.datasets import load_middlebury
+from dcstereo.kernels import costs, features
 from dcstereo.metrics import bad_pixel_rate
 from dcstereo.params import DEFAULT_DC_SLANT_COST, MatchParams
 from dcstereo.signal import SIGNAL_STEPS, matching_signal
@@ -87,24 +88,24 @@ def test_ser_and_vs_hand_computed_on_a_3x3_window():
     colsum = np.empty(5, dtype=np.int64)
     colsq = np.empty(5, dtype=np.int64)
     var_row = np.empty(3)
-    _kernels.window_variance_row(left_p, 0, 1, SIGNAL_STEPS, colsum, colsq, var_row, False)
+    features.window_variance_row(left_p, 0, 1, SIGNAL_STEPS, colsum, colsq, var_row, False)
     var_l = var_row[1]
-    var_r = _kernels.pixel_variance(right_p, 0, 1, 1, SIGNAL_STEPS)
-    ssd = _kernels.window_ssd(left_p, right_p, 0, 1, 1, 1) / SIGNAL_STEPS**2
+    var_r = naive_divide.pixel_variance(right_p, 0, 1, 1, SIGNAL_STEPS)
+    ssd = features.window_ssd(left_p, right_p, 0, 1, 1, 1) / SIGNAL_STEPS**2
     assert var_l == pytest.approx(float(Fraction(20, 3)), rel=1e-12)
     assert var_r == pytest.approx(float(Fraction(548, 81)), rel=1e-12)
     assert ssd == 1.0
-    ser, vs = _kernels.reliability(var_l, var_r, ssd, False)
+    ser, vs = features.reliability(var_l, var_r, ssd, False)
     assert ser == pytest.approx(float(Fraction(1088, 81)), rel=1e-12)
     assert vs == pytest.approx(float(Fraction(8, 81)), rel=1e-12)
-    _, vs_relative = _kernels.reliability(var_l, var_r, ssd, True)
+    _, vs_relative = features.reliability(var_l, var_r, ssd, True)
     assert vs_relative == pytest.approx(float(Fraction(8, 1088)), rel=1e-12)
 
 
 def test_reliability_of_a_perfect_match_and_of_flat_windows():
-    assert _kernels.reliability(3.0, 5.0, 0.0, True) == (math.inf, 0.25)
-    assert _kernels.reliability(0.0, 0.0, 0.0, True) == (math.inf, 0.0)
-    assert _kernels.reliability(0.0, 0.0, 2.0, False) == (0.0, 0.0)
+    assert features.reliability(3.0, 5.0, 0.0, True) == (math.inf, 0.25)
+    assert features.reliability(0.0, 0.0, 0.0, True) == (math.inf, 0.0)
+    assert features.reliability(0.0, 0.0, 2.0, False) == (0.0, 0.0)
 
 
 @pytest.mark.parametrize("radius", [0, 1, 2])
@@ -121,12 +122,12 @@ def test_window_variance_row_matches_the_numpy_variance(radius):
     colsq_run = np.empty_like(colsq)
     out_run = np.empty(width)
     for y in range(height):
-        _kernels.window_variance_row(padded, y, radius, SIGNAL_STEPS, colsum, colsq, out, False)
+        features.window_variance_row(padded, y, radius, SIGNAL_STEPS, colsum, colsq, out, False)
         np.testing.assert_allclose(out, expected[y], rtol=1e-9, atol=1e-9)
         for x in range(width):
-            assert _kernels.pixel_variance(padded, y, x, radius, SIGNAL_STEPS) == out[x]
+            assert naive_divide.pixel_variance(padded, y, x, radius, SIGNAL_STEPS) == out[x]
         # the running sums, updated row by row, give the very same values
-        _kernels.window_variance_row(
+        features.window_variance_row(
             padded, y, radius, SIGNAL_STEPS, colsum_run, colsq_run, out_run, y > 0
         )
         np.testing.assert_array_equal(out_run, out)
@@ -155,32 +156,32 @@ def test_window_ssd_matches_a_plain_sum_over_the_truncated_window(radius):
                     - right_p[y : y + win, [j + c + radius for c in cols]]
                 )
                 expected = float(np.sum(diff * diff)) * win / len(cols)
-                got = _kernels.window_ssd(left_p, right_p, y, x, j, radius)
+                got = features.window_ssd(left_p, right_p, y, x, j, radius)
                 assert got == pytest.approx(expected, rel=1e-12)
 
 
 def test_uniqueness_ratio_hand_computed():
     cost = np.array([[5.0, 1.0, 2.0, 6.0, 3.0]])
     # the neighbours 0 and 2 of the best (k = 1) are left out: second = min(6, 3) = 3
-    assert _kernels.uniqueness_ratio(cost, 0, 1) == 3.0
+    assert features.uniqueness_ratio(cost, 0, 1) == 3.0
     # measured at a cost that is not the least: the ratio falls below 1
-    assert _kernels.uniqueness_ratio(cost, 0, 4) == pytest.approx(1.0 / 3.0)
+    assert features.uniqueness_ratio(cost, 0, 4) == pytest.approx(1.0 / 3.0)
     # a perfect match: infinitely unique unless another perfect match lies two away
-    assert _kernels.uniqueness_ratio(np.array([[0.0, 4.0, 4.0]]), 0, 0) == math.inf
-    assert _kernels.uniqueness_ratio(np.array([[0.0, 7.0, 0.0]]), 0, 0) == 1.0
+    assert features.uniqueness_ratio(np.array([[0.0, 4.0, 4.0]]), 0, 0) == math.inf
+    assert features.uniqueness_ratio(np.array([[0.0, 7.0, 0.0]]), 0, 0) == 1.0
     # a band of two: no disparity is two away, so the best is unique
-    assert _kernels.uniqueness_ratio(np.array([[2.0, 1.0]]), 0, 1) == math.inf
+    assert features.uniqueness_ratio(np.array([[2.0, 1.0]]), 0, 1) == math.inf
 
 
 def test_block_match_is_computed_once_per_pixel():
     cost = np.array([[4.0, 2.0, 9.0, 8.0], [np.inf, np.inf, np.inf, np.inf]])
-    wta_k = np.full(2, _kernels.NOT_MATCHED, dtype=np.int64)
+    wta_k = np.full(2, features.NOT_MATCHED, dtype=np.int64)
     wta_ratio = np.zeros(2)
-    assert _kernels.block_match(cost, 0, wta_k, wta_ratio) == 1
+    assert features.block_match(cost, 0, wta_k, wta_ratio) == 1
     assert wta_ratio[0] == 4.0  # k = 3 (cost 8) is the only one two away from k = 1
-    assert _kernels.block_match(cost, 1, wta_k, wta_ratio) == -1  # empty band
+    assert features.block_match(cost, 1, wta_k, wta_ratio) == -1  # empty band
     cost[0, 3] = 0.0  # cached: a later change of the cost is not seen
-    assert _kernels.block_match(cost, 0, wta_k, wta_ratio) == 1
+    assert features.block_match(cost, 0, wta_k, wta_ratio) == 1
 
 
 @pytest.mark.parametrize("seed", range(3))
@@ -268,16 +269,16 @@ def test_feature_search_agrees_with_the_naive_twin(options):
         colsum = np.empty(width + 2 * radius, dtype=np.int64)
         colsq = np.empty_like(colsum)
         for y in range(height):
-            _kernels.row_costs(left_p, right_p, y, min_disparity, ndisp, radius, vcol, cost, False)
+            costs.row_costs(left_p, right_p, y, min_disparity, ndisp, radius, vcol, cost, False)
             var_l = np.empty(width)
             var_r = np.empty(width)
             for signal, out in ((left_p, var_l), (right_p, var_r)):
-                _kernels.window_variance_row(
+                features.window_variance_row(
                     signal, y, radius, SIGNAL_STEPS, colsum, colsq, out, False
                 )
 
             def ssd_of(p, j, y=y, left_p=left_p, right_p=right_p):
-                return _kernels.window_ssd(left_p, right_p, y, p, j, radius) / SIGNAL_STEPS**2
+                return features.window_ssd(left_p, right_p, y, p, j, radius) / SIGNAL_STEPS**2
 
             expected = naive_divide.divide_pairs(
                 cost,
@@ -502,15 +503,15 @@ def test_candidate_tree_gives_the_strongest_leftmost_candidate_of_any_interval(s
     tree_v = np.full(2 * size, -np.inf)
     tree_i = np.full(2 * size, -1, dtype=np.int64)
     for p in range(width):
-        _kernels._tree_set(tree_v, tree_i, size, p, values[p])
+        features._tree_set(tree_v, tree_i, size, p, values[p])
         tree_i[size + p] = p
     for node in range(size - 1, 0, -1):
-        _kernels._tree_pull(tree_v, tree_i, node)
+        features._tree_pull(tree_v, tree_i, node)
     for _ in range(60):
         if rng.random() < 0.4:
             p = int(rng.integers(0, width))
             values[p] = -np.inf if rng.random() < 0.5 else float(rng.integers(0, 6))
-            _kernels._tree_set(tree_v, tree_i, size, p, values[p])
+            features._tree_set(tree_v, tree_i, size, p, values[p])
         lo = int(rng.integers(0, width))
         hi = int(rng.integers(lo - 1, width))
         window = values[lo : hi + 1]
@@ -518,4 +519,4 @@ def test_candidate_tree_gives_the_strongest_leftmost_candidate_of_any_interval(s
             expected = -1
         else:
             expected = lo + int(np.argmax(window))  # argmax: the first of equal maxima
-        assert _kernels._tree_best(tree_v, tree_i, size, lo, hi) == expected
+        assert features._tree_best(tree_v, tree_i, size, lo, hi) == expected

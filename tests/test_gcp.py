@@ -8,8 +8,9 @@ from PIL import Image
 import dcstereo
 import naive_gcp_bt
 import synthetic
-from dcstereo import _band_kernels, _kernels, io
+from dcstereo import io
 from dcstereo.cli import main
+from dcstereo.kernels import gcp
 from dcstereo.result import FLAG_FEATURE
 
 
@@ -17,7 +18,7 @@ def kernel_select(cost, var_l, dmin, radius, uniqueness, var_floor):
     width = cost.shape[0]
     gcp_x = np.empty(width, dtype=np.int64)
     gcp_j = np.empty(width, dtype=np.int64)
-    n = _kernels.select_gcps(cost, var_l, dmin, radius, uniqueness, var_floor, gcp_x, gcp_j)
+    n = gcp.select_gcps(cost, var_l, dmin, radius, uniqueness, var_floor, gcp_x, gcp_j)
     return list(zip(gcp_x[:n].tolist(), gcp_j[:n].tolist(), strict=True))
 
 
@@ -61,7 +62,7 @@ def test_brute_force_cases_include_crossing_candidates():
     assert dropped >= 3
 
 
-@pytest.mark.parametrize("kernels", [_kernels, _band_kernels])  # each file has its copy
+@pytest.mark.parametrize("kernels", [gcp])
 @pytest.mark.parametrize("m", [0, 1, 2, 7, 60, 2500])
 def test_run_lengths_are_the_longest_increasing_runs_from_each_candidate(kernels, m):
     # the O(m log m) lengths against their definition: 1 + the longest from a later

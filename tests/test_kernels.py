@@ -6,15 +6,15 @@ import numpy as np
 import pytest
 
 import naive
-from dcstereo import _kernels
+from dcstereo.kernels import costs, divide, dp, records
 from dcstereo.result import FLAG_FEATURE
 
 STEP_NAMES = {
-    _kernels.STEP_C: naive.C,
-    _kernels.STEP_A: naive.A,
-    _kernels.STEP_B: naive.B,
-    _kernels.STEP_D: naive.D,
-    _kernels.STEP_E: naive.E,
+    dp.STEP_C: naive.C,
+    dp.STEP_A: naive.A,
+    dp.STEP_B: naive.B,
+    dp.STEP_D: naive.D,
+    dp.STEP_E: naive.E,
 }
 
 
@@ -22,27 +22,20 @@ def run_dp(cost, dmin, occ, five, box, anchor_start=False, anchor_end=False):
     """Call ``scanline_dp``; return (total, nodes, steps) in the oracle's format."""
     width, ndisp = cost.shape
     x_lo, x_hi, j_lo, j_hi = box
-    table = np.empty((width + 2, ndisp + 2))
-    path_x = np.empty(2 * width + 2, dtype=np.int64)
-    path_k = np.empty(2 * width + 2, dtype=np.int64)
-    path_s = np.empty(2 * width + 2, dtype=np.uint8)
-    n, total = _kernels.scanline_dp(
+    path = dp.path_scratch(width, ndisp)
+    n, total = dp.scanline_dp(
         cost,
         dmin,
-        2.0 * occ,
-        five,
-        0.0,
+        records.step_costs(2.0 * occ, 0.0, five),
         x_lo,
         x_hi,
         j_lo,
         j_hi,
         anchor_start,
         anchor_end,
-        table,
-        path_x,
-        path_k,
-        path_s,
+        path,
     )
+    path_x, path_k, path_s = path.path_x, path.path_k, path.path_s
     if n == 0:
         return math.inf, [], []
     xs = path_x[:n][::-1]
@@ -51,7 +44,7 @@ def run_dp(cost, dmin, occ, five, box, anchor_start=False, anchor_end=False):
     nodes = [(int(x), int(x - dmin - k)) for x, k in zip(xs, ks, strict=True)]
     names = [STEP_NAMES.get(int(s)) for s in ss]
     if anchor_start:
-        assert ss[0] == _kernels.STEP_START
+        assert ss[0] == dp.STEP_START
         return total / 2.0, nodes, names[1:]
     # prepend the virtual start node the first step came from
     di, dj = naive._MOVES[names[0]]
@@ -138,8 +131,8 @@ def test_row_costs_match_naive_window_sad(radius):
     vcol_fresh = np.empty((width, ndisp), dtype=np.int32)
     for y in range(height):
         # rows after the first update the vertical sums of the row before
-        _kernels.row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, out, y > 0)
-        _kernels.row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol_fresh, fresh, False)
+        costs.row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, out, y > 0)
+        costs.row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol_fresh, fresh, False)
         expected = naive.row_costs(left, right, y, dmin, ndisp, radius)
         np.testing.assert_array_equal(out, expected)
         np.testing.assert_array_equal(fresh, expected)
@@ -157,7 +150,7 @@ def test_row_costs_match_naive_when_the_band_leaves_the_image(dmin):
     out = np.empty((width, ndisp))
     vcol = np.empty((width, ndisp), dtype=np.int32)
     for y in range(height):
-        _kernels.row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, out, y > 0)
+        costs.row_costs(left_p, right_p, y, dmin, ndisp, radius, vcol, out, y > 0)
         np.testing.assert_array_equal(out, naive.row_costs(left, right, y, dmin, ndisp, radius))
 
 
@@ -189,7 +182,7 @@ def test_collect_features_equals_numpy_nonzero(with_scores):
     want_flags = np.where(partner >= 0, flags | FLAG_FEATURE, flags)
     rows, cols = np.nonzero(partner >= 0)  # row-major, as the kernel
     empty = np.empty((0, 0), dtype=np.float32)
-    got = _kernels.collect_features(
+    got = divide.collect_features(
         partner, ser if with_scores else empty, vs if with_scores else empty, FLAG_FEATURE, flags
     )
     assert got.shape == (rows.size, 5)
@@ -224,8 +217,8 @@ def test_collect_pairs_equals_collect_features():
         counts[y] = xs.size
     flags = rng.integers(0, 4, (height, width)).astype(np.uint8)
     want_flags = flags.copy()
-    want = _kernels.collect_features(partner, ser, vs, FLAG_FEATURE, want_flags)
-    got = _kernels.collect_pairs(pairs, counts, FLAG_FEATURE, flags)
+    want = divide.collect_features(partner, ser, vs, FLAG_FEATURE, want_flags)
+    got = divide.collect_pairs(pairs, counts, FLAG_FEATURE, flags)
     assert got.dtype == want.dtype and got.shape == want.shape
     np.testing.assert_array_equal(got, want)
     np.testing.assert_array_equal(flags, want_flags)

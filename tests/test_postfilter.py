@@ -6,7 +6,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from dcstereo import FLAG_FEATURE, FLAG_OCCLUDED, MatchParams, _postfilter_kernels, io, match
+from dcstereo import FLAG_FEATURE, FLAG_OCCLUDED, MatchParams, io, match
+from dcstereo.kernels import postfilter
 from dcstereo.postfilter import MAX_BINS, MAX_MEDIAN, median_filter
 from dcstereo.tiling import match_tiled
 from test_cli import invoke
@@ -70,7 +71,7 @@ def test_kernel_equals_its_twin(size, seed):
 def test_the_sliding_histogram_equals_the_twin(subpixel, size, seed, low, values):
     result = random_result(seed, 17, 37, subpixel=subpixel, low=low, values=values)
     bins = np.empty(result.disparity.shape, dtype=np.int32)
-    _, nbins, exact = _postfilter_kernels.value_buckets(result.disparity, MAX_BINS, bins)
+    _, nbins, exact = postfilter.value_buckets(result.disparity, MAX_BINS, bins)
     assert nbins > 0 and exact == (not subpixel)  # the histogram's path, both of its modes
     filtered = median_filter(result, size)
     np.testing.assert_array_equal(
@@ -82,10 +83,10 @@ def test_buckets_are_ordered_and_as_fine_as_the_span_allows():
     result = random_result(6, 15, 31)
     d = result.disparity
     bins = np.empty(d.shape, dtype=np.int32)
-    for span, scale in ((20, _postfilter_kernels.FINEST_BUCKETS), (1000, 16.0), (5000, 2.0)):
+    for span, scale in ((20, postfilter.FINEST_BUCKETS), (1000, 16.0), (5000, 2.0)):
         wide = d.copy()
         wide[0, 0] = float(np.nanmin(d)) + span  # the map's span
-        low, nbins, exact = _postfilter_kernels.value_buckets(wide, MAX_BINS, bins)
+        low, nbins, exact = postfilter.value_buckets(wide, MAX_BINS, bins)
         assert not exact and nbins == int(np.floor(scale * span)) + 1 and low == np.nanmin(d)
         finite = np.isfinite(wide)
         np.testing.assert_array_equal(bins[~finite], -1)
@@ -103,22 +104,22 @@ def test_maps_the_histogram_does_not_take_are_sorted():
     d[3, 3] = 9000.0  # a span of more than MAX_BINS half pixels
     wide = replace(result, disparity=d)
     bins = np.empty(d.shape, dtype=np.int32)
-    assert _postfilter_kernels.value_buckets(d, MAX_BINS, bins) == (0.0, 0, False)
+    assert postfilter.value_buckets(d, MAX_BINS, bins) == (0.0, 0, False)
     np.testing.assert_array_equal(
         median_filter(wide, 5).disparity, twin(d, result.flags, 5, result.params)
     )
     empty = replace(result, disparity=np.full_like(d, np.nan))
-    assert _postfilter_kernels.value_buckets(empty.disparity, MAX_BINS, bins)[1] == 0
+    assert postfilter.value_buckets(empty.disparity, MAX_BINS, bins)[1] == 0
     assert np.isnan(median_filter(empty, 3).disparity).all()
     # the sort and the histogram agree, on maps of half pixels and sub-pixel maps
     for subpixel in (False, True):
         result = random_result(5, subpixel=subpixel)
         d = result.disparity
-        low, nbins, exact = _postfilter_kernels.value_buckets(d, MAX_BINS, bins)
+        low, nbins, exact = postfilter.value_buckets(d, MAX_BINS, bins)
         moved = np.isfinite(d)
         a, b = d.copy(), d.copy()
-        _postfilter_kernels.median_rows(d, moved, 2, a)
-        _postfilter_kernels.median_rows_binned(d, bins, moved, 2, nbins, low, exact, b)
+        postfilter.median_rows(d, moved, 2, a)
+        postfilter.median_rows_binned(d, bins, moved, 2, nbins, low, exact, b)
         np.testing.assert_array_equal(a, b)
 
 

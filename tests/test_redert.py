@@ -10,7 +10,8 @@ from PIL import Image
 import dcstereo
 import naive_redert
 import synthetic
-from dcstereo import MatchParams, _redert_kernels
+from dcstereo import MatchParams
+from dcstereo.kernels import records, redert
 from dcstereo.metrics import bad_pixel_rate, mean_abs_error
 from dcstereo.redert import match_redert, orientation_steps
 
@@ -22,28 +23,16 @@ def run_dp(node, seg, dmin, oq, occ, orient, slant, steps=4, discount=0.0, run_c
     """
     width, ndisp, norient = node.shape
     nstates = norient + 2 * run_cap + 2
-    table = np.empty((width if ring is None else ring, ndisp, nstates))
-    back = np.empty((width, ndisp, nstates), dtype=np.uint8)
-    path_x = np.empty(2 * width + 2, dtype=np.int64)
-    path_k = np.empty(2 * width + 2, dtype=np.int64)
-    path_st = np.empty(2 * width + 2, dtype=np.int64)
-    n, total = _redert_kernels.scanline_dp(
-        node,
-        seg,
-        steps,
-        dmin,
-        oq,
-        occ,
-        discount,
-        run_cap,
-        orient,
-        slant,
-        table,
-        back,
-        path_x,
-        path_k,
-        path_st,
+    work = records.RedertScratch(
+        np.empty((width if ring is None else ring, ndisp, nstates)),
+        np.empty((width, ndisp, nstates), dtype=np.uint8),
+        np.empty(2 * width + 2, dtype=np.int64),
+        np.empty(2 * width + 2, dtype=np.int64),
+        np.empty(2 * width + 2, dtype=np.int64),
     )
+    model = records.redert_model(steps, oq, occ, discount, run_cap, orient, slant)
+    n, total = redert.scanline_dp(node, seg, dmin, model, work)
+    path_x, path_k, path_st = work.path_x, work.path_k, work.path_st
     if n == 0:
         return math.inf, []
     # kernel states: matched, left run counts 1..N, right run counts 1..N, border runs
@@ -256,8 +245,8 @@ def test_sheared_costs_match_naive_windows(radius, steps, slopes, ndisp):
     node = np.empty((width, ndisp, oq.size))
     seg = np.empty_like(node)
     for y in range(height):
-        _redert_kernels.sample_columns(left_p, right_p, y, radius, steps, e_lo, columns)
-        _redert_kernels.sheared_costs(columns, e_lo, steps, dmin, oq, radius, node, seg)
+        redert.sample_columns(left_p, right_p, y, radius, steps, e_lo, columns)
+        redert.sheared_costs(columns, e_lo, steps, dmin, oq, radius, node, seg)
         want_node, want_seg = naive_redert.row_costs(left, right, y, dmin, ndisp, oq, radius, steps)
         np.testing.assert_allclose(node, want_node, rtol=1e-12)
         np.testing.assert_allclose(seg, want_seg, rtol=1e-12)
@@ -277,11 +266,11 @@ def test_sliding_column_sums_equal_fresh_ones(radius, steps, dmin):
     shape = (width, steps * (ndisp - 1) + 2 * radius * omax + 1)
     sliding = np.empty(shape, dtype=np.int64)
     fresh = np.empty(shape, dtype=np.int64)
-    _redert_kernels.sample_columns(left_p, right_p, 0, radius, steps, e_lo, sliding)
+    redert.sample_columns(left_p, right_p, 0, radius, steps, e_lo, sliding)
     assert (sliding == -1).any() and (sliding > 0).any()
     for y in range(1, height):
-        _redert_kernels.slide_columns(left_p, right_p, y, radius, steps, e_lo, sliding)
-        _redert_kernels.sample_columns(left_p, right_p, y, radius, steps, e_lo, fresh)
+        redert.slide_columns(left_p, right_p, y, radius, steps, e_lo, sliding)
+        redert.sample_columns(left_p, right_p, y, radius, steps, e_lo, fresh)
         np.testing.assert_array_equal(sliding, fresh)
 
 

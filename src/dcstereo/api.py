@@ -5,7 +5,7 @@ from collections.abc import Callable
 import numba
 import numpy as np
 
-from . import _band_kernels, _kernels
+from .kernels import bands, divide, gcp, records, rows
 from .params import DEFAULT_METHOD, MatchParams
 from .postfilter import median_filter
 from .redert import match_redert as _match_redert
@@ -111,12 +111,19 @@ def cost_scale(window: int) -> float:
     return float(SIGNAL_STEPS * window * window)
 
 
-def _outputs(shape):
-    height, width = shape[:2]
-    disparity = np.empty((height, width), dtype=np.float32)
-    flags = np.empty((height, width), dtype=np.uint8)
-    total = np.empty(height, dtype=np.float64)
-    return disparity, flags, total, _kernels.chunk_count(height)
+def _dsi(params: MatchParams) -> records.Dsi:
+    """Return the kernels' disparities and window (``records.Dsi``) of ``params``."""
+    return records.dsi(params.min_disparity, params.num_disparities, params.window // 2)
+
+
+def _step_costs(params: MatchParams, five: bool) -> records.StepCosts:
+    """Return the DP's step costs of ``params``, doubled units (``records.StepCosts``).
+
+    ``five``: the five-step model, with ``params``' slant cost; else the three steps.
+    """
+    scale = cost_scale(params.window)
+    slant2 = _doubled(params.effective_slant_cost, scale) if five else 0.0
+    return records.step_costs(_doubled(params.occlusion_cost, scale), slant2, five)
 
 
 def _features(partner, flags, ser=None, vs=None):
@@ -127,142 +134,79 @@ def _features(partner, flags, ser=None, vs=None):
     """
     if ser is None:
         ser = vs = np.empty((0, 0), dtype=np.float32)
-    return _kernels.collect_features(partner, ser, vs, FLAG_FEATURE, flags)
+    return divide.collect_features(partner, ser, vs, FLAG_FEATURE, flags)
 
 
 def _match_block(left, right, params: MatchParams) -> DisparityResult:
     """``block``: the least window cost per pixel.
 
-    Runs ``_band_kernels.BAND_ROWS`` rows in lockstep (the same results, bit for bit, as
+    Runs ``bands.BAND_ROWS`` rows in lockstep (the same results, bit for bit, as
     the per-row kernel); the Birchfield-Tomasi cost makes the band's cost array first,
     with as many chunks at once as ``BAND_ARRAY_BYTES`` holds arrays, and where one array
     alone would pass it, runs row by row instead.
     """
-    radius = params.window // 2
-    left_p, right_p = _padded_signals(left, right, radius)
-    disparity, flags, total, nchunks = _outputs(left.shape)
+    left_p, right_p = _padded_signals(left, right, params.window // 2)
+    out = records.outputs(*left.shape[:2])
     bt = params.cost == "bt"
     if bt and not _band_array_fits(params, left.shape[1]):
-        _kernels.match_block_rows(
-            left_p,
-            right_p,
-            params.min_disparity,
-            params.num_disparities,
-            radius,
-            True,
-            nchunks,
-            disparity,
-            flags,
-            total,
-        )
+        nchunks = rows.chunk_count(left.shape[0])
+        rows.match_block_rows(left_p, right_p, _dsi(params), True, nchunks, out)
     else:
-        _band_kernels.match_block_bands(
-            left_p,
-            right_p,
-            params.min_disparity,
-            params.num_disparities,
-            radius,
-            _array_chunks(params, left.shape) if bt else _band_chunks(left.shape[0]),
-            disparity,
-            flags,
-            total,
-            True if bt else None,  # None: the SAD version compiles without the BT code
-        )
-    return DisparityResult(disparity, flags, params, total / cost_scale(params.window))
+        nchunks = _array_chunks(params, left.shape) if bt else _band_chunks(left.shape[0])
+        # bt None: the SAD version compiles without the BT code
+        bands.match_block_bands(left_p, right_p, _dsi(params), nchunks, out, True if bt else None)
+    return DisparityResult(out.disparity, out.flags, params, out.total / cost_scale(params.window))
 
 
 def _match_dsi(left, right, params: MatchParams, clock=None) -> DisparityResult:
     """``dsi3`` / ``dsi5``: the whole-scanline DP of every row.
 
-    Both costs run ``_band_kernels.BAND_ROWS`` rows in lockstep (vectorized across rows;
-    the same results, bit for bit, as the per-row kernel ``_kernels.match_dsi_rows``).
+    Both costs run ``bands.BAND_ROWS`` rows in lockstep (vectorized across rows;
+    the same results, bit for bit, as the per-row kernel ``rows.match_dsi_rows``).
     The SAD cost makes each column's costs inside the DP pass; the Birchfield-Tomasi cost
     makes the band's cost array first (as many chunks at once as ``BAND_ARRAY_BYTES``
     holds arrays; where one array alone would pass it, row by row instead). ``clock``: the band
     kernel's stage counters (``match_band_rows``; ``benchmarks/bench_stages.py``), the band
     path only.
     """
-    radius = params.window // 2
-    left_p, right_p = _padded_signals(left, right, radius)
-    disparity, flags, total, nchunks = _outputs(left.shape)
-    scale = cost_scale(params.window)
-    occ2 = _doubled(params.occlusion_cost, scale)
-    slant2 = _doubled(params.effective_slant_cost, scale)
-    five = params.method == "dsi5"
-    bt = params.cost == "bt"
-    if bt and not _band_array_fits(params, left.shape[1]):
-        _kernels.match_dsi_rows(
-            left_p,
-            right_p,
-            params.min_disparity,
-            params.num_disparities,
-            radius,
-            True,
-            occ2,
-            five,
-            slant2,
-            nchunks,
-            disparity,
-            flags,
-            total,
-        )
+    left_p, right_p = _padded_signals(left, right, params.window // 2)
+    out = records.outputs(*left.shape[:2])
+    step_costs = _step_costs(params, five=params.method == "dsi5")
+    if params.cost == "bt" and not _band_array_fits(params, left.shape[1]):
+        nchunks = rows.chunk_count(left.shape[0])
+        rows.match_dsi_rows(left_p, right_p, _dsi(params), True, step_costs, nchunks, out)
     else:
-        _band_rows(left_p, right_p, params, occ2, five, slant2, (disparity, flags, total), clock)
-    return DisparityResult(disparity, flags, params, total / (2.0 * scale))
+        _band_rows(left_p, right_p, params, step_costs, out, clock)
+    scale = cost_scale(params.window)
+    return DisparityResult(out.disparity, out.flags, params, out.total / (2.0 * scale))
 
 
 def _band_rows(
-    left_p,
-    right_p,
-    params,
-    occ2,
-    five,
-    slant2,
-    outputs,
-    clock=None,
-    pin_mode=0,
-    partner=None,
-    tests=None,
-    pairs=None,
-    counts=None,
-    gcp=False,
+    left_p, right_p, params, step_costs, out, clock=None, mode=bands.FREE, tests=None, gcp=False
 ):
-    """Call ``_band_kernels.match_band_rows`` with ``params``' range, window and cost.
+    """Call ``bands.match_band_rows`` with ``params``' range, window and cost.
 
-    ``outputs`` is ``(disparity, flags, total)``; the arrays a mode does not read are
-    passed empty. ``tests`` None (no pins): the free-mode version compiles without the
+    ``out``: the call's ``records.Outputs`` (the arrays a mode does not write empty).
+    ``tests`` None (``mode`` ``bands.FREE``): the free-mode version compiles without the
     search; the SAD cost passes ``bt`` None, so its version compiles without the BT code,
     and the search of ``dc`` passes ``gcp`` None (``gcp``: ``dsi3-gcp``'s points instead).
     """
-    disparity, flags, total = outputs
-    if partner is None:
-        partner = np.empty((0, 0), dtype=np.int64)
-    if pairs is None:
-        pairs = np.empty((0, 0, 4), dtype=np.float32)
-        counts = np.empty(0, dtype=np.int64)
-    _band_kernels.match_band_rows(
+    # the BT cost and the modes that keep the band's cost array make it first
+    keeps_array = params.cost == "bt" or mode in (bands.PINS_GIVEN, bands.SEARCH)
+    nchunks = (
+        _array_chunks(params, out.disparity.shape)
+        if keeps_array
+        else _band_chunks(out.disparity.shape[0])
+    )
+    bands.match_band_rows(
         left_p,
         right_p,
-        params.min_disparity,
-        params.num_disparities,
-        params.window // 2,
-        occ2,
-        five,
-        slant2,
-        pin_mode,
-        partner,
+        _dsi(params),
+        step_costs,
+        mode,
         tests,
-        # the BT cost and pin modes 1 and 2 make the band's cost array
-        (
-            _array_chunks(params, disparity.shape)
-            if params.cost == "bt" or pin_mode in (1, 2)
-            else _band_chunks(disparity.shape[0])
-        ),
-        disparity,
-        flags,
-        total,
-        pairs,
-        counts,
+        nchunks,
+        out,
         clock,
         True if params.cost == "bt" else None,
         True if gcp else None,
@@ -271,7 +215,7 @@ def _band_rows(
 
 #: The most memory (bytes) that the band cost arrays of one call take together: the arrays
 #: the band kernels make before their DP for the Birchfield-Tomasi cost (``match_band_rows``'
-#: and ``match_block_bands``' ``bt``) and for ``dc``'s kept array (mode 2). Each running
+#: and ``match_block_bands``' ``bt``) and for ``dc``'s kept array (``bands.SEARCH``). Each running
 #: chunk makes one array, so the chunks are capped to fit (``_array_chunks``); where one
 #: array alone would not fit, the rows run one at a time (a ``(W, D)`` array each). The
 #: array is kept even where it leaves the caches: on noise strips of 256 rows, one thread,
@@ -283,7 +227,7 @@ BAND_ARRAY_BYTES = 512 * 2**20
 
 def _band_bytes(params: MatchParams, width: int) -> int:
     """Bytes of one band's float64 cost array (``width x (D + 2) x BAND_ROWS``)."""
-    return width * (params.num_disparities + 2) * _band_kernels.BAND_ROWS * 8
+    return width * (params.num_disparities + 2) * bands.BAND_ROWS * 8
 
 
 def _band_array_fits(params: MatchParams, width: int, limit: int | None = None) -> bool:
@@ -310,8 +254,8 @@ def _band_chunks(height: int) -> int:
     scenes, alternating in one process); the results do not depend on the chunks.
     """
     threads = numba.get_num_threads()
-    bands = -(-height // _band_kernels.BAND_ROWS)
-    return 1 if threads == 1 else max(1, min(bands, 4 * threads))
+    nbands = -(-height // bands.BAND_ROWS)
+    return 1 if threads == 1 else max(1, min(nbands, 4 * threads))
 
 
 def _match_dc(left, right, params: MatchParams, clock=None) -> DisparityResult:
@@ -319,87 +263,49 @@ def _match_dc(left, right, params: MatchParams, clock=None) -> DisparityResult:
 
     ``dc`` with the uniqueness test on and no limit on the tries (the defaults) runs on
     the band kernels: the feature search of each row on its band's costs, then the band DP
-    through the pairs (``_band_kernels.match_band_rows``; the band's cost array is kept
+    through the pairs (``bands.match_band_rows``; the band's cost array is kept
     while it fits ``DC_BAND_BYTES``, else the SAD costs are made twice, see
     ``_dc_band_mode``; the left-right check and the Birchfield-Tomasi cost keep the array
     up to ``BAND_ARRAY_BYTES``). The other settings, and images whose band array would
     pass that, run row by row
-    (``_kernels.match_dc_rows``), which fills each interval between pairs separately.
+    (``divide.match_dc_rows``), which fills each interval between pairs separately.
     Both give the same pairs and maps; the band path's ``path_cost`` is that of the whole
     path through the pairs (the row-by-row one leaves
     out intervals with no left pixel inside). ``clock``: as ``_match_dsi``'s.
     """
-    radius = params.window // 2
-    left_p, right_p = _padded_signals(left, right, radius)
-    disparity, flags, total, nchunks = _outputs(left.shape)
-    scale = cost_scale(params.window)
-    occ2 = _doubled(params.occlusion_cost, scale)
-    band_mode = _dc_band_mode(params, left.shape[1])
-    if band_mode:
-        # each row's pairs, compactly (only the first few of each row are touched)
-        pairs = np.empty((*disparity.shape, 4), dtype=np.float32)
-        counts = np.empty(disparity.shape[0], dtype=np.int64)
-        tests = (
-            float(params.ser_min),
-            float(params.vs_max),
-            bool(params.vs_relative),
-            float(params.feature_floor),
-            bool(params.lr_check),
-            float(params.uniqueness),
-            _edge_guard(params, left.shape[1]),
-            int(SIGNAL_STEPS),
-        )
-        _band_rows(
-            left_p,
-            right_p,
-            params,
-            occ2,
-            True,
-            _doubled(params.effective_slant_cost, scale),
-            (disparity, flags, total),
-            clock,
-            pin_mode=band_mode,
-            tests=tests,
-            pairs=pairs,
-            counts=counts,
-        )
-        features = _kernels.collect_pairs(pairs, counts, FLAG_FEATURE, flags)
-        return DisparityResult(disparity, flags, params, total / (2.0 * scale), features)
-    partner = np.empty(disparity.shape, dtype=np.int64)
-    ser = np.empty(disparity.shape, dtype=np.float32)
-    vs = np.empty(disparity.shape, dtype=np.float32)
-    _kernels.match_dc_rows(
-        left_p,
-        right_p,
-        params.min_disparity,
-        params.num_disparities,
-        radius,
-        params.cost == "bt",
-        occ2,
-        _doubled(params.effective_slant_cost, scale),
-        float(params.ser_min),
-        float(params.vs_max),
-        params.vs_relative,
-        float(params.feature_floor),
-        min(params.max_candidates, left.shape[1]),  # a row has no more candidates (int64)
-        params.lr_check,
-        float(params.uniqueness),
-        _edge_guard(params, left.shape[1]),
-        params.method == "dc-linear",
-        SIGNAL_STEPS,
-        nchunks,
-        disparity,
-        flags,
-        total,
-        partner,
-        ser,
-        vs,
+    left_p, right_p = _padded_signals(left, right, params.window // 2)
+    height, width = left.shape[:2]
+    step_costs = _step_costs(params, five=True)
+    tests = records.feature_tests(
+        ser_min=params.ser_min,
+        vs_max=params.vs_max,
+        vs_relative=params.vs_relative,
+        var_floor=params.feature_floor,
+        lr_check=params.lr_check,
+        uniqueness=params.uniqueness,
+        edge_guard=_edge_guard(params, width),
+        signal_steps=SIGNAL_STEPS,
+        max_candidates=min(params.max_candidates, width),  # a row has no more candidates
+        linear=params.method == "dc-linear",
     )
-    features = _features(partner, flags, ser, vs)
-    path_cost = total / (2.0 * scale)
+    scale = cost_scale(params.window)
+    band_mode = _dc_band_mode(params, width)
+    if band_mode != ROW_BY_ROW:
+        # each row's pairs, compactly (only the first few of each row are touched)
+        out = records.outputs(height, width, pairs=True)
+        _band_rows(left_p, right_p, params, step_costs, out, clock, mode=band_mode, tests=tests)
+        features = divide.collect_pairs(out.pairs, out.counts, FLAG_FEATURE, out.flags)
+        path_cost = out.total / (2.0 * scale)
+        return DisparityResult(out.disparity, out.flags, params, path_cost, features)
+    out = records.outputs(height, width, partner=True, reliability=True)
+    nchunks = rows.chunk_count(height)
+    bt = params.cost == "bt"
+    divide.match_dc_rows(left_p, right_p, _dsi(params), bt, step_costs, tests, nchunks, out)
+    features = _features(out.partner, out.flags, out.ser, out.vs)
+    path_cost = out.total / (2.0 * scale)
     if params.method == "dc-linear":
         path_cost = np.full_like(path_cost, np.nan)
-    return DisparityResult(disparity, flags, params, path_cost, features)
+    return DisparityResult(out.disparity, out.flags, params, path_cost, features)
 
 
 def _edge_guard(params: MatchParams, width: int) -> int:
@@ -411,50 +317,60 @@ def _edge_guard(params: MatchParams, width: int) -> int:
     return min(params.effective_edge_guard, width)
 
 
-#: Largest band cost array (bytes) that ``dc`` keeps (``match_band_rows`` mode 2: the
-#: costs made once, read by the block match, the search and the DP). Beyond it the array
-#: leaves the caches and streams through memory three times (3000 x 2000 x 256: 50 MB per
-#: band), so ``dc`` makes the costs twice instead, a column at a time (mode 3: once for the
-#: block match, once inside the DP, from the vertical sums the first pass left). On noise
-#: strips of 256 rows, one thread: 4 MiB arrays (1000 x 64) 67 ms kept against 83 made,
-#: 7.9 MiB 128 against 133, 15.9 MiB (2000 x 128) 324 against 260, 23.6 MiB 436 against
-#: 345; on the 3000 x 2000 x 256 pair mode 3 beats the row kernel (6.0 s against 7.8).
-#: Mode 3 keeps no costs for the search, so the left-right check (which walks the array's
-#: diagonals) and the BT cost keep the array past this bound, up to ``BAND_ARRAY_BYTES``.
+#: Largest band cost array (bytes) that ``dc`` keeps (``match_band_rows``' ``bands.SEARCH``,
+#: "mode 2" in docs/SPEED.md: the costs made once, read by the block match, the search and
+#: the DP). Beyond it the array leaves the caches and streams through memory three times
+#: (3000 x 2000 x 256: 50 MB per band), so ``dc`` makes the costs twice instead, a column
+#: at a time (``bands.SEARCH_TWICE``, "mode 3": once for the block match, once inside the
+#: DP, from the vertical sums the first pass left). On noise strips of 256 rows, one
+#: thread: 4 MiB arrays (1000 x 64) 67 ms kept against 83 made, 7.9 MiB 128 against 133,
+#: 15.9 MiB (2000 x 128) 324 against 260, 23.6 MiB 436 against 345; on the 3000 x 2000 x
+#: 256 pair SEARCH_TWICE beats the row kernel (6.0 s against 7.8). SEARCH_TWICE keeps no
+#: costs for the search, so the left-right check (which walks the array's diagonals) and
+#: the BT cost keep the array past this bound, up to ``BAND_ARRAY_BYTES``.
 DC_BAND_BYTES = 8 * 2**20
 
 
+#: ``_dc_band_mode`` and ``_search_band_mode``: the search runs row by row (else on the
+#: bands, in ``match_band_rows``' mode ``bands.SEARCH`` or ``bands.SEARCH_TWICE``).
+ROW_BY_ROW = 0
+
+
 def _dc_band_mode(params: MatchParams, width: int) -> int:
-    """How ``dc`` runs: 0 row by row, else the ``pin_mode`` of ``match_band_rows`` (2, 3)."""
+    """How ``dc`` runs: ``ROW_BY_ROW``, else the ``mode`` of ``match_band_rows``.
+
+    ``bands.SEARCH`` or ``bands.SEARCH_TWICE`` ("modes" 2 and 3: 0 is row by row).
+    """
     if not (params.method == "dc" and params.uniqueness > 0 and params.max_candidates == 0):
-        return 0
+        return ROW_BY_ROW
     mode = _search_band_mode(params, width)
-    if mode == 2 or (mode == 3 and not params.lr_check):
+    if mode == bands.SEARCH or (mode == bands.SEARCH_TWICE and not params.lr_check):
         return mode
-    # the BT cost and dc's left-right check read the band's array, which mode 3 does not
-    # keep: kept past the caches, 1.5-3.5x faster than row by row (BAND_ARRAY_BYTES)
-    return 2 if _band_array_fits(params, width) else 0
+    # the BT cost and dc's left-right check read the band's array, which SEARCH_TWICE does
+    # not keep: kept past the caches, 1.5-3.5x faster than row by row (BAND_ARRAY_BYTES)
+    return bands.SEARCH if _band_array_fits(params, width) else ROW_BY_ROW
 
 
 def _search_band_mode(params: MatchParams, width: int) -> int:
     """How a search on the bands (``dc``, ``dsi3-gcp``) runs, by the size of its cost array.
 
-    2: with the band's cost array while it fits ``DC_BAND_BYTES`` (and the memory bound,
-    ``BAND_ARRAY_BYTES``); else 3, the SAD costs made twice, inside the passes
-    (``dsi3-gcp``'s left-right check then reads the two least costs of each right pixel,
-    folded in as the columns are made); 0, row by row, for the BT cost, which needs the
-    array (``dsi3-gcp``'s check walks it: past the caches slower than row by row, 16 to 24
-    MiB arrays 1.1-1.2x; ``dc`` keeps it, ``_dc_band_mode``).
+    ``bands.SEARCH`` (2): with the band's cost array while it fits ``DC_BAND_BYTES`` (and
+    the memory bound, ``BAND_ARRAY_BYTES``); else ``bands.SEARCH_TWICE`` (3), the SAD costs
+    made twice, inside the passes (``dsi3-gcp``'s left-right check then reads the two least
+    costs of each right pixel, folded in as the columns are made); ``ROW_BY_ROW`` (0) for
+    the BT cost, which needs the array (``dsi3-gcp``'s check walks it: past the caches
+    slower than row by row, 16 to 24 MiB arrays 1.1-1.2x; ``dc`` keeps it,
+    ``_dc_band_mode``).
     """
     if _band_array_fits(params, width, min(DC_BAND_BYTES, BAND_ARRAY_BYTES)):
-        return 2
-    return 0 if params.cost == "bt" else 3
+        return bands.SEARCH
+    return ROW_BY_ROW if params.cost == "bt" else bands.SEARCH_TWICE
 
 
 def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
     """``dsi3-gcp``: the three-step DP forced through ground control points.
 
-    Intille and Bobick's ground control points (see ``_kernels.select_gcps`` and
+    Intille and Bobick's ground control points (see ``gcp.select_gcps`` and
     :class:`~dcstereo.params.MatchParams`): per row, the left pixels of window variance at
     least ``gcp_variance_floor`` whose whole-band match passes the ``gcp_uniqueness``
     ratio test and the exact left-right check, then the longest subset increasing in both
@@ -464,44 +380,29 @@ def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
     them), in ``dc``'s modes (``_search_band_mode``): with the band's cost array while it
     fits ``DC_BAND_BYTES``, else with the SAD cost the costs made twice, a column at a
     time; the Birchfield-Tomasi cost on images too wide for the array runs row by row
-    (``_kernels.match_gcp_rows``). All give the same points and maps, bit for bit.
+    (``gcp.match_gcp_rows``). All give the same points and maps, bit for bit.
     """
-    radius = params.window // 2
-    left_p, right_p = _padded_signals(left, right, radius)
-    disparity, flags, total, nchunks = _outputs(left.shape)
-    partner = np.empty(disparity.shape, dtype=np.int64)
-    scale = cost_scale(params.window)
-    occ2 = _doubled(params.occlusion_cost, scale)
-    mode = _search_band_mode(params, left.shape[1])
-    if mode:
-        # dc's tests tuple, of which the points read the variance floor, the uniqueness
-        # and the signal steps (band_feature_mask, band_lane_variance); no guard (0)
-        tests = (0.0, 0.0, False, float(params.gcp_variance_floor), False,
-                 float(params.gcp_uniqueness), 0, SIGNAL_STEPS)  # fmt: skip
-        outputs = (disparity, flags, total)
-        _band_rows(
-            left_p, right_p, params, occ2, False, 0.0, outputs, None, mode, partner, tests, gcp=True
-        )
+    left_p, right_p = _padded_signals(left, right, params.window // 2)
+    height, width = left.shape[:2]
+    out = records.outputs(height, width, partner=True)
+    step_costs = _step_costs(params, five=False)
+    # the points read the variance floor, the uniqueness and the signal steps
+    # (band_feature_mask, band_lane_variance); no guard
+    tests = records.feature_tests(
+        var_floor=params.gcp_variance_floor,
+        uniqueness=params.gcp_uniqueness,
+        signal_steps=SIGNAL_STEPS,
+    )
+    mode = _search_band_mode(params, width)
+    if mode != ROW_BY_ROW:
+        _band_rows(left_p, right_p, params, step_costs, out, mode=mode, tests=tests, gcp=True)
     else:
-        _kernels.match_gcp_rows(
-            left_p,
-            right_p,
-            params.min_disparity,
-            params.num_disparities,
-            radius,
-            params.cost == "bt",
-            occ2,
-            float(params.gcp_uniqueness),
-            float(params.gcp_variance_floor),
-            SIGNAL_STEPS,
-            nchunks,
-            disparity,
-            flags,
-            total,
-            partner,
-        )
-    features = _features(partner, flags)
-    return DisparityResult(disparity, flags, params, total / (2.0 * scale), features)
+        nchunks = rows.chunk_count(height)
+        bt = params.cost == "bt"
+        gcp.match_gcp_rows(left_p, right_p, _dsi(params), bt, step_costs, tests, nchunks, out)
+    features = _features(out.partner, out.flags)
+    scale = cost_scale(params.window)
+    return DisparityResult(out.disparity, out.flags, params, out.total / (2.0 * scale), features)
 
 
 _METHODS: dict[str, Callable[[np.ndarray, np.ndarray, MatchParams], DisparityResult]] = {

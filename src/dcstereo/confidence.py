@@ -20,7 +20,8 @@ winner-take-all chose.
 
 import numpy as np
 
-from . import _kernels
+from .kernels import confidence as confidence_kernels
+from .kernels import rows
 from .result import FLAG_FILLED, DisparityResult, check_result_pair
 from .signal import padded_signal
 
@@ -54,7 +55,7 @@ def confidence(result: DisparityResult, left, right) -> np.ndarray:
     radius = params.window // 2
     wanted = np.isfinite(d) & ((result.flags & FLAG_FILLED) == 0)
     out = np.full(d.shape, np.nan, dtype=np.float32)
-    _kernels.confidence_rows(
+    confidence_kernels.confidence_rows(
         padded_signal(left, radius),
         padded_signal(right, radius),
         d,
@@ -63,7 +64,7 @@ def confidence(result: DisparityResult, left, right) -> np.ndarray:
         params.max_disparity - params.min_disparity + 1,
         radius,
         getattr(params, "cost", "sad") == "bt",
-        _kernels.chunk_count(d.shape[0]),
+        rows.chunk_count(d.shape[0]),
         out,
     )
     return out

@@ -278,7 +278,7 @@ class MatchParams:
         dissimilarity of Birchfield and Tomasi: the distance of each pixel's value to the
         range of the other image's linear interpolation over half a pixel on either side
         of its partner, the least of the two directions (see
-        ``dcstereo._kernels.row_costs_bt``). Same units (gray levels of mean
+        ``dcstereo.kernels.costs.row_costs_bt``). Same units (gray levels of mean
         dissimilarity), same edge handling. Every method but ``redert``, whose window is
         sheared, takes both.
     gcp_uniqueness : float

@@ -16,8 +16,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from . import _postfilter_kernels
 from .kernels import median as median_kernels
+from .kernels import postfilter as postfilter_kernels
 from .params import MAX_MEDIAN, check_median
 from .result import FLAG_FEATURE, DisparityResult
 
@@ -67,14 +67,14 @@ def median_filter(result: DisparityResult, size: int = 5) -> DisparityResult:
         median_kernels.median_rows_network(d, radius, _network(size), full, out)
         moved = moved & ~full
         if moved.any():  # the rest (windows with holes, or cut by the edge): sorted one by one
-            _postfilter_kernels.median_rows(d, moved, radius, out)
+            postfilter_kernels.median_rows(d, moved, radius, out)
         return replace(result, disparity=_inside(out, d, result.params))
     bins = np.empty(d.shape, dtype=np.int32)
-    low, nbins, exact = _postfilter_kernels.value_buckets(d, MAX_BINS, bins)
+    low, nbins, exact = postfilter_kernels.value_buckets(d, MAX_BINS, bins)
     if nbins:  # a histogram of value buckets slid along the rows
-        _postfilter_kernels.median_rows_binned(d, bins, moved, radius, nbins, low, exact, out)
+        postfilter_kernels.median_rows_binned(d, bins, moved, radius, nbins, low, exact, out)
     else:  # a span too wide for the histogram: each window sorted
-        _postfilter_kernels.median_rows(d, moved, radius, out)
+        postfilter_kernels.median_rows(d, moved, radius, out)
     return replace(result, disparity=_inside(out, d, result.params))
 
 

@@ -85,7 +85,8 @@ independent and run in parallel.
 
 import numpy as np
 
-from . import _kernels, _redert_kernels
+from .kernels import records, rows
+from .kernels import redert as redert_kernels
 from .params import MatchParams
 from .result import DisparityResult
 from .signal import SIGNAL_STEPS, check_pair, padded_signal
@@ -177,23 +178,16 @@ def match_redert(
     left_p = padded_signal(left, radius)
     right_p = padded_signal(right, radius)
     height, width = left.shape[:2]
-    disparity = np.empty((height, width), dtype=np.float32)
-    flags = np.empty((height, width), dtype=np.uint8)
+    out = records.outputs(height, width)
     slopes = np.empty((height, width), dtype=np.float32)
-    total = np.empty(height, dtype=np.float64)
-    nchunks = _kernels.chunk_count(height)
+    nchunks = rows.chunk_count(height)
     steps, oq = orientation_steps(params.orientations)
     scale = redert_cost_scale(params.window, steps)
     occlusion = float(np.rint(params.occlusion_cost * scale))
     discount = float(np.rint(params.occlusion_discount * params.occlusion_cost * scale))
     # one state per discounted pixel; without a discount the plain model (one state)
     run_cap = 1 + params.occlusion_discount_pixels if discount > 0 else 1
-    _redert_kernels.match_redert_rows(
-        left_p,
-        right_p,
-        params.min_disparity,
-        params.num_disparities,
-        radius,
+    model = records.redert_model(
         steps,
         oq,
         occlusion,
@@ -201,11 +195,8 @@ def match_redert(
         run_cap,
         float(np.rint(params.orientation_cost * scale)),
         float(np.rint(redert_slant_cost(params) * scale)),
-        nchunks,
-        disparity,
-        flags,
-        slopes,
-        total,
     )
-    result = DisparityResult(disparity, flags, params, total / scale)
+    dsi = records.dsi(params.min_disparity, params.num_disparities, radius)
+    redert_kernels.match_redert_rows(left_p, right_p, dsi, model, nchunks, out, slopes)
+    result = DisparityResult(out.disparity, out.flags, params, out.total / scale)
     return (result, slopes) if with_orientation else result

@@ -15,8 +15,8 @@ the same disparity map.
 
 import numpy as np
 
-from . import _signal_kernels
-from ._signal_kernels import LUMA
+from .kernels import signal as signal_kernels
+from .kernels.signal import LUMA
 
 #: Quantization steps per gray level of the matching signal.
 SIGNAL_STEPS = 16
@@ -115,7 +115,7 @@ def intensity(image: np.ndarray) -> np.ndarray:
     else:
         scaled = array.astype(np.float64) * 255.0
     if scaled.ndim == 3:
-        # summed in this order, as ``_signal_kernels.padded_signal`` does (not a matmul,
+        # summed in this order, as ``signal_kernels.padded_signal`` does (not a matmul,
         # whose BLAS may round differently)
         scaled = scaled[:, :, 0] * LUMA[0] + scaled[:, :, 1] * LUMA[1] + scaled[:, :, 2] * LUMA[2]
     return scaled
@@ -134,16 +134,16 @@ def padded_signal(image: np.ndarray, radius: int) -> np.ndarray:
     """
     array = _native(np.asarray(image))
     if array.dtype == np.uint8:
-        mode = _signal_kernels.MODE_UINT8
+        mode = signal_kernels.MODE_UINT8
     elif array.dtype == np.uint16:
-        mode = _signal_kernels.MODE_UINT16
+        mode = signal_kernels.MODE_UINT16
     else:
-        mode = _signal_kernels.MODE_FLOAT
-    if mode == _signal_kernels.MODE_FLOAT and array.dtype not in (np.float32, np.float64):
+        mode = signal_kernels.MODE_FLOAT
+    if mode == signal_kernels.MODE_FLOAT and array.dtype not in (np.float32, np.float64):
         array = array.astype(np.float64)  # float16, longdouble: as ``intensity`` takes them
     if array.ndim == 2:
         array = array[:, :, np.newaxis]
     height, width = array.shape[:2]
     out = np.empty((height + 2 * radius, width + 2 * radius), dtype=np.int32)
-    _signal_kernels.padded_signal(array, mode, SIGNAL_STEPS, radius, out)
+    signal_kernels.padded_signal(array, mode, SIGNAL_STEPS, radius, out)
     return out

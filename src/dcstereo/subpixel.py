@@ -23,7 +23,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from . import _subpixel_kernels
+from .kernels import subpixel as subpixel_kernels
 from .params import SUBPIXEL_FITS as FITS
 from .result import FLAG_FILLED, DisparityResult, check_result_pair
 from .signal import padded_signal
@@ -68,7 +68,7 @@ def refine_subpixel(
     with np.errstate(invalid="ignore"):
         wanted = np.isfinite(d) & (np.floor(d) == d) & ((result.flags & FLAG_FILLED) == 0)
     out = d.copy()
-    _subpixel_kernels.refine_rows(
+    subpixel_kernels.refine_rows(
         padded_signal(left, radius),
         padded_signal(right, radius),
         d,

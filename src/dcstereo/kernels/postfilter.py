@@ -1,4 +1,4 @@
-"""Compiled kernel of ``postfilter.py``: the median of the estimates in a window."""
+"""The median post-filter (:mod:`dcstereo.postfilter`): the median of the estimates in a window."""
 
 import numba as nb
 import numpy as np

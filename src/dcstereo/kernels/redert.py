@@ -1,9 +1,11 @@
-"""Compiled kernels of the ``redert`` method: sheared-window costs, the DP, the row driver.
+"""The method of Redert et al. [6] (``redert``): sheared-window costs, the DP, the row driver.
 
-Kernels that call each other live in this one file because numba's on-disk cache
-does not notice edits made in other files. See :mod:`dcstereo.redert` for the model.
+The orientation-and-occlusion DP the paper compares with in section 4 (Fig. 4),
+reconstructed (``../shared/paper/NOTES.md``, "[6]"; :mod:`dcstereo.redert` describes the
+model): the DP state carries a disparity and a surface orientation (a disparity slope),
+the right image's window is sheared by the orientation, and occlusions are states.
 
-Conventions (shared with ``_kernels.py``):
+Conventions (shared with :mod:`.dp` and :mod:`.costs`):
 
 * A left pixel ``x`` matches the right pixel ``j = x - d``; ``d = dmin + k``.
 * ``steps`` is the sampling resolution: right-image positions and disparities inside a
@@ -14,7 +16,7 @@ Conventions (shared with ``_kernels.py``):
 * The matching signal is an integer; right-image samples at ``1 / steps`` positions
   are linear interpolations ``(steps - f) * R[q] + f * R[q + 1]`` (``f`` steps), compared
   with ``steps * L``, so every window cost is an exact integer in units of ``1 / steps``
-  signal step (``steps`` times the cost of ``_kernels.row_costs`` at slope 0).
+  signal step (``steps`` times the cost of ``costs.row_costs`` at slope 0).
 * ``node[x, k, o]`` is the cost of matching left pixel ``x`` alone at disparity
   ``dmin + k`` with orientation ``o``; ``seg[x, k, o]`` the cost of the segment of
   orientation ``o`` ending at that node (see :func:`sheared_costs`); ``inf`` where the
@@ -28,9 +30,9 @@ Conventions (shared with ``_kernels.py``):
 import numba as nb
 import numpy as np
 
-# Reason flags (uint8 bits), mirrored in result.py.
-FLAG_OCCLUDED = 1
-FLAG_BORDER = 2
+from .dp import FLAG_BORDER, FLAG_OCCLUDED
+from .records import RedertScratch
+from .rows import chunk_bounds
 
 # Back-pointer code of an unreachable state (the others: see ``scanline_dp``).
 CODE_NONE = 0
@@ -118,7 +120,7 @@ def pixel_cost(columns, e_lo, x, e, q, radius):
 
     The left window column ``x + s`` (``s = -radius..radius``) is compared with the right
     position ``x + s - (e + q s) / steps`` (``columns`` from :func:`sample_columns`).
-    Like ``_kernels.row_costs``, the window is truncated to the columns whose left and
+    Like ``costs.row_costs``, the window is truncated to the columns whose left and
     right positions both lie inside the images and the sum rescaled to the full window
     (``* W / columns used``); ``inf`` when the centre position is outside.
     """
@@ -286,24 +288,12 @@ def sheared_costs(columns, e_lo, steps, dmin, oq, radius, node, seg):
 
 
 @nb.njit(cache=True)
-def scanline_dp(
-    node,
-    seg,
-    steps,
-    dmin,
-    oq,
-    occ,
-    discount,
-    run_cap,
-    orient,
-    slant,
-    table,
-    back,
-    path_x,
-    path_k,
-    path_st,
-):
+def scanline_dp(node, seg, dmin, model, work):
     """Cheapest path of one whole scanline through the (x, d, orientation) states.
+
+    ``model`` (``records.RedertModel``): ``steps``, the slopes ``oq`` and the costs
+    ``occ``, ``discount``, ``run_cap``, ``orient``, ``slant`` below; ``work``
+    (``records.RedertScratch``): ``table``, ``back`` and the path ``path_x/k/st``.
 
     Moves into band node ``(x, k)`` (``j = x - dmin - k``; DSI cell ``(x, j)``):
 
@@ -339,6 +329,8 @@ def scanline_dp(
     columns, column ``x`` in slot ``x % ring``: at least the longest segment's length plus
     one (or the width); ``back`` (uint8, ``(W, D, states)``) every column's.
     """
+    steps, oq, occ, discount, run_cap, orient, slant = model
+    table, back, path_x, path_k, path_st = work
     width, ndisp, norient = node.shape
     s_left = norient
     s_right = norient + run_cap
@@ -546,10 +538,10 @@ def scanline_dp(
 
 
 @nb.njit(cache=True)
-def apply_path(
-    path_x, path_k, path_st, n, steps, dmin, oq, run_cap, disp_row, flag_row, orient_row
-):
+def apply_path(work, n, dmin, model, disp_row, flag_row, orient_row):
     """Write disparities, occlusions and orientations (slopes) of a backtracked path.
+
+    The path of ``scanline_dp`` in ``work`` (``n`` nodes), its ``model``.
 
     A node entered by a segment writes the segment's pixels (interpolated disparities,
     multiples of ``1 / steps``); a node entered diagonally writes its own pixel; a left
@@ -557,6 +549,8 @@ def apply_path(
     :func:`scanline_dp`) marks its pixel occluded. The path is stored end to start, so
     entry ``i + 1`` is the node before entry ``i``.
     """
+    steps, oq, run_cap = model.steps, model.oq, model.run_cap
+    path_x, path_k, path_st = work.path_x, work.path_k, work.path_st
     norient = oq.shape[0]
     for i in range(n):
         x = path_x[i]
@@ -579,32 +573,8 @@ def apply_path(
 # --------------------------------------------------------------------------- driver
 
 
-@nb.njit(cache=True)
-def _chunk_bounds(height, nchunks, c):
-    step = (height + nchunks - 1) // nchunks
-    return c * step, min(height, (c + 1) * step)
-
-
 @nb.njit(parallel=True, cache=True)
-def match_redert_rows(
-    left_p,
-    right_p,
-    dmin,
-    ndisp,
-    radius,
-    steps,
-    oq,
-    occ,
-    discount,
-    run_cap,
-    orient,
-    slant,
-    nchunks,
-    disp,
-    flags,
-    slopes,
-    total,
-):
+def match_redert_rows(left_p, right_p, dsi, model, nchunks, out, slopes):
     """Run the orientation DP on every row; rows (in chunks) are the only parallel loop.
 
     Per thread: the column sums (W x sampled disparities), the cost volume, the DP's back
@@ -612,7 +582,15 @@ def match_redert_rows(
     columns only (the longest segment's plus one: 9 x D x states float64 with the default
     orientations, where a table of every column, 4.5 MB a thread on teddy, was 129 MB on a
     3000-pixel row of 256 disparities); never H x W x D.
+
+    ``dsi`` (``records.Dsi``): the disparities and the window; ``model``
+    (``records.RedertModel``): see ``scanline_dp``; ``out`` (``records.Outputs``):
+    ``disparity``, ``flags`` and ``total`` are written, and ``slopes`` (float32, (H, W)):
+    each matched pixel's orientation.
     """
+    dmin, ndisp, radius = dsi
+    steps, oq, run_cap = model.steps, model.oq, model.run_cap
+    disp, flags, total = out.disparity, out.flags, out.total
     height, width = disp.shape
     norient = oq.shape[0]
     omax = 0
@@ -627,15 +605,19 @@ def match_redert_rows(
         ring = max(ring, segment_shape(oq[o], steps)[0] + 1)
     ring = min(ring, width)
     for c in nb.prange(nchunks):
-        y0, y1 = _chunk_bounds(height, nchunks, c)
+        y0, y1 = chunk_bounds(height, nchunks, c)
         columns = np.empty((width, ne), dtype=np.int64)
         node = np.empty((width, ndisp, norient), dtype=np.float64)
         seg = np.empty((width, ndisp, norient), dtype=np.float64)
         table = np.empty((ring, ndisp, norient + 2 * run_cap + 2), dtype=np.float64)
         back = np.empty((width, ndisp, norient + 2 * run_cap + 2), dtype=np.uint8)
-        path_x = np.empty(2 * width + 2, dtype=np.int64)
-        path_k = np.empty(2 * width + 2, dtype=np.int64)
-        path_st = np.empty(2 * width + 2, dtype=np.int64)
+        work = RedertScratch(
+            table,
+            back,
+            np.empty(2 * width + 2, dtype=np.int64),
+            np.empty(2 * width + 2, dtype=np.int64),
+            np.empty(2 * width + 2, dtype=np.int64),
+        )
         for y in range(y0, y1):
             if y == y0:
                 sample_columns(left_p, right_p, y, radius, steps, e_lo, columns)
@@ -646,24 +628,6 @@ def match_redert_rows(
                 disp[y, x] = np.nan
                 flags[y, x] = FLAG_BORDER
                 slopes[y, x] = np.nan
-            n, t = scanline_dp(
-                node,
-                seg,
-                steps,
-                dmin,
-                oq,
-                occ,
-                discount,
-                run_cap,
-                orient,
-                slant,
-                table,
-                back,
-                path_x,
-                path_k,
-                path_st,
-            )
-            apply_path(
-                path_x, path_k, path_st, n, steps, dmin, oq, run_cap, disp[y], flags[y], slopes[y]
-            )
+            n, t = scanline_dp(node, seg, dmin, model, work)
+            apply_path(work, n, dmin, model, disp[y], flags[y], slopes[y])
             total[y] = t

@@ -1,4 +1,4 @@
-"""Compiled kernel of ``signal.py``: the edge-padded matching signal in one pass.
+"""The matching signal: the edge-padded integer intensity of an image, in one pass.
 
 The numpy path (``signal.matching_signal`` then ``np.pad``) makes several full-image
 temporaries and runs on one core: on a Middlebury colour pair it took 2 ms, an eighth of
@@ -11,14 +11,13 @@ A ``uint8`` colour row reads its three weighted channels from tables of the 256 
 interleaved three-byte pixels leave the arithmetic loop scalar, and the tables halve its
 time (a 434 x 383 colour image: 0.32 -> 0.16 ms). Rows of RGB (three channels, C order, at
 least 8 pixels: every Middlebury image) run vector code instead, 8 pixels at a time, with
-the same products and sums (``_rgb_pixels``): 0.21 -> 0.155 ms on that image, 1 thread.
+the same products and sums (``simd._rgb_pixels``): 0.21 -> 0.155 ms on that image, 1 thread.
 """
 
 import numba as nb
 import numpy as np
-from llvmlite import ir
-from numba.core import cgutils, types
-from numba.extending import intrinsic, overload
+
+from .simd import _LANES, _rgb_pixels
 
 #: ``mode`` of ``padded_signal``: how a stored value becomes the 0..255 intensity scale.
 MODE_UINT8 = 0  # as is
@@ -73,103 +72,6 @@ def _row_tables(image, y, tables, steps, out, yp, radius):
     _pad_ends(out, yp, radius, width)
 
 
-def _rgb_pixels(image, y, x0, steps, out, yp, o_out):
-    """Write ``_LANES`` pixels ``x0..`` of a ``uint8`` RGB row to ``out[yp, o_out + ..]``.
-
-    The values of ``_row_tables``: the products ``v * LUMA[i]`` (the tables hold exactly
-    these float64 products), summed in the same order. ``image`` has three channels (the
-    caller's test: the vector form takes a pixel as three bytes). Compiled code runs
-    ``_rgb_pixels_vector`` for C-contiguous images.
-    """
-    for i in range(_LANES):
-        x = x0 + i
-        lum = (
-            np.float64(image[y, x, 0]) * LUMA[0] + np.float64(image[y, x, 1]) * LUMA[1]
-        ) + np.float64(image[y, x, 2]) * LUMA[2]
-        out[yp, o_out + i] = np.int32(np.rint(lum * steps))
-
-
-#: Pixels of one vector of ``_rgb_pixels`` (eight float64 values: two AVX2 registers).
-_LANES = 8
-
-
-# The three-byte pixels keep numba's loop vectorizer away (the tables' loads are gathers,
-# the arithmetic form was scalar too). The vector form loads 8 pixels' 24 bytes at once,
-# takes each channel's 8 bytes out by shuffles, and does the float64 arithmetic of the
-# scalar expression on 8 lanes (plain fmul and fadd, which LLVM does not fuse; llvm.rint
-# rounds half to even, as np.rint does).
-@intrinsic
-def _rgb_pixels_vector(typingctx, image, y, x0, steps, out, yp, o_out):
-    if not (
-        isinstance(image, types.Array)
-        and image.dtype == types.uint8
-        and image.ndim == 3
-        and image.layout == "C"
-        and isinstance(out, types.Array)
-        and out.dtype == types.int32
-        and out.ndim == 2
-        and out.layout == "C"
-        and all(isinstance(v, types.Integer) for v in (y, x0, steps, yp, o_out))
-    ):
-        return None
-    i64 = ir.IntType(64)
-
-    def codegen(context, builder, sig, args):
-        y_v, x0_v, steps_v, yp_v, o_v = (
-            context.cast(builder, args[i], sig.args[i], types.int64) for i in (1, 2, 3, 5, 6)
-        )
-        source = context.make_array(sig.args[0])(context, builder, args[0])
-        target = context.make_array(sig.args[4])(context, builder, args[4])
-        width = cgutils.unpack_tuple(builder, source.shape, 3)[1]
-        width_out = cgutils.unpack_tuple(builder, target.shape, 2)[1]
-        first = builder.mul(builder.add(builder.mul(y_v, width), x0_v), ir.Constant(i64, 3))
-        bytes_type = ir.VectorType(ir.IntType(8), 3 * _LANES)
-        pointer = builder.bitcast(builder.gep(source.data, [first]), bytes_type.as_pointer())
-        packed = builder.load(pointer, align=1)
-        f64x = ir.VectorType(ir.DoubleType(), _LANES)
-        lanes = ir.VectorType(ir.IntType(32), _LANES)
-
-        def channel(c, weight):
-            picked = builder.shuffle_vector(
-                packed,
-                ir.Constant(bytes_type, ir.Undefined),
-                ir.Constant(lanes, [3 * i + c for i in range(_LANES)]),
-            )
-            value = builder.uitofp(picked, f64x)
-            return builder.fmul(value, ir.Constant(f64x, [weight] * _LANES))
-
-        lum = builder.fadd(
-            builder.fadd(channel(0, LUMA[0]), channel(1, LUMA[1])), channel(2, LUMA[2])
-        )
-        scale = builder.sitofp(steps_v, ir.DoubleType())
-        undef = ir.Constant(f64x, ir.Undefined)
-        scale_v = builder.shuffle_vector(
-            builder.insert_element(undef, scale, ir.Constant(ir.IntType(32), 0)),
-            undef,
-            ir.Constant(lanes, [0] * _LANES),
-        )
-        rint = cgutils.get_or_insert_function(
-            builder.module, ir.FunctionType(f64x, [f64x]), f"llvm.rint.v{_LANES}f64"
-        )
-        rounded = builder.call(rint, [builder.fmul(lum, scale_v)])
-        values = builder.fptosi(rounded, lanes)
-        at = builder.add(builder.mul(yp_v, width_out), o_v)
-        target_pointer = builder.bitcast(builder.gep(target.data, [at]), lanes.as_pointer())
-        builder.store(values, target_pointer, align=4)
-        return context.get_dummy_value()
-
-    return types.void(image, y, x0, steps, out, yp, o_out), codegen
-
-
-@overload(_rgb_pixels)
-def _rgb_pixels_compiled(image, y, x0, steps, out, yp, o_out):
-    if not (isinstance(image, types.Array) and image.layout == "C" and image.dtype == types.uint8):
-        return _rgb_pixels
-    return lambda image, y, x0, steps, out, yp, o_out: _rgb_pixels_vector(
-        image, y, x0, steps, out, yp, o_out
-    )
-
-
 @nb.njit(cache=True, inline="always")
 def _row_rgb(image, y, steps, out, yp, radius):
     """``_row_tables`` of a three-channel image ``_LANES`` pixels at a time (at least that wide).
@@ -180,7 +82,7 @@ def _row_rgb(image, y, steps, out, yp, radius):
     width = image.shape[1]
     for b in range((width + _LANES - 1) // _LANES):
         x0 = min(b * _LANES, width - _LANES)
-        _rgb_pixels(image, y, x0, steps, out, yp, radius + x0)
+        _rgb_pixels(image, y, x0, LUMA, steps, out, yp, radius + x0)
     _pad_ends(out, yp, radius, width)
 
 

@@ -1,12 +1,14 @@
-"""Compiled kernel of ``subpixel.py``: three window costs and a fit at every pixel.
+"""Sub-pixel refinement (:mod:`dcstereo.subpixel`): three window costs and a fit at every pixel.
 
 The costs are the run's: eq. 4's SAD, or the Birchfield-Tomasi dissimilarity summed over
-the same window (``bt``; the values of ``_kernels.row_costs_bt``: doubled integers summed,
+the same window (``bt``; the values of ``costs.row_costs_bt``: doubled integers summed,
 halved, then the truncated windows rescaled).
 """
 
 import numba as nb
 import numpy as np
+
+from .costs import _bt_cell2
 
 #: ``fit`` of ``refine_rows``.
 FIT_EQUIANGULAR = 0
@@ -28,7 +30,7 @@ def _bounds2(img_p, r, xp, lo, hi):
 
     The least and largest of the doubled value and its two doubled half-pixel
     interpolations (a neighbour outside the image columns ``lo..hi`` is the pixel itself),
-    as ``_kernels._bt_row_bounds``.
+    as ``costs._bt_row_bounds``.
     """
     v = img_p[r, xp]
     twice = 2 * v
@@ -41,12 +43,10 @@ def _bounds2(img_p, r, xp, lo, hi):
 def _bt2(l2, l_min, l_max, right_p, r, xr, lo, hi):
     """Twice the BT dissimilarity of a left pixel (its ``_bounds2``) and right pixel ``xr``.
 
-    ``min(d_LR, d_RL)`` of ``_kernels._bt_cell2``.
+    ``min(d_LR, d_RL)`` of ``costs._bt_cell2``.
     """
     r2, r_min, r_max = _bounds2(right_p, r, xr, lo, hi)
-    d_lr = max(0, max(l2 - r_max, r_min - l2))
-    d_rl = max(0, max(r2 - l_max, l_min - r2))
-    return min(d_lr, d_rl)
+    return _bt_cell2(l2, l_min, l_max, r2, r_min, r_max)
 
 
 @nb.njit(cache=True, inline="always")
@@ -95,7 +95,7 @@ def _column_cost(left_p, right_p, y, xp, e, win, bt, lo, hi):
 def _window_cost(left_p, right_p, y, x, d, radius, width, bt=False):
     """Eq. 4 (or BT with ``bt``) at ``(y, x)`` and integer disparity ``d``, padded signals.
 
-    As ``_kernels.row_costs`` (``row_costs_bt``): rows edge-replicated (the padding), the
+    As ``costs.row_costs`` (``row_costs_bt``): rows edge-replicated (the padding), the
     columns whose left or right pixel leaves its image skipped and the sum rescaled to the
     full window (BT: halved first); inf when no column is left.
     """
