@@ -6,7 +6,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from dcstereo import FLAG_FEATURE, FLAG_OCCLUDED, MatchParams, io, match
+from dcstereo import FLAG_FEATURE, FLAG_FILLED, FLAG_OCCLUDED, MatchParams, io, match
 from dcstereo.kernels import postfilter
 from dcstereo.postfilter import MAX_BINS, MAX_MEDIAN, median_filter
 from dcstereo.tiling import match_tiled
@@ -28,7 +28,8 @@ def twin(disparity, flags, size, params):
         middle = np.float32(middle)
         low = max(x - (width - 1), params.min_disparity)  # the disparities the pixel can have
         high = min(x, params.max_disparity)
-        if middle != disparity[y, x] and low <= high:  # a median that moved stays among them
+        own = not flags[y, x] & FLAG_FILLED  # an estimate's median that moved stays among them
+        if middle != disparity[y, x] and low <= high and own:
             middle = min(max(middle, np.float32(low)), np.float32(high))
         out[y, x] = np.float32(middle)
     return out
@@ -50,6 +51,7 @@ def random_result(seed, height=13, width=29, subpixel=True, low=0, values=9):
     d[rng.random(d.shape) < 0.25] = np.nan  # no estimate: an even count happens
     flags = np.where(np.isnan(d), FLAG_OCCLUDED, 0).astype(np.uint8)
     flags[(rng.random(d.shape) < 0.1) & ~np.isnan(d)] |= FLAG_FEATURE
+    flags[(rng.random(d.shape) < 0.1) & ~np.isnan(d) & (flags == 0)] |= FLAG_FILLED
     params = replace(result.params, min_disparity=low, max_disparity=low + values)
     return replace(result, disparity=d, flags=flags, params=params)
 
@@ -152,6 +154,12 @@ def test_a_median_points_inside_the_right_image():
     # the medians of the first two columns, 1 and 1.5, point left of the right image: they
     # are limited to the columns' own 0 and 1
     np.testing.assert_array_equal(out, d)
+    # a filled pixel has no match in the right image: it keeps its median
+    filled = np.zeros(d.shape, np.uint8)
+    filled[:, 0] = FLAG_FILLED
+    out = median_filter(replace(result, flags=filled), 5).disparity
+    np.testing.assert_array_equal(out[:, 0], 1.0)
+    np.testing.assert_array_equal(out[:, 1:], d[:, 1:])
 
 
 def test_match_filters_after_subpixel_and_before_filling(pair):

@@ -19,7 +19,7 @@ import numpy as np
 from .kernels import median as median_kernels
 from .kernels import postfilter as postfilter_kernels
 from .params import MAX_MEDIAN, check_median
-from .result import FLAG_FEATURE, DisparityResult
+from .result import FLAG_FEATURE, FLAG_FILLED, DisparityResult
 
 __all__ = ["MAX_MEDIAN", "median_filter"]
 
@@ -40,8 +40,9 @@ def median_filter(result: DisparityResult, size: int = 5) -> DisparityResult:
     -------
     DisparityResult
         The same flags, occlusions and features; the feature pixels keep their values. A
-        median that moved outside the disparities the pixel can have (the searched range, and
-        ``x - d`` inside the right image) is limited to the nearest of them.
+        median of an estimate (not of a filled pixel) that moved outside the disparities the
+        pixel can have (the searched range, ``x - d`` inside the right image) is limited to
+        the nearest of them.
 
     Examples
     --------
@@ -68,28 +69,30 @@ def median_filter(result: DisparityResult, size: int = 5) -> DisparityResult:
         moved = moved & ~full
         if moved.any():  # the rest (windows with holes, or cut by the edge): sorted one by one
             postfilter_kernels.median_rows(d, moved, radius, out)
-        return replace(result, disparity=_inside(out, d, result.params))
+        return replace(result, disparity=_inside(out, result))
     bins = np.empty(d.shape, dtype=np.int32)
     low, nbins, exact = postfilter_kernels.value_buckets(d, MAX_BINS, bins)
     if nbins:  # a histogram of value buckets slid along the rows
         postfilter_kernels.median_rows_binned(d, bins, moved, radius, nbins, low, exact, out)
     else:  # a span too wide for the histogram: each window sorted
         postfilter_kernels.median_rows(d, moved, radius, out)
-    return replace(result, disparity=_inside(out, d, result.params))
+    return replace(result, disparity=_inside(out, result))
 
 
-def _inside(out: np.ndarray, d: np.ndarray, params) -> np.ndarray:
-    """Limit the medians that moved to the disparities the pixel can have.
+def _inside(out: np.ndarray, result: DisparityResult) -> np.ndarray:
+    """Limit the medians of the method's own estimates to the disparities they can have.
 
     Near the left edge the window's median can exceed the column (a match left of the
-    right image's first pixel); it becomes the nearest disparity of the searched range that
-    points inside the right image. A pixel that has none (a filled one at the edge) keeps
-    its median.
+    right image's first pixel); an estimate whose median moved there becomes the nearest
+    disparity of the searched range that points inside the right image. A filled pixel
+    keeps its median: it has no match in the right image, and its true disparity may well
+    point outside it.
     """
+    d, params = result.disparity, result.params
     cols = np.arange(out.shape[1], dtype=np.float32)
     low = np.maximum(cols - (out.shape[1] - 1), np.float32(params.min_disparity))
     high = np.minimum(cols, np.float32(params.max_disparity))
-    limit = (out != d) & (low <= high)
+    limit = (out != d) & (low <= high) & ((result.flags & FLAG_FILLED) == 0)
     return np.where(limit, np.clip(out, low, high), out)
 
 
