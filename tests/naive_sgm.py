@@ -133,7 +133,7 @@ def choose(sums, dmin, tolerance, subpixel):
                 flags[y, x] = 1 if right_d[xr] > d else 16
             else:
                 offset = 0.0
-                if subpixel and 0 < k < ndisp - 1 and 0 < xr < width - 1:
+                if subpixel and 0 < k < ndisp - 1:
                     a, b, c = (float(v) for v in sums[y, x, k - 1 : k + 2])
                     den = a - 2 * b + c if subpixel == "parabola" else max(a, c) - b
                     offset = (a - c) / (2 * den) if den > 0 else 0.0

@@ -26,8 +26,8 @@ def twin(disparity, flags, size, params):
         n = len(values)
         middle = values[n // 2] if n % 2 else (values[n // 2 - 1] + values[n // 2]) / 2
         middle = np.float32(middle)
-        low = max(x - (width - 1), params.min_disparity)  # the disparities the pixel can have
-        high = min(x, params.max_disparity)
+        low = max(x - (width - 0.5), params.min_disparity)  # the disparities it can have
+        high = min(x + 0.5, params.max_disparity)
         own = not flags[y, x] & FLAG_FILLED  # an estimate's median that moved stays among them
         if middle != disparity[y, x] and low <= high and own:
             middle = min(max(middle, np.float32(low)), np.float32(high))
@@ -150,16 +150,23 @@ def test_a_spike_and_a_streak_go():
 def test_a_median_points_inside_the_right_image():
     d = np.minimum(np.arange(12, dtype=np.float32), 4.0)[None].repeat(5, axis=0)
     result = replace(random_result(0, 5, 12), disparity=d, flags=np.zeros(d.shape, np.uint8))
+    result = replace(result, params=replace(result.params, max_disparity=11))
     out = median_filter(result, 5).disparity
-    # the medians of the first two columns, 1 and 1.5, point left of the right image: they
-    # are limited to the columns' own 0 and 1
-    np.testing.assert_array_equal(out, d)
+    # column 0's median, 1, points left of the right image: it is limited to 0.5 (the left
+    # edge of the first pixel); column 1's, 1.5, points at that edge and stays
+    np.testing.assert_array_equal(out[:, 0], 0.5)
+    np.testing.assert_array_equal(out[:, 1], 1.5)
+    np.testing.assert_array_equal(out[:, 2:], d[:, 2:])
     # a filled pixel has no match in the right image: it keeps its median
     filled = np.zeros(d.shape, np.uint8)
     filled[:, 0] = FLAG_FILLED
     out = median_filter(replace(result, flags=filled), 5).disparity
     np.testing.assert_array_equal(out[:, 0], 1.0)
-    np.testing.assert_array_equal(out[:, 1:], d[:, 1:])
+    # without column 0, column 1's median is 2.5 (of 1, 2, 3 and 4): limited to 1.5
+    holed = d.copy()
+    holed[:, 0] = np.nan
+    out = median_filter(replace(result, disparity=holed), 5).disparity
+    np.testing.assert_array_equal(out[:, 1], 1.5)
 
 
 def test_match_filters_after_subpixel_and_before_filling(pair):

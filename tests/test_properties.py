@@ -33,10 +33,11 @@ def test_any_size_and_range_gives_a_consistent_result(problem):
     own = result.unfilled()  # sgm fills its map: the estimates it made itself
     d = own.disparity
     finite = np.isfinite(d)
-    # estimates lie in the searched range and point inside the right image
+    # estimates lie in the searched range and point inside the right image: its pixels'
+    # centres are 0 .. width - 1, a sub-pixel fit reaches half a pixel either side of them
     assert ((d[finite] >= dmin) & (d[finite] <= dmax)).all()
     cols = np.broadcast_to(np.arange(width), d.shape)
-    assert ((cols[finite] - d[finite] >= -0.5) & (cols[finite] - d[finite] <= width - 1)).all()
+    assert ((cols[finite] - d[finite] >= -0.5) & (cols[finite] - d[finite] <= width - 0.5)).all()
     # every pixel without an estimate says why
     reasons = dcstereo.FLAG_OCCLUDED | dcstereo.FLAG_BORDER | dcstereo.FLAG_MISMATCH
     assert (own.flags[~finite] & reasons).all()

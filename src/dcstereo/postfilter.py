@@ -41,7 +41,8 @@ def median_filter(result: DisparityResult, size: int = 5) -> DisparityResult:
     DisparityResult
         The same flags, occlusions and features; the feature pixels keep their values. A
         median of an estimate (not of a filled pixel) that moved outside the disparities the
-        pixel can have (the searched range, ``x - d`` inside the right image) is limited to
+        pixel can have (the searched range, ``x - d`` inside the right image, from -0.5 to
+        ``width - 0.5``) is limited to
         the nearest of them.
 
     Examples
@@ -82,16 +83,17 @@ def median_filter(result: DisparityResult, size: int = 5) -> DisparityResult:
 def _inside(out: np.ndarray, result: DisparityResult) -> np.ndarray:
     """Limit the medians of the method's own estimates to the disparities they can have.
 
-    Near the left edge the window's median can exceed the column (a match left of the
-    right image's first pixel); an estimate whose median moved there becomes the nearest
-    disparity of the searched range that points inside the right image. A filled pixel
+    Near the left edge the window's median can exceed the column by more than half a pixel
+    (a match left of the right image's first pixel); an estimate whose median moved there
+    becomes the nearest disparity of the searched range that points inside the right image
+    (``-0.5 <= x - d <= width - 0.5``: its pixels are a pixel wide). A filled pixel
     keeps its median: it has no match in the right image, and its true disparity may well
     point outside it.
     """
     d, params = result.disparity, result.params
     cols = np.arange(out.shape[1], dtype=np.float32)
-    low = np.maximum(cols - (out.shape[1] - 1), np.float32(params.min_disparity))
-    high = np.minimum(cols, np.float32(params.max_disparity))
+    low = np.maximum(cols - (out.shape[1] - 0.5), np.float32(params.min_disparity))
+    high = np.minimum(cols + 0.5, np.float32(params.max_disparity))
     limit = (out != d) & (low <= high) & ((result.flags & FLAG_FILLED) == 0)
     return np.where(limit, np.clip(out, low, high), out)
 

@@ -300,8 +300,6 @@ def _choose_row(total, best_k, lanes, width, dmin, ndisp, subpixel, tolerance, d
             disparity[x] = np.nan
             flags[x] = FLAG_OCCLUDED if right_d[xr] > d else FLAG_MISMATCH
         else:
-            # a fit needs both neighbours inside the right image: a cost past its edge
-            # repeats the edge's, and the fit would point outside the image
-            offset = _subpixel(total, x * lanes, k, ndisp, subpixel) if 0 < xr < width - 1 else 0.0
+            offset = _subpixel(total, x * lanes, k, ndisp, subpixel)  # |offset| < 0.5
             disparity[x] = np.float32(d + offset)
             flags[x] = 0
