@@ -51,7 +51,8 @@ def median_filter(result: DisparityResult, size: int = 5) -> DisparityResult:
     >>> from dcstereo.postfilter import median_filter
     >>> rng = np.random.default_rng(0)
     >>> right = rng.integers(0, 256, (20, 40), dtype=np.uint8)
-    >>> result = dcstereo.match(np.roll(right, 3, axis=1), right, max_disparity=6)
+    >>> left = np.roll(right, 3, axis=1)
+    >>> result = dcstereo.match(left, right, max_disparity=6, method="dc")  # no median of its own
     >>> float(np.nanmedian(median_filter(result, 3).disparity))
     3.0
     """
