@@ -11,7 +11,8 @@ status 1, or "N arrays bit for bit" and 0. ``--only SUBSTRING`` runs the cases w
 contains it (a quick check of one path; the comparison is then of those arrays only).
 
 The cases: the four Middlebury v2 scenes (tsukuba, venus, teddy, cones, each with its own
-disparity range) with every method and the options that choose another kernel path
+disparity range) with every method (``sgm`` since the kernel merge: the 599 arrays of that
+check did not hold it) and the options that choose another kernel path
 (``cost="bt"``, the left-right check, fill, sub-pixel fits, the median, the confidence,
 ``max_candidates`` and ``uniqueness=0``, which run ``dc`` row by row); ``dc``'s and
 ``dsi3-gcp``'s band modes 2 and 3 and the row-by-row Birchfield-Tomasi paths forced by
@@ -129,6 +130,10 @@ def scene_cases(name, scene):
         "dc-candidates-bt": run(method="dc", max_candidates=2, cost="bt"),
         "dc-relative-guard": run(method="dc", vs_relative=True, edge_guard=0),
         "dsi5-window9": run(method="dsi5", window=9, occlusion_cost=6),
+        # sgm, the default: its pipeline, its confidence, and the options of other paths
+        "sgm": with_confidence(method="sgm"),
+        "sgm-census-4paths": run(method="sgm", cost="census", paths=4, subpixel="parabola"),
+        "sgm-raw": run(method="sgm", fill=False, median=0, subpixel="none", lr_tolerance=0),
         # dc's and dsi3-gcp's band mode 3 (no band array), by the bound
         "dc-mode3": forced({"DC_BAND_BYTES": 0}, method="dc"),
         "dsi3-gcp-mode3": forced({"DC_BAND_BYTES": 0}, method="dsi3-gcp"),
