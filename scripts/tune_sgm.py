@@ -23,7 +23,7 @@ import time
 import numpy as np
 
 from dcstereo.datasets import find_scenes, load_motorcycle, load_scene, middlebury_dir
-from dcstereo.evaluation import run_method
+from dcstereo.evaluation import run_scene
 from dcstereo.metrics import bad_pixel_rate, mean_abs_error
 
 V2 = ("tsukuba", "venus", "teddy", "cones")
@@ -49,15 +49,7 @@ def score_run(scenes, method, options, extra=None):
     scores = {}
     start = time.perf_counter()
     for scene in scenes:
-        result = run_method(
-            method,
-            scene.left,
-            scene.right,
-            max_disparity=scene.max_disparity,
-            min_disparity=scene.min_disparity,
-            **options,
-        )
-        filled = result.filled().disparity
+        filled = run_scene(method, scene, **options).filled().disparity
         mask = scene.masks["nonocc"]
         scores[scene.name] = bad_pixel_rate(filled, scene.disparity, threshold=1.0, mask=mask)
         if extra is not None:

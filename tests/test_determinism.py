@@ -21,25 +21,17 @@ import pytest
 
 import dcstereo
 import synthetic
+from method_cases import method_cases
 
 DEFAULT_METHOD = inspect.signature(dcstereo.match).parameters["method"].default
 MAX_DISPARITY = 12
 
 
-def _takes(method, **options):
-    try:
-        dcstereo.MatchParams(max_disparity=MAX_DISPARITY, method=method, **options)
-    except ValueError:
-        return False
-    return True
-
-
 #: (id, keyword arguments of match): ``method`` absent for the default.
-CASES = (
-    [(method, {"method": method}) for method in dcstereo.METHODS]
-    + [(f"{m}+bt", {"method": m, "cost": "bt"}) for m in dcstereo.METHODS if _takes(m, cost="bt")]
-    + [("default", {}), ("default+post", {"subpixel": "parabola", "median": 3, "fill": True})]
-)
+CASES = method_cases(MAX_DISPARITY, bt={"cost": "bt"}) + [
+    ("default", {}),
+    ("default+post", {"subpixel": "parabola", "median": 3, "fill": True}),
+]
 
 
 def _pair():

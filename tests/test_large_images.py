@@ -30,24 +30,12 @@ import synthetic
 from dcstereo import api, io
 from dcstereo.cli import main
 from dcstereo.tiling import match_tiled
+from method_cases import method_cases
 
 MAX_DISPARITY = 12
 
 
-def _takes(method, **options):
-    try:
-        dcstereo.MatchParams(max_disparity=MAX_DISPARITY, method=method, **options)
-    except ValueError:
-        return False
-    return True
-
-
-CASES = (
-    [(method, {"method": method}) for method in dcstereo.METHODS]
-    + [(f"{m}+bt", {"method": m, "cost": "bt"}) for m in dcstereo.METHODS if _takes(m, cost="bt")]
-    + [(f"{m}+lr", {"method": m, "lr_check": True}) for m in dcstereo.METHODS
-       if _takes(m, lr_check=True)]
-)  # fmt: skip
+CASES = method_cases(MAX_DISPARITY, bt={"cost": "bt"}, lr={"lr_check": True})
 
 #: (BAND_ARRAY_BYTES, DC_BAND_BYTES): a band's cost array of this pair is 64 columns x 15
 #: disparities x 8 rows x 8 bytes, 60 KiB: none fits 4 KiB (row by row), one at a time

@@ -13,6 +13,7 @@ import pytest
 
 import dcstereo
 from dcstereo.datasets import load_scene
+from dcstereo.evaluation import run_scene
 from dcstereo.metrics import bad_pixel_rate
 
 #: scene: (bad-1.0, bad-0.5) of the default, measured; one scene of each kind: a v2 scene,
@@ -25,14 +26,8 @@ PINNED = {
 }
 
 
-def _scores(scene, **options):
-    result = dcstereo.match(
-        scene.left,
-        scene.right,
-        max_disparity=scene.max_disparity,
-        min_disparity=scene.min_disparity,
-        **options,
-    ).filled()
+def _scores(scene, method=dcstereo.DEFAULT_METHOD, **options):
+    result = run_scene(method, scene, **options).filled()
     mask = scene.masks["nonocc"]
     return tuple(
         bad_pixel_rate(result.disparity, scene.disparity, threshold=t, mask=mask)

@@ -279,6 +279,18 @@ def mask_lines(result: dict) -> list[str]:
     return [f"scored on: {used}", f"not scored: {missing}"]
 
 
+def run_scene(method: str, scene: StereoScene, **options) -> DisparityResult:
+    """Run :func:`run_method` on ``scene``'s pair over the scene's disparity range."""
+    return run_method(
+        method,
+        scene.left,
+        scene.right,
+        max_disparity=scene.max_disparity,
+        min_disparity=scene.min_disparity,
+        **options,
+    )
+
+
 def _warm_up(method: str, scene: StereoScene, options: dict, done: set) -> None:
     """Run once on a few rows so that compiling is not timed (numba caches per process)."""
     if method in done or method in OPENCV_METHODS:
@@ -354,14 +366,7 @@ def bench(
             method_options = options if method in OPENCV_METHODS else options_for(method, ours)
             _warm_up(method, scene, method_options, warmed)
             start = time.perf_counter()
-            result = run_method(
-                method,
-                scene.left,
-                scene.right,
-                max_disparity=scene.max_disparity,
-                min_disparity=scene.min_disparity,
-                **method_options,
-            )
+            result = run_scene(method, scene, **method_options)
             seconds = time.perf_counter() - start
             row = {
                 "scene": scene.name,

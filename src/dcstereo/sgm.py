@@ -80,19 +80,21 @@ def largest_pixel_cost(params: MatchParams) -> int:
     return census_bit_cost(params.census_window) * (rows * cols - 1) + int(ad)
 
 
-def check_sgm_bounds(params: MatchParams) -> None:
-    """Raise ``ValueError`` when the costs and penalties could pass the kernels' 16 bits.
+def check_sgm_bounds(params: MatchParams) -> np.float32:
+    """Return the box average's reciprocal; raise ``ValueError`` past the kernels' 16 bits.
 
-    The kernels count in :data:`UNITS` per cost unit (``pixel_cost_row``).
+    The kernels count in :data:`UNITS` per cost unit (``pixel_cost_row``); the reciprocal is
+    ``kernels.census.box_reciprocal``'s for the largest box sum of those units.
     """
     largest = largest_pixel_cost(params)
-    census_kernels.box_reciprocal(params.window, UNITS * largest * params.window**2)
+    reciprocal = census_kernels.box_reciprocal(params.window, UNITS * largest * params.window**2)
     if params.paths * UNITS * (largest + params.p2) >= HIGH:
         most = HIGH // (params.paths * UNITS) - largest - 1
         raise ValueError(
             f"p2={params.p2} is too large for {params.paths} paths of costs up to {largest}: "
             f"the sums must fit 16 bits (p2 at most {most})"
         )
+    return reciprocal
 
 
 def colour_channels(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -174,9 +176,8 @@ def release_workspace() -> None:
     _WORKSPACE.volumes = None
 
 
-def _census(image: np.ndarray, rows: int, cols: int, out: np.ndarray) -> None:
-    """Write the census codes of ``image``'s intensity (``census_transform``) into ``out``."""
-    signal = padded_signal(image, 0)
+def _census(signal: np.ndarray, rows: int, cols: int, out: np.ndarray) -> None:
+    """Write the census codes of ``signal`` (``padded_signal(image, 0)``) into ``out``."""
     padded = np.pad(signal, ((rows // 2, rows // 2), (cols // 2, cols // 2)), mode="edge")
     census_kernels.census_transform(padded, rows, cols, out)
 
@@ -205,9 +206,9 @@ def _run(left, right, params, want_confidence):
     kind = np.uint32 if rows * cols - 1 <= 32 else np.uint64
     codes_l = np.empty((height, width), dtype=kind)
     codes_r = np.empty((height, width), dtype=kind)
-    _census(left, rows, cols, codes_l)
-    _census(right, rows, cols, codes_r)
     luma_l = padded_signal(left, 0)
+    _census(luma_l, rows, cols, codes_l)
+    _census(padded_signal(right, 0), rows, cols, codes_r)
     colour_l, colour_r = colour_channels(left, right)
     if params.cost == "census":
         colour_l = colour_l[:1, :1, :1]  # unread (ad_max 0); one unit a cost unit
@@ -217,9 +218,8 @@ def _run(left, right, params, want_confidence):
     codes_r = _reversed_right(codes_r, pad, after)
     if params.cost == "census-ad":
         colour_r = _reversed_right(colour_r, pad, after)
-    check_sgm_bounds(params)
+    reciprocal = check_sgm_bounds(params)
     largest = UNITS * largest_pixel_cost(params)
-    reciprocal = census_kernels.box_reciprocal(params.window, largest * params.window**2)
     pad_cost = largest + UNITS * params.p2 + 1
     table = UNITS * p2_table(params)
     p1 = UNITS * params.p1

@@ -276,29 +276,48 @@ def _add_saturated_vector(typingctx, out, o_off, a, a_off, b, b_off, n):
     return types.void(out, o_off, a, a_off, b, b_off, n), _add_saturated_codegen
 
 
+def _argmin_start(builder):
+    """Allocate the lane-wise arg-min of a chunked loop: (least values, their offsets)."""
+    index_type = ir.VectorType(ir.IntType(32), LANES)
+    best = cgutils.alloca_once_value(builder, _splat(builder, ir.Constant(_I16, HIGH)))
+    where = cgutils.alloca_once_value(builder, ir.Constant(index_type, [0] * LANES))
+    return best, where
+
+
+def _argmin_step(builder, state, value, k):
+    """Keep in each lane the least of ``value`` (the chunk at offset ``k``) and its offset."""
+    best, where = state
+    index_type = ir.VectorType(ir.IntType(32), LANES)
+    lanes = ir.Constant(index_type, list(range(LANES)))
+    old = builder.load(best)
+    less = builder.icmp_signed("<", value, old)
+    builder.store(builder.select(less, value, old), best)
+    here = builder.add(_splat(builder, builder.trunc(k, ir.IntType(32)), index_type), lanes)
+    builder.store(builder.select(less, here, builder.load(where)), where)
+
+
+def _argmin_end(builder, state):
+    """Return ``(offset, value)`` (i32, i16): the least value, at its least offset."""
+    best, where = state
+    index_type = ir.VectorType(ir.IntType(32), LANES)
+    final = builder.load(best)
+    least = _reduce_min(builder, final)
+    holds = builder.icmp_signed("==", final, _splat(builder, least))
+    first = builder.select(holds, builder.load(where), ir.Constant(index_type, [2**31 - 1] * LANES))
+    index = _call(builder, f"llvm.vector.reduce.umin.v{LANES}i32", ir.IntType(32), first)
+    return index, least
+
+
 def _first_min_codegen(context, builder, sig, args):
     # one pass: each lane keeps its least value and the first offset holding it; then the
     # least of the lanes, and the least offset among the lanes that hold it
     _, off, n = args
     values = _data(context, builder, sig, args, 0)
-    index_type = ir.VectorType(ir.IntType(32), LANES)
-    best = cgutils.alloca_once_value(builder, _splat(builder, ir.Constant(_I16, HIGH)))
-    where = cgutils.alloca_once_value(builder, ir.Constant(index_type, [0] * LANES))
-    lanes = ir.Constant(index_type, list(range(LANES)))
+    state = _argmin_start(builder)
     with _chunks(builder, n) as loop:
         k = builder.mul(loop.index, ir.Constant(_I64, LANES))
-        value = _load(builder, values, builder.add(off, k))
-        old = builder.load(best)
-        less = builder.icmp_signed("<", value, old)
-        builder.store(builder.select(less, value, old), best)
-        here = builder.add(_splat(builder, builder.trunc(k, ir.IntType(32)), index_type), lanes)
-        builder.store(builder.select(less, here, builder.load(where)), where)
-    final = builder.load(best)
-    least = _reduce_min(builder, final)
-    holds = builder.icmp_signed("==", final, _splat(builder, least))
-    big = ir.Constant(index_type, [2**31 - 1] * LANES)
-    first = builder.select(holds, builder.load(where), big)
-    index = _call(builder, f"llvm.vector.reduce.umin.v{LANES}i32", ir.IntType(32), first)
+        _argmin_step(builder, state, _load(builder, values, builder.add(off, k)), k)
+    index, least = _argmin_end(builder, state)
     result = context.make_tuple(
         builder, sig.return_type, [builder.sext(index, _I64), builder.sext(least, _I64)]
     )
@@ -398,10 +417,7 @@ def _path_total_codegen(context, builder, sig, args):
     pminv = _splat(builder, builder.trunc(pmin, _I16))
     high = _splat(builder, ir.Constant(_I16, HIGH))
     least = cgutils.alloca_once_value(builder, high)
-    best = cgutils.alloca_once_value(builder, high)
-    index_type = ir.VectorType(ir.IntType(32), LANES)
-    where = cgutils.alloca_once_value(builder, ir.Constant(index_type, [0] * LANES))
-    lanes = ir.Constant(index_type, list(range(LANES)))
+    state = _argmin_start(builder)
     one, two = ir.Constant(_I64, 1), ir.Constant(_I64, 2)
     with _chunks(builder, n) as loop:
         k = builder.mul(loop.index, ir.Constant(_I64, LANES))
@@ -417,16 +433,8 @@ def _path_total_codegen(context, builder, sig, args):
         for data, off in zip(part_data, offs, strict=True):
             total = _add_sat(builder, total, _load(builder, data, builder.add(off, k)))
         _store(builder, total, total_data, builder.add(t_off, k))
-        old = builder.load(best)
-        less = builder.icmp_signed("<", total, old)
-        builder.store(builder.select(less, total, old), best)
-        here = builder.add(_splat(builder, builder.trunc(k, ir.IntType(32)), index_type), lanes)
-        builder.store(builder.select(less, here, builder.load(where)), where)
-    final = builder.load(best)
-    smallest = _reduce_min(builder, final)
-    holds = builder.icmp_signed("==", final, _splat(builder, smallest))
-    first = builder.select(holds, builder.load(where), ir.Constant(index_type, [2**31 - 1] * LANES))
-    index = _call(builder, f"llvm.vector.reduce.umin.v{LANES}i32", ir.IntType(32), first)
+        _argmin_step(builder, state, total, k)
+    index, smallest = _argmin_end(builder, state)
     values = [
         builder.sext(_reduce_min(builder, builder.load(least)), _I64),
         builder.sext(index, _I64),
