@@ -3,7 +3,7 @@
 Every configuration (input, method, thread count) runs in a fresh Python process, started as
 ``python bench_speed.py --one SPEC``, on the same inputs:
 
-* the Middlebury development scenes (``dcstereo.datasets.load_middlebury``), and
+* the Middlebury development scenes (``dcstereo.evaluation.datasets.load_middlebury``), and
 * a synthetic ``3000 x 2000`` pair (width x height) searched over 256 disparities: a seeded
   random texture, smoothed with a 3x3 binomial filter so it is matchable, warped by a known
   disparity field (a slanted plane plus a raised rectangle, disparities in 0..255) with
@@ -140,11 +140,11 @@ def load_case(case):
     """``(left, right, min_disparity, max_disparity, truth)`` of a case description.
 
     With ``case["same_range"]`` the range is widened to OpenCV's
-    (``dcstereo.opencv.opencv_num_disparities`` from the same least disparity), so that
+    (``dcstereo.compat.opencv.opencv_num_disparities`` from the same least disparity), so that
     every method searches the same disparities.
     """
     if case["kind"] == "middlebury":
-        from dcstereo.datasets import load_scene, middlebury_dir
+        from dcstereo.evaluation.datasets import load_scene, middlebury_dir
 
         scene = load_scene(middlebury_dir() / case["name"])
         left, right, truth = scene.left, scene.right, None
@@ -154,7 +154,7 @@ def load_case(case):
             left, right, truth = data["left"], data["right"], data["truth"]
         low, high = 0, case["disparities"] - 1
     if case.get("same_range"):
-        from dcstereo.opencv import opencv_num_disparities
+        from dcstereo.compat.opencv import opencv_num_disparities
 
         high = low + opencv_num_disparities(low, high) - 1
     return left, right, low, high, truth
@@ -191,10 +191,10 @@ def max_rss_bytes():
 
 def make_call(method, left, right, min_disparity, max_disparity):
     """A no-argument matcher call for ``method``; returns (call, disparities searched)."""
-    from dcstereo.evaluation import run_method
+    from dcstereo.evaluation.scoring import run_method
 
     if method in OPENCV_METHODS:
-        from dcstereo.opencv import opencv_num_disparities
+        from dcstereo.compat.opencv import opencv_num_disparities
 
         # through run_method: SGBM on the colour images when both are (the results' protocol)
         def call():
@@ -382,7 +382,7 @@ def vector_target():
     The band kernels hold ``BAND_ROWS`` = 8 float64 lanes per value: one register with
     AVX-512, two with AVX2, so the same code runs at quite different speeds on the two.
     """
-    from dcstereo.kernels.simd import compile_target
+    from dcstereo._vector.simd import compile_target
 
     name, features = compile_target()
     unit = next(
@@ -803,8 +803,8 @@ def main(argv=None):
     import numba
 
     import dcstereo
-    from dcstereo.datasets import find_scenes, list_middlebury, middlebury_dir
-    from dcstereo.evaluation import BT_SUFFIX
+    from dcstereo.evaluation.datasets import find_scenes, list_middlebury, middlebury_dir
+    from dcstereo.evaluation.scoring import BT_SUFFIX
 
     try:
         import cv2

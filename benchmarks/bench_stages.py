@@ -46,7 +46,7 @@ def counter_rate(seconds=0.2):
     """Cycle-counter ticks per second, against ``time.perf_counter``."""
     import numba
 
-    from dcstereo.kernels import simd
+    from dcstereo._vector import simd
 
     read = numba.njit(lambda: simd.cycle_counter())
     read()
@@ -60,7 +60,7 @@ def counter_rate(seconds=0.2):
 def stage_times(left, right, min_disparity, max_disparity, method, repeat):
     """``(best call ms, least counts per stage)`` of ``method`` on a pair."""
     from dcstereo import api
-    from dcstereo.kernels import bands
+    from dcstereo.divide import bands
     from dcstereo.params import MatchParams
     from dcstereo.signal import check_image
 
@@ -84,7 +84,7 @@ def stage_times(left, right, min_disparity, max_disparity, method, repeat):
 
 def table_rows(rows, names, rate):
     """A row per (method, stage) that the method runs, a value per input (ms)."""
-    from dcstereo.kernels import bands
+    from dcstereo.divide import bands
 
     out = []
     for method in METHODS:
@@ -135,7 +135,7 @@ def main(argv=None):
     args = parse_args(argv)
     import numba
 
-    from dcstereo.datasets import list_middlebury, load_middlebury
+    from dcstereo.evaluation.datasets import list_middlebury, load_middlebury
 
     error = output_error(args.markdown)
     if error:
@@ -155,7 +155,7 @@ def main(argv=None):
     if missing:
         return fail(f"Middlebury scene(s) not found: {', '.join(missing)}")
     if not scenes and not args.synthetic:
-        return fail("no Middlebury scenes found (see dcstereo.datasets.middlebury_dir)")
+        return fail("no Middlebury scenes found (see dcstereo.evaluation.datasets.middlebury_dir)")
     numba.set_num_threads(args.threads)
     rate = counter_rate()
     pairs = {}

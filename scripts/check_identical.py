@@ -32,10 +32,10 @@ import numpy as np
 
 import dcstereo
 from dcstereo import api
-from dcstereo.confidence import confidence
-from dcstereo.datasets import load_middlebury
-from dcstereo.redert import match_redert
-from dcstereo.tiling import match_tiled
+from dcstereo.batch.tiling import match_tiled
+from dcstereo.evaluation.datasets import load_middlebury
+from dcstereo.methods.redert import match_redert
+from dcstereo.refine.confidence import confidence
 
 SCENES = ("tsukuba", "venus", "teddy", "cones")
 

@@ -11,7 +11,7 @@
    (``dcstereo.geometry.point_cloud`` with the pair's calibration), seen from viewpoints
    turned 30 degrees to either side around the motorcycle.
 4. ``docs/img/motorcycle_confidence.png``: the confidence of the sparse dc map
-   (``dcstereo.confidence``; bright = sure, black = none) beside its errors against the
+   (``dcstereo.refine.confidence``; bright = sure, black = none) beside its errors against the
    ground truth (``viz.error_map``: red = more than 1 px off).
 5. ``docs/img/motorcycle_subpixel.png``: the point cloud of the filled dc map seen from 60
    degrees to the side, with whole-pixel disparities and with ``subpixel="equiangular"``.
@@ -29,10 +29,10 @@ import numpy as np
 
 import dcstereo
 from dcstereo import io, viz
-from dcstereo.confidence import confidence
-from dcstereo.datasets import load_middlebury, load_motorcycle
+from dcstereo.evaluation.datasets import load_middlebury, load_motorcycle
+from dcstereo.evaluation.metrics import bad_pixel_rate
 from dcstereo.geometry import point_cloud
-from dcstereo.metrics import bad_pixel_rate
+from dcstereo.refine.confidence import confidence
 from dcstereo.signal import intensity
 
 

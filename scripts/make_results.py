@@ -20,11 +20,11 @@ from pathlib import Path
 import numpy as np
 
 from dcstereo import io
-from dcstereo.datasets import find_scenes, load_motorcycle, load_scene, middlebury_dir
-from dcstereo.evaluation import bench, machine_description, opencv_available
-from dcstereo.explore import PAPER_METHODS, compare_figure, compare_methods, scanline_figure
-from dcstereo.explore import scanline as scanline_data
+from dcstereo.evaluation.datasets import find_scenes, load_motorcycle, load_scene, middlebury_dir
+from dcstereo.evaluation.scoring import bench, machine_description, opencv_available
 from dcstereo.params import DEFAULT_METHOD, METHODS, MatchParams
+from dcstereo.viz.explore import PAPER_METHODS, compare_figure, compare_methods, scanline_figure
+from dcstereo.viz.explore import scanline as scanline_data
 
 #: The four Middlebury v2 scenes (2001, 2003), the paper's era.
 V2 = ("tsukuba", "venus", "teddy", "cones")
@@ -218,7 +218,7 @@ def main(argv=None):
     if opencv:
         opencv_text = (
             f"- OpenCV {machine['opencv']} ({machine['opencv_threads']} threads), through "
-            "`dcstereo.opencv.match_opencv`: the colour images (BGR), `blockSize` 5, "
+            "`dcstereo.compat.opencv.match_opencv`: the colour images (BGR), `blockSize` 5, "
             "`numDisparities` = the range rounded up to a multiple of 16 (estimates above the "
             "scene's range dropped), `P1 = 8 * 3 * 25`, `P2 = 32 * 3 * 25`, `uniquenessRatio` "
             "10, `preFilterCap` 63, `disp12MaxDiff` 1, speckle window 100, range 2; "
@@ -228,7 +228,7 @@ def main(argv=None):
     masks = (
         "nonocc: the official masks of the v2 and 2014 scenes; for the 2005/2006 scenes, "
         "which have none, the left-right cross-check of the two ground-truth maps (tolerance "
-        "1 px, `dcstereo.datasets`); all: every pixel with ground truth"
+        "1 px, `dcstereo.evaluation.datasets`); all: every pixel with ground truth"
     )
     text = f"""# Results on the Middlebury development scenes
 

@@ -1,4 +1,4 @@
-"""Measure how well dcstereo.confidence ranks the pixels of the Middlebury scenes.
+"""Measure how well dcstereo.refine.confidence ranks the pixels of the Middlebury scenes.
 
     python scripts/measure_confidence.py [--data ../shared/data/middlebury]
 
@@ -16,7 +16,7 @@ import numpy as np
 from measure_subpixel import middlebury_scenes
 
 import dcstereo
-from dcstereo.confidence import confidence
+from dcstereo.refine.confidence import confidence
 
 METHODS = ("dc", "dsi5")
 KEPT = (0.25, 0.5, 0.75, 1.0)

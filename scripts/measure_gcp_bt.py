@@ -6,7 +6,7 @@ Usage::
     python scripts/measure_gcp_bt.py sweep   # dsi3-gcp defaults: uniqueness x variance floor
 
 Scores are bad-1.0 (%) of the *filled* maps in the ``nonocc``, ``all`` and ``disc`` masks
-(:func:`dcstereo.metrics.bad_pixel_rate`); times are the wall time of one call after a
+(:func:`dcstereo.evaluation.metrics.bad_pixel_rate`); times are the wall time of one call after a
 warm-up call (compilation excluded).
 """
 
@@ -17,8 +17,8 @@ import time
 import numpy as np
 
 import dcstereo
-from dcstereo.datasets import list_middlebury, load_middlebury, middlebury_dir
-from dcstereo.metrics import bad_pixel_rate
+from dcstereo.evaluation.datasets import list_middlebury, load_middlebury, middlebury_dir
+from dcstereo.evaluation.metrics import bad_pixel_rate
 
 MASKS = ("nonocc", "all", "disc")
 

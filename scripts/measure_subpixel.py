@@ -1,4 +1,4 @@
-"""Measure sub-pixel refinement (dcstereo.subpixel) on the Middlebury scenes and Motorcycle.
+"""Measure sub-pixel refinement (dcstereo.refine.subpixel) on the Middlebury scenes and Motorcycle.
 
     python scripts/measure_subpixel.py [--data ../shared/data/middlebury]
 
@@ -17,10 +17,10 @@ from pathlib import Path
 import numpy as np
 
 import dcstereo
-from dcstereo.datasets import load_motorcycle, load_scene, middlebury_dir
-from dcstereo.evaluation import score
+from dcstereo.evaluation.datasets import load_motorcycle, load_scene, middlebury_dir
+from dcstereo.evaluation.scoring import score
 from dcstereo.geometry import depth
-from dcstereo.subpixel import FITS, refine_subpixel
+from dcstereo.refine.subpixel import FITS, refine_subpixel
 
 SCENES = ("tsukuba", "venus", "teddy", "cones")
 SETTINGS = ("integer", *FITS)

@@ -19,9 +19,9 @@ from pathlib import Path
 import numba
 
 import dcstereo
-from dcstereo.datasets import list_middlebury, load_middlebury, middlebury_dir
+from dcstereo.evaluation.datasets import list_middlebury, load_middlebury, middlebury_dir
+from dcstereo.evaluation.metrics import bad_pixel_rate
 from dcstereo.io import atomic_write, check_writable
-from dcstereo.metrics import bad_pixel_rate
 
 DEFAULT_COSTS = (2.0, 5.0, 10.0, 15.0, 20.0, 30.0, 40.0, 60.0, 80.0)
 DEFAULT_METHODS = ("dsi3", "dsi5")

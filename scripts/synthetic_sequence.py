@@ -1,4 +1,4 @@
-"""Make the synthetic stereo sequence of dcstereo.synthetic on disk, and score results on it.
+"""Make the synthetic stereo sequence of dcstereo.evaluation.synthetic, and score results on it.
 
     python scripts/synthetic_sequence.py make seq --frames 40 --height 240 --width 320
     dcstereo video seq/left seq/right -o seq-out --max-disparity 40
@@ -16,9 +16,9 @@ from pathlib import Path
 import numpy as np
 
 from dcstereo import io
-from dcstereo.metrics import bad_pixel_rate, density
-from dcstereo.synthetic import synthetic_sequence
-from dcstereo.video import write_video
+from dcstereo.batch.video import write_video
+from dcstereo.evaluation.metrics import bad_pixel_rate, density
+from dcstereo.evaluation.synthetic import synthetic_sequence
 
 
 def make(args):

@@ -30,8 +30,8 @@ from sweep_occlusion import machine_line, output_error, write_atomic
 
 import dcstereo
 from dcstereo import params as defaults
-from dcstereo.datasets import list_middlebury, load_middlebury, middlebury_dir
-from dcstereo.metrics import bad_pixel_rate
+from dcstereo.evaluation.datasets import list_middlebury, load_middlebury, middlebury_dir
+from dcstereo.evaluation.metrics import bad_pixel_rate
 
 #: bad-1.0 nonocc (%) of the DP entry of the Middlebury stereo taxonomy: what dc must beat.
 TARGETS = {"tsukuba": 4.12, "venus": 10.1, "teddy": 14.0, "cones": 10.5}

@@ -21,8 +21,8 @@ import numpy as np
 
 import dcstereo
 from dcstereo import io
-from dcstereo.datasets import load_scene, middlebury_dir
-from dcstereo.evaluation import machine_description, score
+from dcstereo.evaluation.datasets import load_scene, middlebury_dir
+from dcstereo.evaluation.scoring import machine_description, score
 
 SCENES = ("tsukuba", "venus", "teddy", "cones")
 QUARTER = (-0.5, -0.25, 0.0, 0.25, 0.5)

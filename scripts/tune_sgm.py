@@ -22,9 +22,9 @@ import time
 
 import numpy as np
 
-from dcstereo.datasets import find_scenes, load_motorcycle, load_scene, middlebury_dir
-from dcstereo.evaluation import run_scene
-from dcstereo.metrics import bad_pixel_rate, mean_abs_error
+from dcstereo.evaluation.datasets import find_scenes, load_motorcycle, load_scene, middlebury_dir
+from dcstereo.evaluation.metrics import bad_pixel_rate, mean_abs_error
+from dcstereo.evaluation.scoring import run_scene
 
 V2 = ("tsukuba", "venus", "teddy", "cones")
 

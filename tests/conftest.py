@@ -17,7 +17,7 @@ import pytest  # noqa: E402
 from PIL import Image  # noqa: E402
 
 import synthetic  # noqa: E402
-from dcstereo.datasets import list_middlebury, middlebury_dir  # noqa: E402
+from dcstereo.evaluation.datasets import list_middlebury, middlebury_dir  # noqa: E402
 
 
 @pytest.fixture(scope="session")

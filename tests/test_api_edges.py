@@ -5,13 +5,14 @@ import pytest
 
 import dcstereo
 import synthetic
-from dcstereo import METHODS, MatchParams, _checks, api, fill_occlusions, metrics
+from dcstereo import METHODS, MatchParams, _checks, api, fill_occlusions
 from dcstereo import params as params_module
+from dcstereo.batch.tiling import match_tiled, row_bands
 from dcstereo.cost import window_variance
-from dcstereo.explore import compare_methods
-from dcstereo.redert import match_redert
+from dcstereo.evaluation import metrics
+from dcstereo.methods.redert import match_redert
 from dcstereo.signal import intensity, matching_signal, padded_signal
-from dcstereo.tiling import match_tiled, row_bands
+from dcstereo.viz.explore import compare_methods
 
 #: Every method with every cost it takes.
 METHOD_COSTS = [(m, c) for m in METHODS for c in params_module.costs_of(m)]

@@ -16,24 +16,19 @@ from hypothesis import strategies as st
 
 import dcstereo
 import naive
+from dcstereo import _records as records
 from dcstereo import api
-from dcstereo.datasets import load_middlebury
-from dcstereo.kernels import (
-    band_costs,
-    band_dp,  # noqa: F401 (test_band_kernels_run_as_plain_python sets its _PINS_IN_LOOP)
-    band_match,
-    bands,
-    costs,
-    divide_bands,
-    dp,
-    features,
-    gcp,
-    records,
-    rows,
-    scratch,
-    simd,
-)
+from dcstereo._vector import scratch, simd
+from dcstereo.costs import band as band_costs
+from dcstereo.costs import window as costs
+from dcstereo.divide import band_match, bands, divide_bands, features, gcp
+from dcstereo.evaluation.datasets import load_middlebury
 from dcstereo.params import MAX_BT_WINDOW, MAX_WINDOW
+from dcstereo.scanline import (
+    band_dp,  # noqa: F401 (test_band_kernels_run_as_plain_python sets its _PINS_IN_LOOP)
+    dp,
+    rows,
+)
 from dcstereo.signal import matching_signal
 from test_simd import ssd_in_form
 

@@ -12,7 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 from dcstereo import io, match
-from dcstereo.batch import (
+from dcstereo.batch.folders import (
     FAILURES_FILE,
     Pair,
     cloud_path,
@@ -23,8 +23,8 @@ from dcstereo.batch import (
     run_batch,
 )
 from dcstereo.cli import main
+from dcstereo.evaluation.synthetic import synthetic_sequence
 from dcstereo.geometry import Calibration, depth, point_cloud
-from dcstereo.synthetic import synthetic_sequence
 
 distributed = pytest.importorskip("distributed")
 
@@ -753,8 +753,8 @@ def test_median_is_a_recorded_option_that_older_folders_lack(pairs_dir, tmp_path
 
 
 def test_batch_confidence_here_and_on_dask(pairs_dir, tmp_path, dask_client):
-    from dcstereo.batch import confidence_path
-    from dcstereo.confidence import confidence
+    from dcstereo.batch.folders import confidence_path
+    from dcstereo.refine.confidence import confidence
 
     pairs = find_pairs(pairs_dir)[:3]
     serial = run_batch(pairs, tmp_path / "serial", max_disparity=MAX_DISPARITY, confidence=True)

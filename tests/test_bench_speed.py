@@ -279,7 +279,7 @@ def test_same_range_gives_every_method_opencvs_disparities(bench, tmp_path):
     assert bench.load_case(case)[2:4] == (0, 19)
     assert bench.load_case({**case, "same_range": True})[2:4] == (0, 31)
     assert bench.load_case({**case, "disparities": 32, "same_range": True})[2:4] == (0, 31)
-    from dcstereo.opencv import opencv_num_disparities
+    from dcstereo.compat.opencv import opencv_num_disparities
 
     assert opencv_num_disparities(-3, 12) == 16
     assert opencv_num_disparities(-3, 13) == 32

@@ -8,7 +8,7 @@ import pytest
 
 import synthetic
 from dcstereo import api
-from dcstereo.kernels import bands
+from dcstereo.divide import bands
 from dcstereo.params import MatchParams
 
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_stages.py"

@@ -6,8 +6,8 @@ import pytest
 import dcstereo
 import naive_gcp_bt
 import synthetic
-from dcstereo.evaluation import parse_methods, run_method
-from dcstereo.kernels import costs
+from dcstereo.costs import window as costs
+from dcstereo.evaluation.scoring import parse_methods, run_method
 
 BT_METHODS = ["block", "dsi3", "dsi5", "dc", "dc-linear", "dsi3-gcp"]
 

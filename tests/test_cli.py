@@ -204,7 +204,7 @@ def test_demo_runs_on_the_motorcycle_pair(tmp_path):
     disparity = io.read_disparity(out / "disparity.pfm")
     assert disparity.shape == (500, 741)
     # depth and points of the written map, with the pair's calibration
-    from dcstereo.datasets import MOTORCYCLE_CALIBRATION
+    from dcstereo.evaluation.datasets import MOTORCYCLE_CALIBRATION
     from dcstereo.geometry import depth
 
     z = io.read_pfm(out / "depth.pfm")
@@ -214,8 +214,8 @@ def test_demo_runs_on_the_motorcycle_pair(tmp_path):
     assert f"element vertex {np.isfinite(z).sum()}\n".encode() in (out / "cloud.ply").read_bytes()
     # the confidence of the sparse map, and its split into a surer and a less sure half
     from dcstereo import match
-    from dcstereo.confidence import confidence
-    from dcstereo.datasets import load_motorcycle
+    from dcstereo.evaluation.datasets import load_motorcycle
+    from dcstereo.refine.confidence import confidence
 
     scene = load_motorcycle()
     sparse = match(scene.left, scene.right, max_disparity=64, method="dsi5")
@@ -236,7 +236,7 @@ def test_demo_runs_on_the_motorcycle_pair(tmp_path):
 def test_demo_says_the_options_beyond_the_paper(tmp_path):
     pytest.importorskip("skimage")
     from dcstereo import match
-    from dcstereo.datasets import load_motorcycle
+    from dcstereo.evaluation.datasets import load_motorcycle
 
     out = tmp_path / "demo"
     result = invoke("demo", "--output", out, "--method", "dsi5", "--median", 3, "--threads", 1)
@@ -566,10 +566,10 @@ def test_batch_and_video_announce_compiling_before_their_bar(command, pair, tmp_
     import shutil
 
     import dcstereo.batch
-    import dcstereo.video
+    import dcstereo.batch.video
     from dcstereo.cli._common import COMPILE_NOTICE
 
-    module = dcstereo.batch if command == "batch" else dcstereo.video
+    module = dcstereo.batch if command == "batch" else dcstereo.batch.video
     monkeypatch.setattr(module, "match", compiling_first(module.match))
     folder, _ = pair
     source, out = tmp_path / "source", tmp_path / "out"

@@ -8,9 +8,9 @@ from click.testing import CliRunner
 from PIL import Image
 
 import synthetic
-from dcstereo import datasets as ds
 from dcstereo import io
 from dcstereo.cli import main
+from dcstereo.evaluation import datasets as ds
 from test_datasets import http_server, zipped_scene  # noqa: F401  (fixture)
 
 HEIGHT, WIDTH = 24, 64
@@ -252,7 +252,7 @@ def test_compare_without_truth_and_more_methods(pair, tmp_path):
 def test_compare_method_options_reach_dcstereos_methods_only(pair, tmp_path, monkeypatch):
     # dc's options go to dcstereo's methods (those that do not read one ignore it), never
     # to OpenCV's; an option none of the methods reads is refused before any runs
-    from dcstereo import evaluation
+    from dcstereo.evaluation import scoring as evaluation
 
     left, right, _ = pair
     calls = {}
@@ -363,7 +363,7 @@ def test_scanline_takes_the_method_options(pair, tmp_path):
 
 def test_scanline_data_matches_a_full_run(pair):
     import dcstereo
-    from dcstereo.explore import dsi_row, scanline
+    from dcstereo.viz.explore import dsi_row, scanline
 
     left, right, _ = pair
     left, right = io.read_image(left), io.read_image(right)
@@ -384,7 +384,7 @@ def test_scanline_data_matches_a_full_run(pair):
 
 def test_scanline_bt_names_run_with_the_bt_cost(pair):
     import dcstereo
-    from dcstereo.explore import scanline
+    from dcstereo.viz.explore import scanline
 
     left, right, _ = pair
     left, right = io.read_image(left), io.read_image(right)

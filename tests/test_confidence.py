@@ -1,4 +1,4 @@
-"""Confidence (``dcstereo.confidence``): the kernel against a plain twin, what it says on
+"""Confidence (``dcstereo.refine.confidence``): the kernel against a plain twin, what it says on
 known pairs, its errors, and ``run --confidence-out``."""
 
 from dataclasses import replace
@@ -9,9 +9,9 @@ import pytest
 import naive
 import naive_gcp_bt
 from dcstereo import FLAG_FILLED, io, match
-from dcstereo.confidence import confidence
+from dcstereo.refine.confidence import confidence
+from dcstereo.refine.subpixel import refine_subpixel
 from dcstereo.signal import matching_signal
-from dcstereo.subpixel import refine_subpixel
 from test_cli import invoke
 
 
@@ -138,7 +138,7 @@ def test_run_confidence_out(pair):
 
 def test_an_opencv_result_is_rated_with_the_sad(pair):
     pytest.importorskip("cv2")
-    from dcstereo.opencv import match_opencv
+    from dcstereo.compat.opencv import match_opencv
 
     folder, _ = pair
     left, right = io.read_image(folder / "left.png"), io.read_image(folder / "right.png")
@@ -191,7 +191,7 @@ def test_sgm_confidence_is_the_margin_of_its_aggregated_costs(pair):
     # the twin: the totals of the naive aggregation, the margin over the least rival two or
     # more disparities away, NaN where filled
     import naive_sgm
-    from dcstereo import sgm
+    from dcstereo.methods import sgm
     from dcstereo.signal import padded_signal
 
     folder, _ = pair

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from dcstereo.datasets import (
+from dcstereo.evaluation.datasets import (
     StereoScene,
     default_data_dir,
     list_middlebury,
@@ -180,7 +180,7 @@ def test_motorcycle():
 # --- load_scene: every layout -------------------------------------------------------
 
 from dcstereo import io as dio  # noqa: E402
-from dcstereo.datasets import (  # noqa: E402
+from dcstereo.evaluation.datasets import (  # noqa: E402
     REGISTRY,
     RegistryEntry,
     RemoteFile,

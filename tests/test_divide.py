@@ -14,9 +14,10 @@ import naive_divide
 import synthetic
 from dcstereo import FLAG_FEATURE
 from dcstereo.cost import window_variance
-from dcstereo.datasets import load_middlebury
-from dcstereo.kernels import costs, features
-from dcstereo.metrics import bad_pixel_rate
+from dcstereo.costs import window as costs
+from dcstereo.divide import features
+from dcstereo.evaluation.datasets import load_middlebury
+from dcstereo.evaluation.metrics import bad_pixel_rate
 from dcstereo.params import DEFAULT_DC_SLANT_COST, MatchParams
 from dcstereo.signal import SIGNAL_STEPS, matching_signal
 

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 import synthetic
-from dcstereo.datasets import StereoScene
-from dcstereo.evaluation import (
+from dcstereo.evaluation.datasets import StereoScene
+from dcstereo.evaluation.scoring import (
     available_methods,
     bench,
     bench_table,
@@ -144,7 +144,7 @@ def test_bench_match_options_reach_dcstereos_methods_only():
 
 def test_opencv_result_is_float_with_nan():
     pytest.importorskip("cv2")
-    from dcstereo.opencv import match_opencv
+    from dcstereo.compat.opencv import match_opencv
 
     rng = np.random.default_rng(11)
     right = rng.integers(0, 256, (40, 96), dtype=np.uint8)
@@ -166,7 +166,7 @@ def test_opencv_result_is_float_with_nan():
 
 
 def test_opencv_validates_and_names_the_extra(monkeypatch):
-    from dcstereo.opencv import match_opencv
+    from dcstereo.compat.opencv import match_opencv
 
     image = np.zeros((10, 40), np.uint8)
     with pytest.raises(ValueError, match="window >= 5"):
@@ -181,7 +181,7 @@ def test_opencv_validates_and_names_the_extra(monkeypatch):
 def test_to_json_writes_null_for_non_finite_values():
     import json
 
-    from dcstereo.evaluation import to_json
+    from dcstereo.evaluation.scoring import to_json
 
     payload = {"a": [1.5, float("nan"), np.float64("inf")], "b": {"c": -np.inf, "d": "x"}}
     assert json.loads(to_json(payload)) == {"a": [1.5, None, None], "b": {"c": None, "d": "x"}}

@@ -10,7 +10,7 @@ import naive_gcp_bt
 import synthetic
 from dcstereo import io
 from dcstereo.cli import main
-from dcstereo.kernels import gcp
+from dcstereo.divide import gcp
 from dcstereo.result import FLAG_FEATURE
 
 

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from dcstereo import datasets, io, match
+from dcstereo import io, match
+from dcstereo.evaluation import datasets
 from dcstereo.geometry import Calibration, depth, point_cloud, read_calib
 from test_cli import invoke
 

@@ -6,8 +6,11 @@ import numpy as np
 import pytest
 
 import naive
-from dcstereo.kernels import costs, divide, dp, records
+from dcstereo import _records as records
+from dcstereo.costs import window as costs
+from dcstereo.divide import divide
 from dcstereo.result import FLAG_FEATURE
+from dcstereo.scanline import dp
 
 STEP_NAMES = {
     dp.STEP_C: naive.C,

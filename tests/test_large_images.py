@@ -28,8 +28,8 @@ from PIL import Image
 import dcstereo
 import synthetic
 from dcstereo import api, io
+from dcstereo.batch.tiling import match_tiled
 from dcstereo.cli import main
-from dcstereo.tiling import match_tiled
 from method_cases import method_cases
 
 MAX_DISPARITY = 12

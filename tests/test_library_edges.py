@@ -10,10 +10,12 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from dcstereo import datasets, explore, io, viz
-from dcstereo.batch import Pair, find_pairs, run_batch
+from dcstereo import io, viz
+from dcstereo.batch.folders import Pair, find_pairs, run_batch
+from dcstereo.evaluation import datasets
+from dcstereo.evaluation.synthetic import synthetic_sequence
 from dcstereo.result import DisparityResult
-from dcstereo.synthetic import synthetic_sequence
+from dcstereo.viz import explore
 
 
 def _listing(directory):
@@ -309,7 +311,7 @@ def test_synthetic_sequence_bad_arguments(kwargs, error, message):
 )
 def test_opencv_ranges_it_cannot_search(kwargs, message):
     pytest.importorskip("cv2")
-    from dcstereo.opencv import match_opencv
+    from dcstereo.compat.opencv import match_opencv
 
     left, right = _pair(40, 80, 3)
     with pytest.raises(ValueError, match=message):
@@ -318,7 +320,7 @@ def test_opencv_ranges_it_cannot_search(kwargs, message):
 
 def test_opencv_numpy_integer_window():
     pytest.importorskip("cv2")
-    from dcstereo.opencv import match_opencv
+    from dcstereo.compat.opencv import match_opencv
 
     left, right = _pair(40, 80, 3)
     result = match_opencv(left, right, max_disparity=8, window=np.int64(5))
@@ -337,7 +339,7 @@ def test_opencv_numpy_integer_window():
     ],
 )
 def test_opencv_options_are_named_when_wrong(kwargs, error, message):
-    from dcstereo.opencv import match_opencv
+    from dcstereo.compat.opencv import match_opencv
 
     left, right = _pair(40, 80, 3)
     with pytest.raises(error, match=message):
@@ -434,7 +436,7 @@ def test_pairs_csv_with_an_oversized_field(tmp_path):
     ],
 )
 def test_write_video_bad_frames_and_settings(tmp_path, frames, kwargs, error, message):
-    from dcstereo.video import write_video
+    from dcstereo.batch.video import write_video
 
     with pytest.raises(error, match=message):
         write_video(tmp_path / "v.mp4", frames, **kwargs)
@@ -442,7 +444,7 @@ def test_write_video_bad_frames_and_settings(tmp_path, frames, kwargs, error, me
 
 
 def test_write_video_reports_ffmpeg_failing_and_leaves_nothing(tmp_path):
-    from dcstereo.video import write_video
+    from dcstereo.batch.video import write_video
 
     (tmp_path / "v.xyz").write_bytes(b"old")
     with pytest.raises(ValueError, match=r"cannot write video '.*v\.xyz': Unable to choose"):
@@ -452,7 +454,7 @@ def test_write_video_reports_ffmpeg_failing_and_leaves_nothing(tmp_path):
 
 
 def test_write_video_quality_zero_as_documented(tmp_path):
-    from dcstereo.video import open_sequence, write_video
+    from dcstereo.batch.video import open_sequence, write_video
 
     path = tmp_path / "v.mp4"
     assert write_video(path, [np.zeros((16, 32), np.uint8)] * 3, quality=0) == 3
@@ -460,7 +462,7 @@ def test_write_video_quality_zero_as_documented(tmp_path):
 
 
 def test_read_video_of_a_missing_file_or_a_folder(tmp_path):
-    from dcstereo.video import read_video
+    from dcstereo.batch.video import read_video
 
     with pytest.raises(ValueError, match=r"cannot read video '.*nope\.mp4': no such file"):
         next(read_video(tmp_path / "nope.mp4"))
@@ -485,7 +487,7 @@ def frame_folders(tmp_path):
     ],
 )
 def test_match_sequence_refusals_leave_no_folder(frame_folders, tmp_path, kwargs, error, message):
-    from dcstereo.video import match_sequence, open_sequence
+    from dcstereo.batch.video import match_sequence, open_sequence
 
     out = tmp_path / "out"
     sequence = open_sequence(*frame_folders)
@@ -495,7 +497,7 @@ def test_match_sequence_refusals_leave_no_folder(frame_folders, tmp_path, kwargs
 
 
 def test_match_sequence_needs_a_sequence(tmp_path):
-    from dcstereo.video import match_sequence
+    from dcstereo.batch.video import match_sequence
 
     with pytest.raises(TypeError, match="sequence must be a StereoSequence"):
         match_sequence([1, 2], tmp_path / "out", max_disparity=4)

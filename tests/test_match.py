@@ -321,10 +321,10 @@ def layouts(gray, rng, layout):
 
 @pytest.mark.parametrize(("left_layout", "right_layout"), [("gray", "rgb"), ("rgba", "gray")])
 def test_gray_and_colour_pair_of_one_size_is_accepted(left_layout, right_layout):
-    from dcstereo.evaluation import available_methods, run_method
-    from dcstereo.explore import dsi_row
+    from dcstereo.batch.tiling import match_tiled
+    from dcstereo.evaluation.scoring import available_methods, run_method
     from dcstereo.signal import intensity, matching_signal
-    from dcstereo.tiling import match_tiled
+    from dcstereo.viz.explore import dsi_row
 
     rng = np.random.default_rng(17)
     left, right, _ = synthetic.object_pair(rng, 30, 40, 2, 6, (12, 26))

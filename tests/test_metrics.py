@@ -3,7 +3,7 @@ import math
 import numpy as np
 import pytest
 
-from dcstereo.metrics import (
+from dcstereo.evaluation.metrics import (
     bad_pixel_rate,
     density,
     evaluate,

@@ -3,8 +3,8 @@
 import pytest
 
 import dcstereo
-from dcstereo.datasets import load_middlebury
-from dcstereo.metrics import bad_pixel_rate
+from dcstereo.evaluation.datasets import load_middlebury
+from dcstereo.evaluation.metrics import bad_pixel_rate
 
 pytestmark = [pytest.mark.dataset, pytest.mark.slow]
 

@@ -6,13 +6,8 @@ import numpy as np
 import pytest
 
 from dcstereo import io
-from dcstereo.datasets import load_middlebury, load_scene
-from dcstereo.evaluation import (
-    evaluate_file,
-    mask_lines,
-    missing_mask_lines,
-    scene_masks,
-)
+from dcstereo.evaluation.datasets import load_middlebury, load_scene
+from dcstereo.evaluation.scoring import evaluate_file, mask_lines, missing_mask_lines, scene_masks
 from test_cli_eval import invoke, write_v2_scene
 from test_datasets import write_scene
 

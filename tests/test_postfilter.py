@@ -1,4 +1,4 @@
-"""The median post-filter (``dcstereo.postfilter``): the kernel against a plain twin, what
+"""The median post-filter (``dcstereo.refine.postfilter``): the kernel against a plain twin, what
 it leaves alone, inside ``match`` and tiled, its errors, and ``run --median``."""
 
 from dataclasses import replace
@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from dcstereo import FLAG_FEATURE, FLAG_FILLED, FLAG_OCCLUDED, MatchParams, io, match
-from dcstereo.kernels import postfilter
-from dcstereo.postfilter import MAX_BINS, MAX_MEDIAN, median_filter
-from dcstereo.tiling import match_tiled
+from dcstereo.batch.tiling import match_tiled
+from dcstereo.refine import _postfilter as postfilter
+from dcstereo.refine.postfilter import MAX_BINS, MAX_MEDIAN, median_filter
 from test_cli import invoke
 
 

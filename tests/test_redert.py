@@ -11,9 +11,10 @@ import dcstereo
 import naive_redert
 import synthetic
 from dcstereo import MatchParams
-from dcstereo.kernels import records, redert
-from dcstereo.metrics import bad_pixel_rate, mean_abs_error
-from dcstereo.redert import match_redert, orientation_steps
+from dcstereo import _records as records
+from dcstereo.evaluation.metrics import bad_pixel_rate, mean_abs_error
+from dcstereo.methods.redert import match_redert, orientation_steps
+from dcstereo.scanline import redert
 
 
 def run_dp(node, seg, dmin, oq, occ, orient, slant, steps=4, discount=0.0, run_cap=1, ring=None):
@@ -474,7 +475,7 @@ def test_cli_runs_redert(tmp_path):
 @pytest.mark.dataset
 @pytest.mark.slow
 def test_venus_redert_against_dsi3(middlebury_root):
-    from dcstereo.datasets import load_middlebury
+    from dcstereo.evaluation.datasets import load_middlebury
 
     data = load_middlebury("venus", root=middlebury_root.parent)
     bad, bad_half, mae = {}, {}, {}

@@ -13,10 +13,10 @@ from PIL import Image
 import dcstereo
 from dcstereo import io, viz
 from dcstereo.cli import main
-from dcstereo.confidence import confidence
+from dcstereo.evaluation.synthetic import synthetic_sequence
 from dcstereo.geometry import Calibration, depth, point_cloud
+from dcstereo.refine.confidence import confidence
 from dcstereo.result import FLAG_BORDER, FLAG_MISMATCH, FLAG_OCCLUDED
-from dcstereo.synthetic import synthetic_sequence
 
 rr = pytest.importorskip("rerun")
 
@@ -230,7 +230,7 @@ import sys
 sys.modules["rerun"] = None
 sys.modules["cv2"] = None
 import numpy as np
-import dcstereo, dcstereo.viz, dcstereo.cli, dcstereo.video
+import dcstereo, dcstereo.viz, dcstereo.cli, dcstereo.batch.video
 rng = np.random.default_rng(0)
 right = rng.integers(0, 256, (16, 40), dtype=np.uint8)
 left = np.roll(right, 3, axis=1)
@@ -420,7 +420,7 @@ def test_video_rerun_errors(sequence, tmp_path):
 
 def test_video_rerun_on_dask_logs_the_same_frames(sequence, tmp_path):
     distributed = pytest.importorskip("distributed")
-    from dcstereo.video import match_sequence, open_sequence
+    from dcstereo.batch.video import match_sequence, open_sequence
 
     root, frames = sequence
     calibration = Calibration.from_middlebury(root / "calib.txt")

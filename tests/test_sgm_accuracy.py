@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 import dcstereo
-from dcstereo.datasets import load_scene
-from dcstereo.evaluation import run_scene
-from dcstereo.metrics import bad_pixel_rate
+from dcstereo.evaluation.datasets import load_scene
+from dcstereo.evaluation.metrics import bad_pixel_rate
+from dcstereo.evaluation.scoring import run_scene
 
 #: scene: (bad-1.0, bad-0.5) of the default, measured; one scene of each kind: a v2 scene,
 #: a 2014 pair whose views differ in brightness, a 2005/2006 scene, a weakly textured one.

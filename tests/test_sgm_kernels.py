@@ -5,9 +5,9 @@ import pytest
 
 import dcstereo
 import naive_sgm
-from dcstereo import sgm
-from dcstereo.kernels import census as census_kernels
-from dcstereo.kernels import sgm_simd
+from dcstereo._vector import sgm as sgm_simd
+from dcstereo.costs import census as census_kernels
+from dcstereo.methods import sgm
 from dcstereo.params import MatchParams
 from dcstereo.signal import padded_signal
 
@@ -210,7 +210,7 @@ def test_strips_are_exact_where_one_strip_holds_the_image(monkeypatch):
 
 @pytest.mark.parametrize("channels", [1, 3])
 def test_fill_equals_twin(channels):
-    from dcstereo.consistency import fill_with_colour
+    from dcstereo.refine.consistency import fill_with_colour
     from dcstereo.result import FLAG_FILLED, FLAG_MISMATCH, FLAG_OCCLUDED, DisparityResult
 
     rng = np.random.default_rng(channels)

@@ -1,4 +1,4 @@
-"""The hand-written vector code (``dcstereo.kernels.simd*``) against its plain forms.
+"""The hand-written vector code (``dcstereo._vector.simd*``) against its plain forms.
 
 Each operation of the ``simd`` modules is a plain-Python function whose compiled callers
 get LLVM vector code (an ``@overload``); these tests call both, the plain form as Python
@@ -16,16 +16,13 @@ from numba.core import types
 from numba.extending import intrinsic
 
 import naive
-from dcstereo.kernels import (
-    band_costs,
-    band_match,
-    divide_bands,
-    dp,
-    signal,
-    simd,
-    simd_costs,
-    simd_dp,
-)
+from dcstereo import _signal as signal
+from dcstereo._vector import costs as simd_costs
+from dcstereo._vector import dp as simd_dp
+from dcstereo._vector import simd
+from dcstereo.costs import band as band_costs
+from dcstereo.divide import band_match, divide_bands
+from dcstereo.scanline import dp
 
 
 def _compiled(function):

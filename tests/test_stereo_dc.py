@@ -8,9 +8,9 @@ import pytest
 
 import dcstereo
 import synthetic
-from dcstereo import stereo_dc
+from dcstereo.compat import stereo_dc
+from dcstereo.compat.stereo_dc import OPENCV_OPTIONS, StereoDC, to_fixed_point
 from dcstereo.geometry import Calibration, depth, point_cloud
-from dcstereo.stereo_dc import OPENCV_OPTIONS, StereoDC, to_fixed_point
 
 cv2 = pytest.importorskip("cv2")
 

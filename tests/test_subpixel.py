@@ -1,4 +1,4 @@
-"""Sub-pixel refinement (``dcstereo.subpixel``): the kernel against a plain twin, a known
+"""Sub-pixel refinement (``dcstereo.refine.subpixel``): the kernel against a plain twin, a known
 fractional shift, what it leaves alone, its errors, and ``run --subpixel``."""
 
 from dataclasses import replace
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from dcstereo import FLAG_FILLED, io, match
+from dcstereo.refine.subpixel import refine_subpixel
 from dcstereo.signal import matching_signal
-from dcstereo.subpixel import refine_subpixel
 from naive import window_sad
 from naive_gcp_bt import window_bt
 from test_cli import invoke

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from dcstereo import match
-from dcstereo.metrics import bad_pixel_rate
-from dcstereo.synthetic import synthetic_sequence
+from dcstereo.evaluation.metrics import bad_pixel_rate
+from dcstereo.evaluation.synthetic import synthetic_sequence
 
 
 def test_same_seed_same_frames_other_seed_other_frames():

@@ -7,9 +7,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from dcstereo import io, match
+from dcstereo.batch.tiling import match_tiled, row_bands
 from dcstereo.cli import main
-from dcstereo.synthetic import synthetic_sequence
-from dcstereo.tiling import match_tiled, row_bands
+from dcstereo.evaluation.synthetic import synthetic_sequence
 
 
 @pytest.fixture(scope="module")

@@ -8,17 +8,17 @@ import pytest
 from click.testing import CliRunner
 
 from dcstereo import io, match
-from dcstereo.batch import read_failures
-from dcstereo.cli import main
-from dcstereo.geometry import Calibration, depth
-from dcstereo.synthetic import synthetic_sequence
-from dcstereo.video import (
+from dcstereo.batch.folders import read_failures
+from dcstereo.batch.video import (
     depth_output_path,
     match_sequence,
     open_sequence,
     read_video,
     write_video,
 )
+from dcstereo.cli import main
+from dcstereo.evaluation.synthetic import synthetic_sequence
+from dcstereo.geometry import Calibration, depth
 
 MAX_DISPARITY = 16
 N_FRAMES = 5
@@ -334,8 +334,8 @@ def test_video_depth_as_16_bit_png(sources, frames, tmp_path):
 
 
 def test_video_ply_per_frame(sources, frames, tmp_path):
+    from dcstereo.batch.video import cloud_output_path
     from dcstereo.geometry import point_cloud
-    from dcstereo.video import cloud_output_path
 
     (tmp_path / "calib.txt").write_text(RIG)
     calib = Calibration.from_middlebury(tmp_path / "calib.txt")
@@ -369,8 +369,8 @@ def test_video_ply_per_frame(sources, frames, tmp_path):
 
 
 def test_video_confidence_per_frame(sources, frames, tmp_path):
-    from dcstereo.confidence import confidence
-    from dcstereo.video import confidence_output_path
+    from dcstereo.batch.video import confidence_output_path
+    from dcstereo.refine.confidence import confidence
 
     out = tmp_path / "out"
     result = run_video(sources / "left", sources / "right", "-o", out, "--confidence")

@@ -2,14 +2,14 @@
 
 **The ``{kernel}`` role: name a private numba kernel, and fail the build when it is gone.**
 
-The kernels (``dcstereo.kernels.dp``, ``dcstereo.kernels.bands``, ...) are private, so the
+The kernels (``dcstereo.scanline.dp``, ``dcstereo.divide.bands``, ...) are private, so the
 API reference leaves them out and ``{func}`` could not link to them. The algorithm page
 still names the functions that implement each step of the paper; this role imports each
 name as the site is built and warns (an error under ``-W``) when it does not resolve, so a
 renamed or moved kernel breaks ``make docs`` instead of leaving a stale name in the page.
 
-Written ``{kernel}`dcstereo.kernels.dp.scanline_dp``` (or with a title,
-``{kernel}`the DP <dcstereo.kernels.dp.scanline_dp>```), it renders as code showing the
+Written ``{kernel}`dcstereo.scanline.dp.scanline_dp``` (or with a title,
+``{kernel}`the DP <dcstereo.scanline.dp.scanline_dp>```), it renders as code showing the
 name without the package, with the source file and line as a tooltip.
 
 **Re-exported names are documented once**, on the ``dcstereo`` package's page

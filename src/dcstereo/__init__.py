@@ -1,16 +1,32 @@
 """dcstereo: dense stereo disparity with explicit occlusions.
 
+:func:`match` turns a rectified pair into a :class:`DisparityResult`: a disparity map with
+the reason each pixel has no estimate (occluded, mismatched, border). Its default method,
+``sgm``, is an accurate modern pipeline: census and colour costs, semi-global aggregation
+along eight paths, a left-right check, an edge-aware fill, a median and a sub-pixel fit.
 The method of Tsai and Katsaggelos, *Dense Disparity Estimation via Global and Local
-Matching*: divide-and-conquer feature matching and an extended five-step
-disparity-space dynamic program, with the baselines it is compared with.
+Matching* (``dc``: divide-and-conquer feature matching and an extended five-step
+disparity-space DP), is kept exact beside it, with the paper's baselines.
+
+The package follows the data path: :mod:`dcstereo.signal`, :mod:`dcstereo.costs`,
+:mod:`dcstereo.aggregate`, :mod:`dcstereo.scanline`, :mod:`dcstereo.divide`,
+:mod:`dcstereo.refine`, the methods made of them (:mod:`dcstereo.methods`), then
+:mod:`dcstereo.io`, :mod:`dcstereo.evaluation`, :mod:`dcstereo.viz`, :mod:`dcstereo.batch`,
+:mod:`dcstereo.compat` and the command line.
 
 Convention: a left pixel ``(x, y)`` matches the right pixel ``(x - d, y)``, ``d >= 0``.
 """
 
-from . import _memory  # noqa: F401  (sets the allocator's thresholds once; see there)
-from .api import match
-from .params import DEFAULT_METHOD, METHODS, MatchParams
-from .result import (
+# numba's cache locator first: every kernel compiled with cache=True in this package is
+# stamped with the hash of all its sources (see dcstereo._vector._cache)
+from dcstereo._vector._cache import install_locator
+
+install_locator()
+
+from dcstereo.api import match
+from dcstereo.compat.stereo_dc import StereoDC
+from dcstereo.params import DEFAULT_METHOD, METHODS, MatchParams
+from dcstereo.result import (
     FLAG_BORDER,
     FLAG_FEATURE,
     FLAG_FILLED,
@@ -19,7 +35,6 @@ from .result import (
     DisparityResult,
     fill_occlusions,
 )
-from .stereo_dc import StereoDC
 
 __all__ = [
     "FLAG_BORDER",

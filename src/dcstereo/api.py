@@ -5,14 +5,16 @@ from collections.abc import Callable
 import numba
 import numpy as np
 
-from .kernels import bands, divide, gcp, records, rows
-from .params import DEFAULT_METHOD, MatchParams
-from .postfilter import median_filter
-from .redert import match_redert as _match_redert
-from .result import FLAG_FEATURE, DisparityResult
-from .sgm import match_sgm as _match_sgm
-from .signal import SIGNAL_STEPS, check_pair, padded_signal
-from .subpixel import refine_subpixel
+from dcstereo import _records as records
+from dcstereo.divide import bands, divide, gcp
+from dcstereo.methods.redert import match_redert as _match_redert
+from dcstereo.methods.sgm import match_sgm as _match_sgm
+from dcstereo.params import DEFAULT_METHOD, MatchParams
+from dcstereo.refine.postfilter import median_filter
+from dcstereo.refine.subpixel import refine_subpixel
+from dcstereo.result import FLAG_FEATURE, DisparityResult
+from dcstereo.scanline import rows
+from dcstereo.signal import SIGNAL_STEPS, check_pair, padded_signal
 
 
 def match(
@@ -47,7 +49,7 @@ def match(
         (Intille and Bobick); ``"dsi5"``: the extended five-step model of eq. 5 (Tsai and
         Katsaggelos); ``"redert"``: the DP with modelling of occlusion and object
         orientation of Redert, Tsai, Hendriks and Katsaggelos (reconstructed; window
-        sheared by the surface slope, see :mod:`dcstereo.redert`); ``"dsi3-gcp"``: the
+        sheared by the surface slope, see :mod:`dcstereo.methods.redert`); ``"dsi3-gcp"``: the
         three-step DP forced through Intille and Bobick's ground control points (textured,
         unambiguous, left-right consistent matches kept in order; see
         :class:`~dcstereo.params.MatchParams`).
@@ -55,8 +57,8 @@ def match(
         ``window`` (odd, default 5), ``occlusion_cost`` (per pixel, gray levels of mean
         absolute difference, default 10), ``fill`` (default False), ``cost``
         (``"sad"`` or ``"bt"``, Birchfield-Tomasi), ``subpixel`` (None, ``"equiangular"``
-        or ``"parabola"``, see :mod:`dcstereo.subpixel`), ``median`` (0, or the odd side of
-        a median filter, see :mod:`dcstereo.postfilter`). See
+        or ``"parabola"``, see :mod:`dcstereo.refine.subpixel`), ``median`` (0, or the odd side of
+        a median filter, see :mod:`dcstereo.refine.postfilter`). See
         :class:`~dcstereo.params.MatchParams`.
 
     Returns

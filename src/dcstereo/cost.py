@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from ._checks import is_integer
+from dcstereo._checks import is_integer
 
 
 def window_variance(intensity: np.ndarray, window: int) -> np.ndarray:

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._checks import disparity_array, is_number
+from dcstereo._checks import disparity_array, is_number
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from ._checks import is_integer, is_number
+from dcstereo._checks import is_integer, is_number
 
 #: Methods understood by :func:`dcstereo.match`, in the order the docs present them.
 METHODS = ("sgm", "dc", "dc-linear", "dsi5", "dsi3", "dsi3-gcp", "redert", "block")
@@ -83,10 +83,10 @@ DEFAULT_LR_TOLERANCE = 1
 #: ``sgm``: the largest census window (its bits, one per pixel but the centre, fill 64).
 MAX_CENSUS_BITS = 64
 
-#: ``subpixel``: the fits of :func:`dcstereo.subpixel.refine_subpixel`.
+#: ``subpixel``: the fits of :func:`dcstereo.refine.subpixel.refine_subpixel`.
 SUBPIXEL_FITS = ("equiangular", "parabola")
 
-#: ``median``: the largest window of :func:`dcstereo.postfilter.median_filter`.
+#: ``median``: the largest window of :func:`dcstereo.refine.postfilter.median_filter`.
 MAX_MEDIAN = 15
 
 
@@ -232,7 +232,7 @@ class MatchParams:
         or e step never beats an occlusion plus a match, and the model is the three-step
         one. Not read by ``dsi3``, ``dsi3-gcp`` and ``block``. ``redert``: the cost of
         each disparity step of a slanted segment (None:
-        ``dcstereo.redert.DEFAULT_REDERT_SLANT_COST``).
+        ``dcstereo.methods.redert.DEFAULT_REDERT_SLANT_COST``).
     ser_min : float
         ``dc`` methods: smallest signal-to-error ratio (eq. 2) of a reliable feature pair,
         ``(var_L + var_R) / sum_window (I_L - I_R)^2``.
@@ -278,7 +278,7 @@ class MatchParams:
         dissimilarity of Birchfield and Tomasi: the distance of each pixel's value to the
         range of the other image's linear interpolation over half a pixel on either side
         of its partner, the least of the two directions (see
-        ``dcstereo.kernels.costs.row_costs_bt``). Same units (gray levels of mean
+        ``dcstereo.costs.window.row_costs_bt``). Same units (gray levels of mean
         dissimilarity), same edge handling. Every method but ``redert``, whose window is
         sheared, takes both.
     gcp_uniqueness : float
@@ -297,19 +297,19 @@ class MatchParams:
     subpixel : str or None
         None (default): whole-pixel disparities (and the e steps' half pixels).
         ``"equiangular"`` or ``"parabola"``: refined to a fraction of a pixel by
-        :func:`dcstereo.subpixel.refine_subpixel` before ``fill``, so the filled pixels
+        :func:`dcstereo.refine.subpixel.refine_subpixel` before ``fill``, so the filled pixels
         take their neighbours' refined values.
     median : int
         0 (default): no post-filter. An odd side from 3 to :data:`MAX_MEDIAN`: every
         estimate but the feature pairs' takes the median of the estimates in that square
-        around it (:func:`dcstereo.postfilter.median_filter`), after ``subpixel`` and
+        around it (:func:`dcstereo.refine.postfilter.median_filter`), after ``subpixel`` and
         before ``fill``.
     orientations : tuple of float
         ``redert`` only: the surface orientations of the DP states, as disparity slopes
         (pixels of disparity per pixel), each one of ``0, +-1/16, +-1/8, +-1/4, +-1/2,
         +-1``, no repeats; default :data:`DEFAULT_ORIENTATIONS`. The matching window is sheared by
         the slope, and a surface of slope ``+-1/L`` runs between integer-disparity
-        nodes ``L`` pixels apart (see :mod:`dcstereo.redert`).
+        nodes ``L`` pixels apart (see :mod:`dcstereo.methods.redert`).
     orientation_cost : float
         ``redert`` only: cost of a change of orientation between neighbouring matched
         pixels, in the units of ``occlusion_cost``; default

@@ -4,8 +4,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .params import MatchParams
-from .signal import check_pair
+from dcstereo.params import MatchParams
+from dcstereo.signal import check_pair
 
 #: The DP left this left pixel without a partner (a step of eq. 5).
 FLAG_OCCLUDED = 1

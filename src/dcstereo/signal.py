@@ -15,8 +15,8 @@ the same disparity map.
 
 import numpy as np
 
-from .kernels import signal as signal_kernels
-from .kernels.signal import LUMA
+from dcstereo import _signal as signal_kernels
+from dcstereo._signal import LUMA
 
 #: Quantization steps per gray level of the matching signal.
 SIGNAL_STEPS = 16
@@ -147,3 +147,31 @@ def padded_signal(image: np.ndarray, radius: int) -> np.ndarray:
     out = np.empty((height + 2 * radius, width + 2 * radius), dtype=np.int32)
     signal_kernels.padded_signal(array, mode, SIGNAL_STEPS, radius, out)
     return out
+
+
+def colour_channels(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return the two views' channels on the 0..255 scale as ``(C, H, W)`` int16, rounded.
+
+    Colour views give their three channels (an alpha channel is ignored); where either is
+    gray, both give their intensity (luma), so the two always have as many channels.
+    """
+
+    def scaled(image):
+        image = np.asarray(image)
+        if image.dtype == np.uint8:
+            return image
+        if image.dtype == np.uint16:
+            return image.astype(np.float64) / 257.0
+        return image.astype(np.float64) * 255.0
+
+    colour = left.ndim == 3 and right.ndim == 3 and min(left.shape[2], right.shape[2]) >= 3
+    out = []
+    for image in (left, right):
+        if colour:
+            channels = np.moveaxis(scaled(image[:, :, :3]), 2, 0)
+        else:
+            channels = padded_signal(image, 0)[np.newaxis] / float(SIGNAL_STEPS)
+        if channels.dtype != np.uint8:
+            channels = np.clip(np.rint(channels), 0, 255)
+        out.append(np.ascontiguousarray(channels, dtype=np.int16))
+    return out[0], out[1]

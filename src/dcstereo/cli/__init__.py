@@ -6,16 +6,16 @@ its outputs atomically and returns an exit code. Errors print one line and exit 
 
 import click
 
-from .. import __version__
-from .batch import batch
-from .bench import bench
-from .compare import compare
-from .datasets import datasets
-from .demo import demo
-from .eval import eval_command
-from .run import run
-from .scanline import scanline
-from .video import video
+from dcstereo import __version__
+from dcstereo.cli.batch import batch
+from dcstereo.cli.bench import bench
+from dcstereo.cli.compare import compare
+from dcstereo.cli.datasets import datasets
+from dcstereo.cli.demo import demo
+from dcstereo.cli.eval import eval_command
+from dcstereo.cli.run import run
+from dcstereo.cli.scanline import scanline
+from dcstereo.cli.video import video
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})

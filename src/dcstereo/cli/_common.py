@@ -8,8 +8,8 @@ from pathlib import Path
 import click
 from numba.core import event as numba_event
 
-from .. import params as _params
-from ..params import (
+from dcstereo import params as _params
+from dcstereo.params import (
     COSTS,
     DEFAULT_METHOD,
     DEFAULT_OCCLUSION_COST,
@@ -19,7 +19,7 @@ from ..params import (
     METHODS,
     SUBPIXEL_FITS,
 )
-from ..viz import PREVIEW_STYLES
+from dcstereo.viz import PREVIEW_STYLES
 
 #: Methods whose result carries feature pairs.
 FEATURE_METHODS = ("dc", "dc-linear", "dsi3-gcp")
@@ -256,7 +256,7 @@ def one_line_errors(func):
 
 def check_output_paths(*paths):
     """Fail before any work when an output folder is missing or an output is a folder."""
-    from ..io import check_writable
+    from dcstereo.io import check_writable
 
     for path in paths:
         if path is not None:
@@ -308,7 +308,7 @@ def staged_outputs():
     The writer writes the temporary file directly (one level of temporary files), and
     what earlier commands killed before their rename left beside ``path`` is removed.
     """
-    from .. import io
+    from dcstereo import io
 
     with io.atomic_writes() as stage:
 
@@ -539,7 +539,7 @@ def check_method_options(given, methods):
         raise CommandError(str(exc)) from None
 
 
-#: ``--median K``: the post-filter of :mod:`dcstereo.postfilter`.
+#: ``--median K``: the post-filter of :mod:`dcstereo.refine.postfilter`.
 median_option = click.option(
     "--median",
     type=int,
@@ -660,7 +660,7 @@ def rerun_options(func):
 
 def check_rerun():
     """Fail at once (one line, the extra named) when rerun-sdk is not installed."""
-    from ..viz import _import_rerun
+    from dcstereo.viz import _import_rerun
 
     try:
         _import_rerun()
@@ -670,7 +670,7 @@ def check_rerun():
 
 def record_rerun(path, *, spawn, result, left, camera, sure, frame=0):
     """Log one result to a Rerun recording saved at ``path`` and/or a spawned viewer."""
-    from ..viz import log_rerun, rerun_recording
+    from dcstereo.viz import log_rerun, rerun_recording
 
     with rerun_recording(path, spawn=spawn) as recording:
         log_rerun(
@@ -685,7 +685,7 @@ def calibration_of(options, shape, needed):
     whether an output uses it (calibration options with no such output, or such an output
     with no calibration, are errors).
     """
-    from ..geometry import Calibration
+    from dcstereo.geometry import Calibration
 
     given = [flag for name, flag in CALIBRATION_OPTIONS.items() if options[name] is not None]
     if not needed:

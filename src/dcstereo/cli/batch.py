@@ -5,7 +5,7 @@ import re
 
 import click
 
-from ._common import (
+from dcstereo.cli._common import (
     CommandError,
     apply_threads,
     compile_watch,
@@ -176,7 +176,7 @@ def advancer(bar, description: str, total: int):
     "--confidence",
     is_flag=True,
     help="Also write each pair's confidence map, OUTPUT/confidence/<name>.pfm (-1..1, "
-    "inf = none; see dcstereo.confidence).",
+    "inf = none; see dcstereo.refine.confidence).",
 )
 @click.option("--quiet", "-q", is_flag=True, help="No progress bar; print only failures.")
 @one_line_errors
@@ -205,9 +205,9 @@ def batch(
     and im1.*, and calib.txt for --depth and --ply). A pair that fails is reported (and listed in
     OUTPUT/failures.csv) while the others go on; the exit code is 1 when any pair failed.
     """
-    from ..batch import FAILURES_FILE, find_pairs, run_batch
-    from ..geometry import Calibration
-    from ..params import MatchParams
+    from dcstereo.batch.folders import FAILURES_FILE, find_pairs, run_batch
+    from dcstereo.geometry import Calibration
+    from dcstereo.params import MatchParams
 
     folder = output_folder(output)
     if calib is not None and not (depth or ply):

@@ -4,9 +4,7 @@ import math
 
 import click
 
-from ..metrics import DEFAULT_THRESHOLDS
-from ..params import SUBPIXEL_FITS, check_median
-from ._common import (
+from dcstereo.cli._common import (
     add_method_options,
     check_method_options,
     check_output_paths,
@@ -15,6 +13,8 @@ from ._common import (
     one_line_errors,
     set_threads,
 )
+from dcstereo.evaluation.metrics import DEFAULT_THRESHOLDS
+from dcstereo.params import SUBPIXEL_FITS, check_median
 
 
 @click.command()
@@ -83,8 +83,8 @@ def bench(
     have no disc mask) shows - in its cells, the mean is over the scenes that have the
     mask, and a line after the table names them (the JSON: each row's "masks_missing").
     """
-    from .. import io
-    from ..evaluation import (
+    from dcstereo import io
+    from dcstereo.evaluation.scoring import (
         bench_folder,
         bench_table,
         json_rows,

@@ -2,7 +2,7 @@
 
 import click
 
-from ._common import (
+from dcstereo.cli._common import (
     add_method_options,
     check_distinct_paths,
     check_method_options,
@@ -62,10 +62,10 @@ def compare(
     """
     from pathlib import Path
 
-    from .. import io
-    from ..datasets import load_scene
-    from ..evaluation import parse_methods
-    from ..explore import compare_figure, compare_methods
+    from dcstereo import io
+    from dcstereo.evaluation.datasets import load_scene
+    from dcstereo.evaluation.scoring import parse_methods
+    from dcstereo.viz.explore import compare_figure, compare_methods
 
     if gt_scale is not None and gt is None:
         raise click.UsageError("--gt-scale needs --gt")

@@ -2,7 +2,7 @@
 
 import click
 
-from ._common import one_line_errors
+from dcstereo.cli._common import one_line_errors
 
 
 @click.group()
@@ -16,8 +16,8 @@ def list_command():
     """List the registry: name, layout, whether its checksums are verified, description."""
     from rich.table import Table
 
-    from ..datasets import REGISTRY
-    from ..evaluation import render
+    from dcstereo.evaluation.datasets import REGISTRY
+    from dcstereo.evaluation.scoring import render
 
     table = Table(title=f"{len(REGISTRY)} Middlebury scenes (dcstereo datasets fetch NAME)")
     for column in ("name", "layout", "files", "checksum", "description"):
@@ -50,7 +50,7 @@ def list_command():
 @one_line_errors
 def fetch_command(name, cache, allow_unverified):
     """Download scene NAME once (checked against its sha256) and print its folder."""
-    from ..datasets import fetch, load_scene, scene_layout
+    from dcstereo.evaluation.datasets import fetch, load_scene, scene_layout
 
     folder, hashes = fetch(name, cache=cache, allow_unverified=allow_unverified)
     for url, digest in hashes.items():

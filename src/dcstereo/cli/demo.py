@@ -5,7 +5,7 @@ import time
 import click
 import numpy as np
 
-from ._common import (
+from dcstereo.cli._common import (
     compile_watch,
     describe,
     matching_options,
@@ -44,12 +44,12 @@ def demo(output, max_disparity, match_options, threads):
     prints the bad-pixel rates, the depth error against the ground truth and how the
     confidence ranks the pixels.
     """
-    from .. import io, match
-    from ..confidence import confidence
-    from ..datasets import load_motorcycle
-    from ..geometry import depth, point_cloud
-    from ..metrics import bad_pixel_rate, density
-    from ..viz import draw_points, preview
+    from dcstereo import io, match
+    from dcstereo.evaluation.datasets import load_motorcycle
+    from dcstereo.evaluation.metrics import bad_pixel_rate, density
+    from dcstereo.geometry import depth, point_cloud
+    from dcstereo.refine.confidence import confidence
+    from dcstereo.viz import draw_points, preview
 
     set_threads(threads)
     folder = output_folder(output)

@@ -2,7 +2,7 @@
 
 import click
 
-from ._common import one_line_errors
+from dcstereo.cli._common import one_line_errors
 
 
 @click.command("eval")
@@ -36,7 +36,13 @@ def eval_command(prediction, scene_dir, scale, gt_scale, as_json):
     one with none on every pixel with ground truth; the output says which masks were
     scored and which not (in the JSON: "masks" and "masks_missing").
     """
-    from ..evaluation import evaluate_file, mask_lines, render, scores_table, to_json
+    from dcstereo.evaluation.scoring import (
+        evaluate_file,
+        mask_lines,
+        render,
+        scores_table,
+        to_json,
+    )
 
     result = evaluate_file(prediction, scene_dir, scale=scale, truth_scale=gt_scale)
     if as_json:

@@ -6,7 +6,7 @@ import time
 
 import click
 
-from ._common import (
+from dcstereo.cli._common import (
     FEATURE_METHODS,
     calibration_of,
     calibration_options,
@@ -139,10 +139,10 @@ def run(
     A left pixel (x, y) matches the right pixel (x - d, y); disparities
     MIN..MAX are searched, inclusive.
     """
-    from .. import io, match
-    from ..geometry import depth, point_cloud
-    from ..viz import draw_points
-    from ..viz import preview as make_preview
+    from dcstereo import io, match
+    from dcstereo.geometry import depth, point_cloud
+    from dcstereo.viz import draw_points
+    from dcstereo.viz import preview as make_preview
 
     method = match_options["method"]
     if draw_features and preview is None:
@@ -210,7 +210,7 @@ def run(
     with compile_watch(quiet) as watch, staged_outputs() as write:
         start = time.perf_counter()
         if tile_rows is not None:
-            from ..tiling import match_tiled
+            from dcstereo.batch.tiling import match_tiled
 
             match = functools.partial(match_tiled, tile_rows=tile_rows)
         result = match(
@@ -244,7 +244,7 @@ def run(
                             scale=depth_scale)  # fmt: skip
         sure = None
         if confidence_out is not None or ply_min_confidence is not None or viewing:
-            from ..confidence import confidence
+            from dcstereo.refine.confidence import confidence
 
             sure = confidence(result, left_image, right_image)
         if confidence_out is not None:

@@ -2,7 +2,7 @@
 
 import click
 
-from ._common import (
+from dcstereo.cli._common import (
     add_method_options,
     check_distinct_paths,
     check_method_options,
@@ -59,11 +59,11 @@ def scanline(
     the two intensity profiles. A method's own options (--ser-min and the others of run)
     reach the methods that read them.
     """
-    from .. import io
-    from ..evaluation import parse_methods
-    from ..explore import scanline as gather
-    from ..explore import scanline_figure
-    from ..opencv import OPENCV_METHODS
+    from dcstereo import io
+    from dcstereo.compat.opencv import OPENCV_METHODS
+    from dcstereo.evaluation.scoring import parse_methods
+    from dcstereo.viz.explore import scanline as gather
+    from dcstereo.viz.explore import scanline_figure
 
     io.check_png_suffix(output, "--output")
     check_output_paths(output)

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import click
 
-from ._common import (
+from dcstereo.cli._common import (
     CommandError,
     apply_threads,
     check_output_paths,
@@ -19,7 +19,7 @@ from ._common import (
     preview_style_option,
     rerun_options,
 )
-from .batch import advancer, dask_client, progress_bar, scheduler_option
+from dcstereo.cli.batch import advancer, dask_client, progress_bar, scheduler_option
 
 
 @click.command()
@@ -66,7 +66,7 @@ from .batch import advancer, dask_client, progress_bar, scheduler_option
     "--confidence",
     is_flag=True,
     help="Also write each frame's confidence map, frameNNNNN-confidence.pfm (-1..1, "
-    "inf = none; see dcstereo.confidence).",
+    "inf = none; see dcstereo.refine.confidence).",
 )
 @depth_file_options
 @click.option(
@@ -115,11 +115,11 @@ def video(
     is reported (and listed in OUTPUT/failures.csv) while the others go on; the exit
     code is 1 when any frame failed.
     """
-    from ..batch import FAILURES_FILE
-    from ..geometry import Calibration
-    from ..params import MatchParams
-    from ..video import match_sequence, open_sequence, output_paths, write_video
-    from ..viz import rerun_recording
+    from dcstereo.batch.folders import FAILURES_FILE
+    from dcstereo.batch.video import match_sequence, open_sequence, output_paths, write_video
+    from dcstereo.geometry import Calibration
+    from dcstereo.params import MatchParams
+    from dcstereo.viz import rerun_recording
 
     folder = output_folder(output)
     if preview_video is not None:
@@ -140,7 +140,7 @@ def video(
     if depth_scale is not None and depth_format != "png":
         raise CommandError("--depth-scale is used only with --depth-format png")
     if rerun_out is not None:
-        from .. import io
+        from dcstereo import io
 
         io.check_suffix(rerun_out, ".rrd", "--rerun")
         check_output_paths(rerun_out)  # its folder must exist: it is written as frames come
@@ -180,7 +180,7 @@ def video(
         )
     written = None
     if preview_video is not None:
-        from .. import io
+        from dcstereo import io
 
         previews = [output_paths(folder, i, disparity_format)[1] for i in range(len(sequence))]
         previews = [p for p in previews if p.is_file()]

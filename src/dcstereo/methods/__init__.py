@@ -1,0 +1,1 @@
+"""The methods of :func:`dcstereo.match`, one module each: its stages and its parameters."""
