@@ -29,6 +29,7 @@ import numpy as np
 
 from dcstereo import geometry, io
 from dcstereo._checks import is_number
+from dcstereo._extras import require
 from dcstereo.api import match
 from dcstereo.batch.folders import (
     ASSUMED_OPTIONS,
@@ -204,14 +205,14 @@ def _side_by_side_sequence(path: Path) -> StereoSequence:
 
 
 def _ffmpeg() -> str:
-    import imageio_ffmpeg
+    imageio_ffmpeg = require("imageio_ffmpeg", "video", "video files")
 
     return imageio_ffmpeg.get_ffmpeg_exe()
 
 
 def _probe(path: Path) -> tuple[int, float, tuple[int, int]]:
     """Return ``(frame_count, fps, (width, height))`` of a video."""
-    import imageio_ffmpeg
+    imageio_ffmpeg = require("imageio_ffmpeg", "video", "video files")
 
     if not path.exists():
         raise ValueError(f"cannot read video '{path}': no such file")

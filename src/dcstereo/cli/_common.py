@@ -241,13 +241,13 @@ class CommandError(click.ClickException):
 
 
 def one_line_errors(func):
-    """Turn the library's ValueError/TypeError/OSError/MemoryError into a one-line CLI error."""
+    """Turn the library's ValueError, TypeError, OSError, MemoryError, ImportError into one line."""
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
         try:
             return func(*args, **kwargs)
-        except (ValueError, TypeError, OSError, MemoryError) as exc:
+        except (ValueError, TypeError, OSError, MemoryError, ImportError) as exc:
             message = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise CommandError(message) from None
 

@@ -5,6 +5,7 @@ import re
 
 import click
 
+from dcstereo._extras import require
 from dcstereo.cli._common import (
     CommandError,
     apply_threads,
@@ -42,9 +43,10 @@ def dask_client(scheduler):
         yield None
         return
     try:
-        from distributed import Client, LocalCluster
-    except ImportError:  # pragma: no cover - a dependency of the package
-        raise CommandError("--scheduler needs dask.distributed: pip install distributed") from None
+        distributed = require("distributed", "dask", "--scheduler and Dask clusters")
+    except ImportError as exc:
+        raise CommandError(str(exc)) from None
+    Client, LocalCluster = distributed.Client, distributed.LocalCluster
     local = _LOCAL.match(scheduler)
     if scheduler.startswith("local"):
         if local is None or int(local[1]) < 1:

@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from dcstereo._checks import is_number
+from dcstereo._extras import require
 from dcstereo.geometry import Calibration, read_calib
 from dcstereo.io import open_image, read_pfm
 
@@ -825,7 +826,7 @@ def default_cache_dir() -> Path:
     override = os.environ.get(CACHE_ENV_VAR)
     if override:
         return Path(override).expanduser()
-    import pooch
+    pooch = require("pooch", "data", "downloads of the scenes")
 
     return Path(pooch.os_cache("dcstereo"))
 
@@ -881,7 +882,7 @@ def fetch(
     OSError
         When a download fails.
     """
-    import pooch
+    pooch = require("pooch", "data", "downloads of the scenes")
 
     registry = REGISTRY if registry is None else registry
     if name not in registry:

@@ -15,6 +15,7 @@ from collections.abc import Iterator
 import numpy as np
 
 from dcstereo._checks import disparity_array, is_integer, is_number
+from dcstereo._extras import require
 
 #: Brightest gray level of a valid pixel in :func:`paper_display`; occluded pixels get 255.
 PAPER_MAX_GRAY = 223
@@ -116,7 +117,8 @@ def colorize(
     >>> colorize(np.array([[1.0, np.nan]]), invalid=(255, 0, 255))[0, 1]
     array([255,   0, 255], dtype=uint8)
     """
-    import matplotlib  # lazy: matplotlib is slow to import and needed only here
+    # lazy: matplotlib is slow to import and needed only here
+    matplotlib = require("matplotlib", "plot", "colour maps")
 
     d = disparity_array(disparity)
     color = _check_color(invalid, "invalid")

@@ -14,6 +14,7 @@ import numpy as np
 
 from dcstereo import viz
 from dcstereo._checks import is_integer, is_number
+from dcstereo._extras import require
 from dcstereo.params import check_method_options, options_for
 from dcstereo.signal import check_image, check_pair, intensity
 
@@ -384,7 +385,7 @@ def scanline_figure(data: dict, *, width: int = 1200, height: int = 800) -> np.n
     -------
     ndarray of uint8, shape (height, width, 3)
     """
-    import matplotlib
+    matplotlib = require("matplotlib", "plot", "figures")
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
