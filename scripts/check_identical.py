@@ -16,7 +16,7 @@ check did not hold it) and the options that choose another kernel path
 (``cost="bt"``, the left-right check, fill, sub-pixel fits, the median, the confidence,
 ``max_candidates`` and ``uniqueness=0``, which run ``dc`` row by row); ``dc``'s and
 ``dsi3-gcp``'s band modes 2 and 3 and the row-by-row Birchfield-Tomasi paths forced by
-lowering ``api.DC_BAND_BYTES`` and ``api.BAND_ARRAY_BYTES``; a wide synthetic pair whose
+lowering ``mbands.DC_BAND_BYTES`` and ``mbands.BAND_ARRAY_BYTES``; a wide synthetic pair whose
 band array passes ``DC_BAND_BYTES`` (mode 3 with the defaults); ``redert`` on crops; the
 inputs of every signal mode (gray, uint16, float, RGBA); and ``tiling.match_tiled``.
 The results do not depend on numba's thread count.
@@ -31,9 +31,9 @@ import time
 import numpy as np
 
 import dcstereo
-from dcstereo import api
 from dcstereo.batch.tiling import match_tiled
 from dcstereo.evaluation.datasets import load_middlebury
+from dcstereo.methods import _bands as mbands
 from dcstereo.methods.redert import match_redert
 from dcstereo.refine.confidence import confidence
 
@@ -42,15 +42,15 @@ SCENES = ("tsukuba", "venus", "teddy", "cones")
 
 @contextlib.contextmanager
 def patched(**values):
-    """Set ``api``'s module constants (``DC_BAND_BYTES``, ``BAND_ARRAY_BYTES``) for a block."""
-    old = {name: getattr(api, name) for name in values}
+    """Set the band bounds (``DC_BAND_BYTES``, ``BAND_ARRAY_BYTES``) for a block."""
+    old = {name: getattr(mbands, name) for name in values}
     try:
         for name, value in values.items():
-            setattr(api, name, value)
+            setattr(mbands, name, value)
         yield
     finally:
         for name, value in old.items():
-            setattr(api, name, value)
+            setattr(mbands, name, value)
 
 
 def result_arrays(result):

@@ -5,11 +5,12 @@ import pytest
 
 import dcstereo
 import synthetic
-from dcstereo import METHODS, MatchParams, _checks, api, fill_occlusions
+from dcstereo import METHODS, MatchParams, _checks, fill_occlusions
 from dcstereo import params as params_module
 from dcstereo.batch.tiling import match_tiled, row_bands
 from dcstereo.cost import window_variance
 from dcstereo.evaluation import metrics
+from dcstereo.methods import _bands as mbands
 from dcstereo.methods.redert import match_redert
 from dcstereo.signal import intensity, matching_signal, padded_signal
 from dcstereo.viz.explore import compare_methods
@@ -197,7 +198,7 @@ def test_out_of_memory_in_a_parallel_kernel_is_a_memory_error(monkeypatch):
         except MemoryError as err:
             raise SystemError("CPUDispatcher(...) returned a result with an exception set") from err
 
-    monkeypatch.setattr(api.bands, "match_band_rows", out_of_memory)
+    monkeypatch.setattr(mbands.bands, "match_band_rows", out_of_memory)
     left, right = pair()
     with pytest.raises(MemoryError, match=r"out of memory matching 12 x 30 images over 7 disp"):
         dcstereo.match(left, right, max_disparity=6, method="dsi3")
@@ -205,7 +206,7 @@ def test_out_of_memory_in_a_parallel_kernel_is_a_memory_error(monkeypatch):
     def other(*args):
         raise SystemError("something else")
 
-    monkeypatch.setattr(api.bands, "match_band_rows", other)
+    monkeypatch.setattr(mbands.bands, "match_band_rows", other)
     with pytest.raises(SystemError, match="something else"):
         dcstereo.match(left, right, max_disparity=6, method="dsi3")
 

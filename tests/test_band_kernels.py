@@ -23,6 +23,8 @@ from dcstereo.costs import band as band_costs
 from dcstereo.costs import window as costs
 from dcstereo.divide import band_match, bands, divide_bands, features, gcp
 from dcstereo.evaluation.datasets import load_middlebury
+from dcstereo.methods import _bands as mbands
+from dcstereo.methods import dc as mdc
 from dcstereo.params import MAX_BT_WINDOW, MAX_WINDOW
 from dcstereo.scanline import (
     band_dp,  # noqa: F401 (test_band_kernels_run_as_plain_python sets its _PINS_IN_LOOP)
@@ -72,7 +74,7 @@ def banded(left, right, dmin, ndisp, radius, occ2, five, slant2, partner=None, n
     out = records.outputs(*left.shape, partner=anchored)
     if anchored:
         out.partner[:] = partner
-    # every argument given, as api._band_rows gives them: an omitted one is a type of its
+    # every argument given, as mbands._band_rows gives them: an omitted one is a type of its
     # own, and numba would compile (and the suite wait for) one more version of the kernel
     bands.match_band_rows(
         padded(left, radius), padded(right, radius), records.dsi(dmin, ndisp, radius),
@@ -309,7 +311,7 @@ def test_pins_of_the_ground_control_points_give_gcp_row(tmp_path):
 
 
 def gcp_in_mode(mode, left, right, **kw):
-    """``dsi3-gcp`` forced into one way of running (``api._search_band_mode``; 0: row by row)."""
+    """``dsi3-gcp`` forced into one way of running (``mbands._search_band_mode``; 0: row by row)."""
     with mock.patch.object(api, "_search_band_mode", lambda params, width: mode):
         return dcstereo.match(left, right, **kw)
 
@@ -336,20 +338,20 @@ def test_gcp_runs_as_dc_does_by_the_band_array():
     # cost runs row by row; and dsi3-gcp takes the mode that rule gives (the modes give
     # the same maps, so the call itself is watched)
     params = dcstereo.MatchParams(max_disparity=63, method="dsi3-gcp")
-    assert api._search_band_mode(params, 1900) == 2
-    assert api._search_band_mode(params, 2100) == 3
+    assert mbands._search_band_mode(params, 1900) == 2
+    assert mbands._search_band_mode(params, 2100) == 3
     wide = dcstereo.MatchParams(max_disparity=255, method="dsi3-gcp")
-    assert api._search_band_mode(wide, 3000) == 3
+    assert mbands._search_band_mode(wide, 3000) == 3
     bt = dcstereo.MatchParams(max_disparity=63, method="dsi3-gcp", cost="bt")
-    assert api._search_band_mode(bt, 1900) == 2
-    assert api._search_band_mode(bt, 2100) == 0
+    assert mbands._search_band_mode(bt, 1900) == 2
+    assert mbands._search_band_mode(bt, 2100) == 0
     rng = np.random.default_rng(8)
     left = rng.integers(0, 256, (12, 40)).astype(np.uint8)
     right = np.roll(left, 3, axis=1)
 
     def modes_run(**kw):
         with (
-            mock.patch.object(api, "_band_rows", wraps=api._band_rows) as bands,
+            mock.patch.object(api, "_band_rows", wraps=mbands._band_rows) as bands,
             mock.patch.object(gcp, "match_gcp_rows", wraps=gcp.match_gcp_rows) as rows,
         ):
             dcstereo.match(left, right, max_disparity=7, method="dsi3-gcp", **kw)
@@ -358,8 +360,8 @@ def test_gcp_runs_as_dc_does_by_the_band_array():
     assert modes_run() == [2]
     assert modes_run(cost="bt") == [2]
     with mock.patch.object(api, "DC_BAND_BYTES", 0):  # the bound reaches the choice
-        assert api._search_band_mode(params, 40) == 3
-        assert api._search_band_mode(bt, 40) == 0
+        assert mbands._search_band_mode(params, 40) == 3
+        assert mbands._search_band_mode(bt, 40) == 0
         assert modes_run() == [3]
         assert modes_run(cost="bt") == [0]
 
@@ -1229,31 +1231,31 @@ def test_dc_keeps_the_band_cost_array_while_it_fits_the_caches():
     # reads the array, kept all the same (2); row by row (0): the options the band search
     # does not implement
     params = dcstereo.MatchParams(max_disparity=63, method="dc")
-    assert api._dc_band_mode(params, 450) == 2
-    assert api._dc_band_mode(params, 1900) == 2
-    assert api._dc_band_mode(params, 2100) == 3
-    assert api._dc_band_mode(dcstereo.MatchParams(max_disparity=255, method="dc"), 3000) == 3
+    assert mdc._dc_band_mode(params, 450) == 2
+    assert mdc._dc_band_mode(params, 1900) == 2
+    assert mdc._dc_band_mode(params, 2100) == 3
+    assert mdc._dc_band_mode(dcstereo.MatchParams(max_disparity=255, method="dc"), 3000) == 3
     assert (
-        api._dc_band_mode(dcstereo.MatchParams(max_disparity=255, lr_check=True, method="dc"), 3000)
+        mdc._dc_band_mode(dcstereo.MatchParams(max_disparity=255, lr_check=True, method="dc"), 3000)
         == 2
     )
     assert (
-        api._dc_band_mode(dcstereo.MatchParams(max_disparity=63, lr_check=True, method="dc"), 450)
+        mdc._dc_band_mode(dcstereo.MatchParams(max_disparity=63, lr_check=True, method="dc"), 450)
         == 2
     )
     for options in ({"max_candidates": 5}, {"uniqueness": 0.0}, {"method": "dc-linear"}):
         params = dcstereo.MatchParams(max_disparity=63, **{"method": "dc", **options})
-        assert api._dc_band_mode(params, 450) == 0
+        assert mdc._dc_band_mode(params, 450) == 0
     # the Birchfield-Tomasi cost needs the band's cost array: kept past the caches, row by
     # row only past the memory bound (127100 columns of 66 disparities: 512 MiB)
     bt = dcstereo.MatchParams(max_disparity=63, cost="bt", method="dc")
-    assert api._dc_band_mode(bt, 1900) == 2
-    assert api._dc_band_mode(bt, 2100) == 2
-    assert api._dc_band_mode(bt, 127100) == 2
-    assert api._dc_band_mode(bt, 127101) == 0
+    assert mdc._dc_band_mode(bt, 1900) == 2
+    assert mdc._dc_band_mode(bt, 2100) == 2
+    assert mdc._dc_band_mode(bt, 127100) == 2
+    assert mdc._dc_band_mode(bt, 127101) == 0
     lr = dcstereo.MatchParams(max_disparity=63, lr_check=True, method="dc")
-    assert api._dc_band_mode(lr, 127100) == 2
-    assert api._dc_band_mode(lr, 127101) == 0
+    assert mdc._dc_band_mode(lr, 127100) == 2
+    assert mdc._dc_band_mode(lr, 127101) == 0
 
 
 def test_band_cost_arrays_fit_the_memory_bound_together():
@@ -1261,7 +1263,7 @@ def test_band_cost_arrays_fit_the_memory_bound_together():
     # it are capped to the arrays BAND_ARRAY_BYTES holds (at least one); where one array
     # alone does not fit, the rows run one at a time; the maps never change
     params = dcstereo.MatchParams(max_disparity=7, cost="bt", method="dc")
-    one = api._band_bytes(params, 40)
+    one = mbands._band_bytes(params, 40)
     assert one == 40 * 10 * simd.BAND_ROWS * 8
     rng = np.random.default_rng(12)
     left = rng.integers(0, 256, (48, 40)).astype(np.uint8)  # 6 bands
@@ -1284,12 +1286,12 @@ def test_band_cost_arrays_fit_the_memory_bound_together():
         ("dsi3-gcp", {}, 2), ("dsi5", {}, 6), ("block", {}, 6),
     ]  # fmt: skip
     with mock.patch.object(api, "_band_chunks", lambda height: 6):
-        assert api._array_chunks(params, (48, 40)) == 6
+        assert mbands._array_chunks(params, (48, 40)) == 6
         for method, kw, capped in cases:
             expected = chunks_run(method, **kw)
             assert expected[0] == [6]
             with mock.patch.object(api, "BAND_ARRAY_BYTES", 3 * one - 1):
-                assert api._array_chunks(params, (48, 40)) == 2
+                assert mbands._array_chunks(params, (48, 40)) == 2
                 used, got = chunks_run(method, **kw)
             assert used == [capped], (method, kw)
             assert got.disparity.tobytes() == expected[1].disparity.tobytes()
@@ -1298,7 +1300,7 @@ def test_band_cost_arrays_fit_the_memory_bound_together():
         for method in ("block", "dsi5", "dc"):
             expected = chunks_run(method, cost="bt")[1]
             with mock.patch.object(api, "BAND_ARRAY_BYTES", one - 1):  # not one array: rows
-                assert not api._band_array_fits(params, 40)
+                assert not mbands._band_array_fits(params, 40)
                 used, got = chunks_run(method, cost="bt")
             assert used == []
             assert got.disparity.tobytes() == expected.disparity.tobytes()
@@ -1400,10 +1402,10 @@ def test_bt_runs_on_bands_while_the_cost_array_fits():
     # 127100 columns (512.0 MiB) fit the memory bound, one more runs row by row (both give
     # the same map); past the caches (2100 columns, 8.5 MiB) the array is still made
     params = dcstereo.MatchParams(max_disparity=63, cost="bt", method="dc")
-    assert api._band_bytes(params, 2100) == 2100 * 66 * 64
-    assert api._band_array_fits(params, 2100)
-    assert api._band_array_fits(params, 127100)
-    assert not api._band_array_fits(params, 127101)
+    assert mbands._band_bytes(params, 2100) == 2100 * 66 * 64
+    assert mbands._band_array_fits(params, 2100)
+    assert mbands._band_array_fits(params, 127100)
+    assert not mbands._band_array_fits(params, 127101)
     rng = np.random.default_rng(5)
     left = rng.integers(0, 256, (12, 40)).astype(np.uint8)
     right = np.roll(left, 3, axis=1)

@@ -7,8 +7,10 @@ import numpy as np
 import pytest
 
 import synthetic
-from dcstereo import api
 from dcstereo.divide import bands
+from dcstereo.methods import _bands as mbands
+from dcstereo.methods import dc as mdc
+from dcstereo.methods import dsi as mdsi
 from dcstereo.params import MatchParams
 
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_stages.py"
@@ -19,9 +21,9 @@ STAGES = bands.CLOCK_STAGES
 def test_the_clock_times_the_stages_it_runs_and_changes_no_result(method):
     left, right = synthetic.constant_pair(np.random.default_rng(3), 40, 90, 4)
     params = MatchParams(max_disparity=9, method=method)
-    run = api._match_dc if method == "dc" else api._match_dsi
+    run = mdc._match_dc if method == "dc" else mdsi._match_dsi
     plain = run(left, right, params)
-    clock = np.zeros((api._band_chunks(left.shape[0]), len(STAGES)), dtype=np.int64)
+    clock = np.zeros((mbands._band_chunks(left.shape[0]), len(STAGES)), dtype=np.int64)
     timed = run(left, right, params, clock=clock)
     np.testing.assert_array_equal(timed.disparity, plain.disparity)
     np.testing.assert_array_equal(timed.flags, plain.flags)

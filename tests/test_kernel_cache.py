@@ -7,10 +7,10 @@ import subprocess
 import sys
 import textwrap
 
-import dcstereo
 import numba
 import pytest
 
+import dcstereo
 from dcstereo._vector import _cache
 
 

@@ -1,8 +1,8 @@
 """The large-image paths, exercised on small images by setting small memory bounds.
 
-Wide images take other paths than small ones: past ``api.DC_BAND_BYTES`` (8 MiB) ``dc``
+Wide images take other paths than small ones: past ``mbands.DC_BAND_BYTES`` (8 MiB) ``dc``
 and ``dsi3-gcp`` make the band's costs twice instead of keeping them; the band cost
-arrays of the chunks running at once are held to ``api.BAND_ARRAY_BYTES`` (512 MiB)
+arrays of the chunks running at once are held to ``mbands.BAND_ARRAY_BYTES`` (512 MiB)
 together, fewer chunks at a time, and where one array alone would pass it the rows run
 one at a time; ``tiling.match_tiled`` (``dcstereo run --tile-rows``) matches bands of
 rows on their own. Here the bounds are set to a few KiB so that a 48 x 64 pair takes
@@ -30,6 +30,8 @@ import synthetic
 from dcstereo import api, io
 from dcstereo.batch.tiling import match_tiled
 from dcstereo.cli import main
+from dcstereo.methods import _bands as mbands
+from dcstereo.methods import dc as mdc
 from method_cases import method_cases
 
 MAX_DISPARITY = 12
@@ -95,13 +97,13 @@ def test_the_bounds_reach_the_paths():
     # array of this pair fits the default bounds, not 4 KiB (the paths of the scanline
     # methods: sgm's strips have a bound of their own, sgm.VOLUME_BYTES)
     params = dcstereo.MatchParams(max_disparity=MAX_DISPARITY, method="dc", cost="bt")
-    assert api._band_array_fits(params, 64)
+    assert mbands._band_array_fits(params, 64)
     with mock.patch.object(api, "BAND_ARRAY_BYTES", 4096):
-        assert not api._band_array_fits(params, 64)
+        assert not mbands._band_array_fits(params, 64)
     dc = dcstereo.MatchParams(max_disparity=MAX_DISPARITY, method="dc")
-    assert api._dc_band_mode(dc, 64) == 2  # the costs kept
+    assert mdc._dc_band_mode(dc, 64) == 2  # the costs kept
     with mock.patch.object(api, "DC_BAND_BYTES", 0):
-        assert api._dc_band_mode(dc, 64) == 3  # the costs made twice
+        assert mdc._dc_band_mode(dc, 64) == 3  # the costs made twice
 
 
 #: Match a 1 x 60000 pair over 60000 disparities (gigabytes of DP records) in a process

@@ -6,7 +6,8 @@ import pytest
 
 import dcstereo
 import synthetic
-from dcstereo import FLAG_BORDER, FLAG_FILLED, FLAG_OCCLUDED, api
+from dcstereo import FLAG_BORDER, FLAG_FILLED, FLAG_OCCLUDED
+from dcstereo.methods import _bands as mbands
 
 DP_METHODS = ["dsi3", "dsi5"]
 ALL_METHODS = ["block", "dsi3", "dsi5"]
@@ -234,11 +235,11 @@ def test_band_chunks_one_for_a_lone_thread_four_a_thread_else():
     before = numba.get_num_threads()
     try:
         numba.set_num_threads(1)
-        assert api._band_chunks(375) == 1
+        assert mbands._band_chunks(375) == 1
         if numba.config.NUMBA_NUM_THREADS >= 2:
             numba.set_num_threads(2)
-            assert api._band_chunks(375) == 8
-            assert api._band_chunks(17) == 3  # no more chunks than bands
+            assert mbands._band_chunks(375) == 8
+            assert mbands._band_chunks(17) == 3  # no more chunks than bands
     finally:
         numba.set_num_threads(before)
 

@@ -1,1 +1,34 @@
-"""The methods of :func:`dcstereo.match`, one module each: its stages and its parameters."""
+"""The methods of :func:`dcstereo.match`: each a named list of stages (a plain dict of them).
+
+* :mod:`.sgm`: ``sgm``, the default: census and colour costs, semi-global paths, a
+  left-right check, the colour fill, the median and the sub-pixel fit;
+* :mod:`.dc`: ``dc`` and ``dc-linear``, the paper's divide and conquer;
+* :mod:`.dsi`: ``dsi3`` and ``dsi5``, the scanline DPs; :mod:`.block`: ``block``;
+* :mod:`.gcp`: ``dsi3-gcp``; :mod:`.redert`: ``redert``;
+* :mod:`._pipeline`: what a method and a stage are; :mod:`._bands`: what the paper's
+  methods share (the band kernels' memory bounds).
+
+A new method is a new entry: a :class:`~dcstereo.methods._pipeline.Method` whose stages are
+existing ones, or new functions of arrays, for example
+``Method("mine", (core("mine", my_match, "costs + DP"), MEDIAN, FILL))``.
+"""
+
+from dcstereo.methods import block, dc, dsi, gcp, redert, sgm
+from dcstereo.methods._pipeline import FILL, MEDIAN, REFINE, SUBPIXEL, Method, Stage, core
+
+#: Every method by name (the order of :data:`dcstereo.params.METHODS`).
+REGISTRY: dict[str, Method] = {
+    method.name: method
+    for method in (
+        sgm.METHOD,
+        dc.METHOD,
+        dc.LINEAR,
+        dsi.DSI5,
+        dsi.DSI3,
+        gcp.METHOD,
+        redert.METHOD,
+        block.METHOD,
+    )
+}
+
+__all__ = ["FILL", "MEDIAN", "REFINE", "REGISTRY", "SUBPIXEL", "Method", "Stage", "core"]

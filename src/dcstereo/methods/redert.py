@@ -86,6 +86,7 @@ independent and run in parallel.
 import numpy as np
 
 from dcstereo import _records as records
+from dcstereo.methods._pipeline import REFINE, Method, core
 from dcstereo.params import MatchParams
 from dcstereo.result import DisparityResult
 from dcstereo.scanline import redert as redert_kernels
@@ -201,3 +202,10 @@ def match_redert(
     redert_kernels.match_redert_rows(left_p, right_p, dsi, model, nchunks, out, slopes)
     result = DisparityResult(out.disparity, out.flags, params, out.total / scale)
     return (result, slopes) if with_orientation else result
+
+
+METHOD = Method(
+    "redert",
+    (core("redert", match_redert, "sheared costs + DP with orientations"), *REFINE),
+    "the DP with occlusion and orientation of Redert et al. [6]",
+)

@@ -39,6 +39,7 @@ import numpy as np
 from dcstereo._vector.sgm import HIGH, LANES
 from dcstereo.aggregate import sgm as sgm_kernels
 from dcstereo.costs import census as census_kernels
+from dcstereo.methods._pipeline import FILL, MEDIAN, Method, core
 from dcstereo.params import MatchParams
 from dcstereo.refine.consistency import fill_with_colour
 from dcstereo.result import DisparityResult
@@ -230,3 +231,19 @@ def _run(left, right, params, want_confidence):
             colour_l, _ = colour_channels(left, left)
         result = fill_with_colour(result, colour_l)
     return result, margin
+
+
+METHOD = Method(
+    "sgm",
+    (
+        core(
+            "sgm",
+            match_sgm,
+            "census + colour costs, box, semi-global paths, winner-take-all + sub-pixel fit, "
+            "left-right check, colour fill",
+        ),
+        MEDIAN,
+        FILL,
+    ),
+    "the default: census, semi-global matching, left-right check, fill, median, sub-pixel",
+)

@@ -1,0 +1,103 @@
+"""A method is data: a name and an ordered list of named stages, each a function of arrays.
+
+Every stage takes the pair, the validated :class:`~dcstereo.params.MatchParams` and the
+result of the stages before it (None for the first) and returns the new result. A stage
+whose option is off (``when``) is skipped. A fused stage runs several steps of the data
+path in one pass (``sgm``'s costs, paths, choice and left-right check share one sweep over
+the volume); its name lists them, and its tests compare it with the plain steps.
+
+>>> from dcstereo.methods import REGISTRY
+>>> print(REGISTRY["dsi5"])
+dsi5: dsi5 [costs (SAD or BT, eq. 4) + five-step DP (eq. 5)] -> subpixel -> median -> fill
+"""
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from dcstereo.params import MatchParams
+from dcstereo.refine.postfilter import median_filter
+from dcstereo.refine.subpixel import refine_subpixel
+from dcstereo.result import DisparityResult
+
+StageFunction = Callable[
+    [np.ndarray, np.ndarray, MatchParams, DisparityResult | None], DisparityResult
+]
+
+
+def _always(params: MatchParams) -> bool:
+    return True
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One named step of a method: ``run(left, right, params, result) -> result``.
+
+    ``when(params)`` says whether it runs (its option is on); ``steps`` names what a fused
+    stage does, in the order of the data path.
+    """
+
+    name: str
+    run: StageFunction
+    when: Callable[[MatchParams], bool] = _always
+    steps: str = ""
+
+    def __str__(self) -> str:
+        return f"{self.name} [{self.steps}]" if self.steps else self.name
+
+
+@dataclass(frozen=True)
+class Method:
+    """A method of :func:`dcstereo.match`: its name and its stages, run in order."""
+
+    name: str
+    stages: tuple[Stage, ...]
+    summary: str = ""
+
+    def run(self, left: np.ndarray, right: np.ndarray, params: MatchParams) -> DisparityResult:
+        """Run the stages whose options are on; the pair and ``params`` already validated."""
+        result = None
+        for stage in self.stages:
+            if stage.when(params):
+                result = stage.run(left, right, params, result)
+        return result
+
+    def stage_names(self) -> tuple[str, ...]:
+        """Return the names of the stages, in order."""
+        return tuple(stage.name for stage in self.stages)
+
+    def __str__(self) -> str:
+        return f"{self.name}: " + " -> ".join(str(stage) for stage in self.stages)
+
+
+def core(name: str, function, steps: str) -> Stage:
+    """Return the first stage of a method: ``function(left, right, params)`` makes the map."""
+    return Stage(
+        name, lambda left, right, params, result: function(left, right, params), steps=steps
+    )
+
+
+#: Sub-pixel refinement of whole-pixel estimates (``subpixel``), before the median and fill.
+SUBPIXEL = Stage(
+    "subpixel",
+    lambda left, right, params, result: refine_subpixel(result, left, right, fit=params.subpixel),
+    when=lambda params: params.subpixel is not None,
+)
+
+#: The median post-filter (``median``): each estimate takes its window's median.
+MEDIAN = Stage(
+    "median",
+    lambda left, right, params, result: median_filter(result, params.median),
+    when=lambda params: bool(params.median),
+)
+
+#: The fill (``fill``): pixels still without an estimate take the background disparity.
+FILL = Stage(
+    "fill",
+    lambda left, right, params, result: result.filled(),
+    when=lambda params: params.fill,
+)
+
+#: The refinement every method of the paper ends with.
+REFINE = (SUBPIXEL, MEDIAN, FILL)

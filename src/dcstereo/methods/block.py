@@ -1,0 +1,44 @@
+"""``block``: winner-take-all SAD (or Birchfield-Tomasi) block matching (Hannah)."""
+
+from dcstereo import _records as records
+from dcstereo.divide import bands
+from dcstereo.methods._bands import (
+    _array_chunks,
+    _band_array_fits,
+    _band_chunks,
+    _dsi,
+    _padded_signals,
+    cost_scale,
+)
+from dcstereo.methods._pipeline import REFINE, Method, core
+from dcstereo.params import MatchParams
+from dcstereo.result import DisparityResult
+from dcstereo.scanline import rows
+
+
+def _match_block(left, right, params: MatchParams) -> DisparityResult:
+    """``block``: the least window cost per pixel.
+
+    Runs ``bands.BAND_ROWS`` rows in lockstep (the same results, bit for bit, as
+    the per-row kernel); the Birchfield-Tomasi cost makes the band's cost array first,
+    with as many chunks at once as ``BAND_ARRAY_BYTES`` holds arrays, and where one array
+    alone would pass it, runs row by row instead.
+    """
+    left_p, right_p = _padded_signals(left, right, params.window // 2)
+    out = records.outputs(*left.shape[:2])
+    bt = params.cost == "bt"
+    if bt and not _band_array_fits(params, left.shape[1]):
+        nchunks = rows.chunk_count(left.shape[0])
+        rows.match_block_rows(left_p, right_p, _dsi(params), True, nchunks, out)
+    else:
+        nchunks = _array_chunks(params, left.shape) if bt else _band_chunks(left.shape[0])
+        # bt None: the SAD version compiles without the BT code
+        bands.match_block_bands(left_p, right_p, _dsi(params), nchunks, out, True if bt else None)
+    return DisparityResult(out.disparity, out.flags, params, out.total / cost_scale(params.window))
+
+
+METHOD = Method(
+    "block",
+    (core("block", _match_block, "costs (SAD or BT, eq. 4) + winner-take-all"), *REFINE),
+    "winner-take-all block matching (Hannah)",
+)

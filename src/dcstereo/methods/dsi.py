@@ -1,0 +1,50 @@
+"""``dsi3`` and ``dsi5``: the scanline DP over the disparity-space image (eq. 5 for ``dsi5``)."""
+
+from dcstereo import _records as records
+from dcstereo.methods._bands import (
+    _band_array_fits,
+    _band_rows,
+    _dsi,
+    _padded_signals,
+    _step_costs,
+    cost_scale,
+)
+from dcstereo.methods._pipeline import REFINE, Method, core
+from dcstereo.params import MatchParams
+from dcstereo.result import DisparityResult
+from dcstereo.scanline import rows
+
+
+def _match_dsi(left, right, params: MatchParams, clock=None) -> DisparityResult:
+    """``dsi3`` / ``dsi5``: the whole-scanline DP of every row.
+
+    Both costs run ``bands.BAND_ROWS`` rows in lockstep (vectorized across rows;
+    the same results, bit for bit, as the per-row kernel ``rows.match_dsi_rows``).
+    The SAD cost makes each column's costs inside the DP pass; the Birchfield-Tomasi cost
+    makes the band's cost array first (as many chunks at once as ``BAND_ARRAY_BYTES``
+    holds arrays; where one array alone would pass it, row by row instead). ``clock``: the band
+    kernel's stage counters (``match_band_rows``; ``benchmarks/bench_stages.py``), the band
+    path only.
+    """
+    left_p, right_p = _padded_signals(left, right, params.window // 2)
+    out = records.outputs(*left.shape[:2])
+    step_costs = _step_costs(params, five=params.method == "dsi5")
+    if params.cost == "bt" and not _band_array_fits(params, left.shape[1]):
+        nchunks = rows.chunk_count(left.shape[0])
+        rows.match_dsi_rows(left_p, right_p, _dsi(params), True, step_costs, nchunks, out)
+    else:
+        _band_rows(left_p, right_p, params, step_costs, out, clock)
+    scale = cost_scale(params.window)
+    return DisparityResult(out.disparity, out.flags, params, out.total / (2.0 * scale))
+
+
+DSI3 = Method(
+    "dsi3",
+    (core("dsi3", _match_dsi, "costs (SAD or BT, eq. 4) + three-step DP [4]"), *REFINE),
+    "the three-step scanline DP (Intille and Bobick)",
+)
+DSI5 = Method(
+    "dsi5",
+    (core("dsi5", _match_dsi, "costs (SAD or BT, eq. 4) + five-step DP (eq. 5)"), *REFINE),
+    "the five-step scanline DP of eq. 5",
+)
