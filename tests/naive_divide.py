@@ -142,3 +142,22 @@ def pixel_variance(signal_p, y, x, radius, signal_steps):
     s = sum(values)
     q = sum(v * v for v in values)
     return float(n * q - s * s) / (float(n) * float(n) * float(signal_steps) * float(signal_steps))
+
+
+def window_variance(intensity, window):
+    """Variance of ``intensity`` over each pixel's ``window x window`` window, edges replicated.
+
+    The numpy twin of the window-variance kernels (``features.window_variance_row``,
+    ``band.band_lane_variance``): population variance, ``mean(I^2) - mean(I)^2``.
+    """
+    array = np.asarray(intensity, dtype=np.float64)
+    radius = window // 2
+    padded = np.pad(array, radius, mode="edge")
+
+    def box_mean(values):
+        c = np.pad(np.cumsum(np.cumsum(values, axis=0), axis=1), ((1, 0), (1, 0)))
+        w = window
+        return (c[w:, w:] - c[:-w, w:] - c[w:, :-w] + c[:-w, :-w]) / (w * w)
+
+    mean = box_mean(padded)
+    return np.maximum(box_mean(padded * padded) - mean * mean, 0.0)

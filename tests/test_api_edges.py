@@ -8,7 +8,6 @@ import synthetic
 from dcstereo import METHODS, MatchParams, _checks, fill_occlusions
 from dcstereo import params as params_module
 from dcstereo.batch.tiling import match_tiled, row_bands
-from dcstereo.cost import window_variance
 from dcstereo.evaluation import metrics
 from dcstereo.methods import _bands as mbands
 from dcstereo.methods.redert import match_redert
@@ -336,37 +335,6 @@ def test_evaluate_refuses_masks_and_thresholds_of_the_wrong_kind(masks, threshol
     truth = np.array([[1.0, 2.0]])
     with pytest.raises(TypeError, match=message):
         metrics.evaluate(truth, truth, masks, thresholds)
-
-
-@pytest.mark.parametrize(
-    ("image", "window", "error", "message"),
-    [
-        (np.ones((4, 5)), 4, ValueError, "window must be a positive odd integer, got 4"),
-        (np.ones((4, 5)), 0, ValueError, "window must be a positive odd integer, got 0"),
-        (np.ones((4, 5)), -3, ValueError, "window must be a positive odd integer, got -3"),
-        (np.ones((4, 5)), 3.0, TypeError, "window must be an integer, got 3.0"),
-        (np.ones((4, 5)), None, TypeError, "window must be an integer, got None"),
-        (np.ones(5), 3, ValueError, r"non-empty \(H, W\) array, got shape \(5,\)"),
-        (np.ones((4, 5, 3)), 3, ValueError, r"got shape \(4, 5, 3\)"),
-        (np.ones((0, 5)), 3, ValueError, r"got shape \(0, 5\)"),
-        (np.ones((4, 5), dtype=complex), 3, TypeError, "dtype complex128"),
-        (np.where(np.eye(4, 5) > 0, np.nan, 1.0), 3, ValueError, "4 NaN or infinite"),
-    ],
-)
-def test_window_variance_refuses_bad_input(image, window, error, message):
-    # before: numpy's pad / broadcast / axis errors, an even window's shifted variance, and
-    # one NaN spread by the cumulative sums to every pixel
-    with pytest.raises(error, match=message):
-        window_variance(image, window)
-
-
-def test_window_variance_of_a_numpy_window_and_any_layout():
-    rng = np.random.default_rng(2)
-    image = rng.random((6, 7)) * 255
-    expected = window_variance(image, 3)
-    np.testing.assert_array_equal(window_variance(image, np.int64(3)), expected)
-    np.testing.assert_array_equal(window_variance(np.asfortranarray(image), 3), expected)
-    np.testing.assert_allclose(window_variance(image[:, ::-1], 3)[:, ::-1], expected)
 
 
 @pytest.mark.parametrize(

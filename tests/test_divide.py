@@ -13,13 +13,13 @@ import dcstereo
 import naive_divide
 import synthetic
 from dcstereo import FLAG_FEATURE
-from dcstereo.cost import window_variance
 from dcstereo.costs import window as costs
 from dcstereo.divide import features
 from dcstereo.evaluation.datasets import load_middlebury
 from dcstereo.evaluation.metrics import bad_pixel_rate
 from dcstereo.params import DEFAULT_DC_SLANT_COST, MatchParams
 from dcstereo.signal import SIGNAL_STEPS, matching_signal
+from naive_divide import window_variance
 
 #: bad-1.0 nonocc (%) of the DP entry of the Middlebury taxonomy, which dc must reach.
 MIDDLEBURY_TARGETS = {"tsukuba": 4.12, "venus": 10.1, "teddy": 14.0, "cones": 10.5}
