@@ -8,3 +8,11 @@
 * :mod:`.scratch`: where scratch buffers are placed;
 * :mod:`._cache`: numba's on-disk cache keyed by the hash of every source of the package.
 """
+
+import os
+
+#: Whether compiled code runs the hand-written vector forms (the default) or numba's
+#: compilation of their plain forms: set ``DCSTEREO_VECTOR=0`` in the environment before
+#: importing dcstereo for the plain forms (to compare, or where the vector code is suspect).
+#: The kernel cache keeps the two apart.
+VECTOR = os.environ.get("DCSTEREO_VECTOR", "1").strip() != "0"

@@ -18,6 +18,7 @@ through the cache.
 
 import functools
 import hashlib
+import os
 from pathlib import Path
 
 from numba.core import caching
@@ -63,7 +64,10 @@ class KernelCacheLocator(caching._CacheLocator):
         return self._inner.get_cache_path()
 
     def get_source_stamp(self):  # noqa: D102
-        return _package_digest()
+        # the vector forms or the plain ones (DCSTEREO_VECTOR=0, read as dcstereo._vector
+        # reads it) compile to different code
+        plain = os.environ.get("DCSTEREO_VECTOR", "1").strip() == "0"
+        return _package_digest() + ("-plain" if plain else "")
 
     def get_disambiguator(self):  # noqa: D102
         return self._inner.get_disambiguator()

@@ -13,6 +13,7 @@ from llvmlite import ir
 from numba.core import cgutils, types
 from numba.extending import intrinsic, overload
 
+from dcstereo._vector import VECTOR
 from dcstereo._vector.simd import (
     _FLOOR,
     _FMA,
@@ -223,6 +224,8 @@ def _moved_costs_keyed_vector(typingctx, left_t, right_t, vs, hsum, out, o_left,
 @overload(_moved_costs)
 def _moved_costs_compiled(left_t, right_t, vs, hsum, out, o_left, o_right, o_add, o_sub, o_out, n,
                           width_p):  # fmt: skip
+    if not VECTOR:  # DCSTEREO_VECTOR=0: numba compiles the plain form
+        return _moved_costs
     if not all(_contiguous(a, types.int32) for a in (left_t, right_t, vs, hsum)):
         return _moved_costs  # other integer arrays (the tests' int64 ones): the loop
 
@@ -237,6 +240,8 @@ def _moved_costs_compiled(left_t, right_t, vs, hsum, out, o_left, o_right, o_add
 @overload(_moved_costs_keyed)
 def _moved_costs_keyed_compiled(left_t, right_t, vs, hsum, out, o_left, o_right, o_add, o_sub,
                                 o_out, n, width_p, shift, wta_k, wta_ratio, i0):  # fmt: skip
+    if not VECTOR:  # DCSTEREO_VECTOR=0: numba compiles the plain form
+        return _moved_costs_keyed
     if not all(_contiguous(a, types.int32) for a in (left_t, right_t, vs, hsum)):
         return _moved_costs_keyed  # the tests' int64 arrays: the loops
 
@@ -402,6 +407,8 @@ def _keyed_column_vector(typingctx, cost, o, nblocks, scale, numbers, wta_k, wta
 
 @overload(_keyed_column)
 def _keyed_column_compiled(cost, o, nblocks, scale, numbers, wta_k, wta_ratio, i0):
+    if not VECTOR:  # DCSTEREO_VECTOR=0: numba compiles the plain form
+        return _keyed_column
     return lambda cost, o, nblocks, scale, numbers, wta_k, wta_ratio, i0: _keyed_column_vector(
         cost, o, nblocks, scale, numbers, wta_k, wta_ratio, i0
     )

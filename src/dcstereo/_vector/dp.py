@@ -15,6 +15,7 @@ from llvmlite import ir
 from numba.core import cgutils, types
 from numba.extending import intrinsic, overload
 
+from dcstereo._vector import VECTOR
 from dcstereo._vector.simd import (
     _I64,
     _VEC_F64,
@@ -375,6 +376,9 @@ def _cells3_vector(typingctx, cur, prev, cost, o_here, steps, o_steps, k_lo, k_h
 def _cells5_compiled(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2,
                      slant2, e_off=None, pin_k=None, pin_total=None, pin_steps=None,
                      o_pin=0):  # fmt: skip
+    if not VECTOR:  # DCSTEREO_VECTOR=0: numba compiles the plain form
+        return _cells5_chain
+
     def run(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2, slant2,
             e_off=None, pin_k=None, pin_total=None, pin_steps=None, o_pin=0):  # fmt: skip
         _cells5_vector(
@@ -387,6 +391,9 @@ def _cells5_compiled(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_l
 
 @overload(_cells3_chain)
 def _cells3_compiled(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2):
+    if not VECTOR:  # DCSTEREO_VECTOR=0: numba compiles the plain form
+        return _cells3_chain
+
     def run(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2):
         _cells3_vector(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2)
 

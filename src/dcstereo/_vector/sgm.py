@@ -21,6 +21,8 @@ from llvmlite import ir
 from numba.core import cgutils, types
 from numba.extending import intrinsic, overload
 
+from dcstereo._vector import VECTOR
+
 #: Disparities per vector: 16 lanes of 16 bits (one AVX2 register, half an AVX-512 one).
 LANES = 16
 
@@ -468,6 +470,9 @@ def _path_total_vector(
 
 @overload(paths_step)
 def _paths_step_compiled(cost, c_off, prev, p_offs, cur, q_offs, n, p1, p2s, pmins, sums, s_off):
+    if not VECTOR:  # DCSTEREO_VECTOR=0: numba compiles the plain form
+        return paths_step
+
     def compiled(cost, c_off, prev, p_offs, cur, q_offs, n, p1, p2s, pmins, sums, s_off):
         _paths_step_vector(cost, c_off, prev, p_offs, cur, q_offs, n, p1, p2s, pmins, sums, s_off)
 
@@ -478,6 +483,9 @@ def _paths_step_compiled(cost, c_off, prev, p_offs, cur, q_offs, n, p1, p2s, pmi
 def _path_total_compiled(
     cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin, parts, offs, total, t_off
 ):
+    if not VECTOR:  # DCSTEREO_VECTOR=0: numba compiles the plain form
+        return path_total_step
+
     def compiled(cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin, parts, offs, total, t_off):
         return _path_total_vector(
             cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin, parts, offs, total, t_off
@@ -488,6 +496,8 @@ def _path_total_compiled(
 
 @overload(path_step)
 def _path_step_compiled(cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin):
+    if not VECTOR:  # DCSTEREO_VECTOR=0: numba compiles the plain form
+        return path_step
     return lambda cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin: _path_step_vector(
         cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin
     )
@@ -495,11 +505,15 @@ def _path_step_compiled(cost, c_off, prev, p_off, cur, q_off, n, p1, p2, pmin):
 
 @overload(path_start)
 def _path_start_compiled(cost, c_off, cur, q_off, n):
+    if not VECTOR:  # DCSTEREO_VECTOR=0: numba compiles the plain form
+        return path_start
     return lambda cost, c_off, cur, q_off, n: _path_start_vector(cost, c_off, cur, q_off, n)
 
 
 @overload(add_saturated)
 def _add_saturated_compiled(out, o_off, a, a_off, b, b_off, n):
+    if not VECTOR:  # DCSTEREO_VECTOR=0: numba compiles the plain form
+        return add_saturated
     return lambda out, o_off, a, a_off, b, b_off, n: _add_saturated_vector(
         out, o_off, a, a_off, b, b_off, n
     )
@@ -507,6 +521,8 @@ def _add_saturated_compiled(out, o_off, a, a_off, b, b_off, n):
 
 @overload(first_min)
 def _first_min_compiled(values, off, n):
+    if not VECTOR:  # DCSTEREO_VECTOR=0: numba compiles the plain form
+        return first_min
     return lambda values, off, n: _first_min_vector(values, off, n)
 
 

@@ -24,6 +24,8 @@ from llvmlite import ir
 from numba.core import cgutils, config, types
 from numba.extending import intrinsic, overload
 
+from dcstereo._vector import VECTOR
+
 #: Rows of a band, the lanes of the vector code: eight float64 values fill one AVX-512
 #: vector. A module constant, not an argument, on purpose: the compiler must see the trip
 #: count of the innermost loops to turn each of them into whole vector operations without a
@@ -320,6 +322,8 @@ _lane_rows_reversed = _lane_rows_intrinsic(True)
 
 @overload(_lane_rows_copy)
 def _lane_rows_compiled(src, rows, o_rows, dst, o_dst, reverse):
+    if not VECTOR:  # DCSTEREO_VECTOR=0: numba compiles the plain form
+        return _lane_rows_copy
     if not (
         _contiguous(src, types.int32, 2)
         and _contiguous(rows, types.int64)
@@ -433,6 +437,8 @@ def _rgb_pixels_vector(typingctx, image, y, x0, weights, steps, out, yp, o_out):
 
 @overload(_rgb_pixels)
 def _rgb_pixels_compiled(image, y, x0, weights, steps, out, yp, o_out):
+    if not VECTOR:  # DCSTEREO_VECTOR=0: numba compiles the plain form
+        return _rgb_pixels
     if not (isinstance(image, types.Array) and image.layout == "C" and image.dtype == types.uint8):
         return _rgb_pixels
     return lambda image, y, x0, weights, steps, out, yp, o_out: _rgb_pixels_vector(
@@ -601,6 +607,8 @@ def _window_ssd_short(typingctx, left_p, right_p, y, x, j, radius):
 
 @overload(_window_ssd, prefer_literal=True)
 def _window_ssd_compiled(left_p, right_p, y, x, j, radius, form):
+    if not VECTOR:  # DCSTEREO_VECTOR=0: numba compiles the plain form
+        return _window_ssd
     if not all(_contiguous(a, types.int32, 2) for a in (left_p, right_p)):
         return _window_ssd  # other signals (the tests' int64 ones): the loop
     if not isinstance(form, types.IntegerLiteral):
