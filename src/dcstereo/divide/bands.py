@@ -162,6 +162,19 @@ PINS_GIVEN = 1  # the DP through pins given in ``out.partner``
 SEARCH = 2  # a search on the band's cost array (dc's pairs, dsi3-gcp's points), the DP through it
 SEARCH_TWICE = 3  # SEARCH without the band's cost array: its costs made twice (SAD only)
 
+# The compiled variants of the band kernels' optional parts, by the type of their argument:
+# numba compiles a kernel once per argument type, so an argument that is None compiles a
+# version without the part (no branch left in its loops), and one that is True a version
+# with it. Named here so that no caller passes a bare None or True.
+#: ``bt``: the Birchfield-Tomasi cost (its bounds and spread arrays made first).
+BT_COST = True
+#: ``bt``: the SAD cost, compiled without the Birchfield-Tomasi code.
+SAD_COST = None
+#: ``gcp``: ``dsi3-gcp``'s ground control points instead of ``dc``'s feature search.
+GCP_POINTS = True
+#: ``gcp``: ``dc``'s feature search (or no search), compiled without the points.
+FEATURE_SEARCH = None
+
 
 @nb.njit(parallel=True, cache=True)
 def match_band_rows(left_p, right_p, dsi, step_costs, mode, tests, nchunks, out, clock=None,

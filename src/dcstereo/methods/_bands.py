@@ -82,8 +82,8 @@ def _band_rows(
         nchunks,
         out,
         clock,
-        True if params.cost == "bt" else None,
-        True if gcp else None,
+        bands.BT_COST if params.cost == "bt" else bands.SAD_COST,
+        bands.GCP_POINTS if gcp else bands.FEATURE_SEARCH,
     )
 
 

@@ -32,8 +32,9 @@ def _match_block(left, right, params: MatchParams) -> DisparityResult:
         rows.match_block_rows(left_p, right_p, _dsi(params), True, nchunks, out)
     else:
         nchunks = _array_chunks(params, left.shape) if bt else _band_chunks(left.shape[0])
-        # bt None: the SAD version compiles without the BT code
-        bands.match_block_bands(left_p, right_p, _dsi(params), nchunks, out, True if bt else None)
+        # SAD_COST: the version compiled without the BT code
+        cost = bands.BT_COST if bt else bands.SAD_COST
+        bands.match_block_bands(left_p, right_p, _dsi(params), nchunks, out, cost)
     return DisparityResult(out.disparity, out.flags, params, out.total / cost_scale(params.window))
 
 
