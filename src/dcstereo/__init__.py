@@ -10,6 +10,7 @@ Convention: a left pixel ``(x, y)`` matches the right pixel ``(x - d, y)``, ``d 
 from . import _memory  # noqa: F401  (sets the allocator's thresholds once; see there)
 from .api import match
 from .params import DEFAULT_METHOD, METHODS, MatchParams
+from .rectification import RectifiedPair, StereoCalibration, read_calibration, rectify
 from .result import (
     FLAG_BORDER,
     FLAG_FEATURE,
@@ -31,8 +32,12 @@ __all__ = [
     "METHODS",
     "DisparityResult",
     "MatchParams",
+    "RectifiedPair",
+    "StereoCalibration",
     "StereoDC",
     "fill_occlusions",
     "match",
+    "read_calibration",
+    "rectify",
 ]
 __version__ = "0.1.0"
