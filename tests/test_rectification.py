@@ -67,7 +67,10 @@ class Rig:
             P[0, 2] += self.doffs
         ys, xs = np.mgrid[0:height, 0:width].astype(np.float64)
         points = np.stack([xs.ravel(), ys.ravel()], axis=1).reshape(-1, 1, 2)
-        src = cv2.undistortPoints(points, K, D, R=R, P=P).reshape(height, width, 2)
+        # many iterations: OpenCV's default five leave tenths of a pixel at the corners
+        criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-12)
+        src = cv2.undistortPoints(points, K, D, R=R, P=P, criteria=criteria)
+        src = src.reshape(height, width, 2)
         return cv2.remap(
             image, src[..., 0].astype(np.float32), src[..., 1].astype(np.float32),
             cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT,
@@ -82,9 +85,11 @@ class Rig:
         f, cx, cy = self.K[0, 0], self.K[0, 2], self.K[1, 2]
         height, width = disparity.shape
         ys, xs = np.mgrid[0:height, 0:width].astype(np.float64)
-        z = f * self.baseline / (disparity + self.doffs)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z = f * self.baseline / (disparity + self.doffs)
         points = np.stack([(xs - cx) * z / f, (ys - cy) * z / f, z], axis=-1)
-        new = points @ (pair.R1 @ self.Rl.T).T
+        with np.errstate(invalid="ignore"):
+            new = points @ (pair.R1 @ self.Rl.T).T
         c = pair.calibration
         x_new = c.focal * new[..., 0] / new[..., 2] + c.cx
         y_new = c.fy * new[..., 1] / new[..., 2] + c.cy
@@ -124,20 +129,35 @@ def round_trip(left, right, truth, rig, max_disparity, alpha=0.0):
     again = dcstereo.match(pair.left, pair.right, max_disparity=new_max).filled().disparity
     x_new, y_new, expected = rig.to_new_frame(original, pair)
     measured, inside = sample(again, x_new, y_new)
-    valid_new, _ = sample(pair.valid & pair.right_valid, x_new, y_new)
-    scored = inside & (valid_new == 1) & np.isfinite(expected) & np.isfinite(truth)
+    # the valid region: the left pixel and its partner in the right image hold content
+    valid_left, _ = sample(pair.valid, x_new, y_new)
+    valid_right, _ = sample(pair.right_valid, x_new - expected, y_new)
+    scored = (valid_left == 1) & (valid_right == 1) & np.isfinite(expected) & np.isfinite(truth)
     error = np.abs(measured[scored] - expected[scored])
-    return pair, error, scored
+    # against the truth, in the new frame: how each map scores there
+    truth_new = rig.to_new_frame(truth, pair)[2][scored]
+    original_new = expected[scored]
+    figures = {
+        "pixels": int(scored.sum()),
+        "median": float(np.median(error)),
+        "within_1": float(np.mean(error <= 1)),
+        "within_2": float(np.mean(error <= 2)),
+        "bad2_original": float(np.mean(np.abs(original_new - truth_new) > 2)),
+        "bad2_rectified": float(np.mean(np.abs(measured[scored] - truth_new) > 2)),
+    }
+    return pair, error, figures
 
 
 def test_round_trip_synthetic():
     left, right, truth = textured_pair(7, 120, 200)
     rig = Rig(focal=220.0, cx=99.5, cy=59.5, baseline=60.0)
-    pair, error, scored = round_trip(left, right, truth, rig, max_disparity=28)
-    assert scored.mean() > 0.6
-    # stated tolerance: the median difference under 0.25 px, 95 % of pixels within 1 px
-    assert np.median(error) < 0.25
-    assert np.mean(error <= 1.0) > 0.95
+    pair, error, figures = round_trip(left, right, truth, rig, max_disparity=28)
+    assert figures["pixels"] > 0.5 * truth.size
+    # stated tolerance: median difference under 0.15 px, 99 % of the pixels within 1 px
+    # (measured: 14288 px, median 0.062, all within 1 px)
+    assert figures["median"] < 0.15
+    assert figures["within_1"] > 0.99
+    assert figures["bad2_rectified"] <= figures["bad2_original"] + 0.01
     # metric: the rectified baseline is the rig's, doffs 0
     assert pair.calibration.baseline == pytest.approx(60.0, rel=1e-9)
     assert pair.calibration.doffs == pytest.approx(0.0, abs=1e-9)
@@ -154,16 +174,16 @@ def test_round_trip_middlebury():
     height, width = scene.shape
     rig = Rig(focal=c.focal, cx=c.cx, cy=c.cy, baseline=c.baseline, doffs=c.doffs,
               size=(width, height))  # fmt: skip
-    pair, error, scored = round_trip(
+    pair, error, figures = round_trip(
         scene.left, scene.right, scene.disparity, rig, scene.max_disparity
     )
-    print(  # the figures of the closing note
-        f"Adirondack round trip: {scored.sum()} px, median {np.median(error):.3f}, "
-        f"within 1 px {100 * np.mean(error <= 1):.1f} %, within 2 px "
-        f"{100 * np.mean(error <= 2):.1f} %"
-    )
-    assert np.median(error) < 0.5
-    assert np.mean(error <= 2.0) > 0.85
+    print("Adirondack round trip:", figures)  # the figures of the closing note
+    # stated tolerance: median under 0.25 px, 92 % within 2 px, bad-2 against the truth at
+    # most 3 points over the original pair's (measured: 196413 px, median 0.165, 91.9 %
+    # within 1 px, 95.0 % within 2 px; bad-2 7.2 % original, 8.8 % rectified)
+    assert figures["median"] < 0.25
+    assert figures["within_2"] > 0.92
+    assert figures["bad2_rectified"] < figures["bad2_original"] + 0.03
 
 
 def points_through(rig, pair, points):

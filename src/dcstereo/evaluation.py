@@ -27,7 +27,7 @@ from .datasets import (
     load_scene,
     scene_layout,
 )
-from .metrics import DEFAULT_THRESHOLDS, bad_key, evaluate
+from .metrics import DEFAULT_THRESHOLDS, KITTI_THRESHOLDS, bad_key, evaluate
 from .opencv import OPENCV_METHODS
 from .params import BT_SUFFIX, METHODS, base_method, check_method_options, options_for
 from .result import DisparityResult
@@ -161,7 +161,9 @@ def score(
     dict
         ``{mask: {"bad-0.5": %, ..., "mae": px, "rms": px, "density": %}}``, masks in the
         order of :data:`MASK_ORDER`; ``mae`` and ``rms`` are NaN where the map has no
-        estimate in the mask (``null`` in :func:`to_json`).
+        estimate in the mask (``null`` in :func:`to_json`). A KITTI scene
+        (``scene.meta["kitti"]``) has KITTI's measures too: ``"d1"`` first and bad-2.0,
+        bad-3.0 and bad-4.0 (:data:`dcstereo.metrics.KITTI_THRESHOLDS`).
 
     Raises
     ------
@@ -176,7 +178,11 @@ def score(
         )
     names = [m for m in MASK_ORDER if m in scene.masks]
     names += [m for m in scene.masks if m not in names]
-    return evaluate(disparity, scene.disparity, {m: scene.masks[m] for m in names}, thresholds)
+    kitti = bool(scene.meta.get("kitti"))  # KITTI's D1 and bad-2/3/4 too (dcstereo.kitti)
+    if kitti:
+        thresholds = sorted({*thresholds, *KITTI_THRESHOLDS})
+    masks = {m: scene.masks[m] for m in names}
+    return evaluate(disparity, scene.disparity, masks, thresholds, d1=kitti)
 
 
 def scene_masks(scene: StereoScene) -> dict:
@@ -226,6 +232,7 @@ def evaluate_file(
     *,
     scale: float | None = None,
     truth_scale: float | None = None,
+    frame: str | int | None = None,
 ) -> dict:
     """Score a disparity file (PFM, or 16-bit PNG of ``d * 256``) against a scene folder.
 
@@ -243,6 +250,8 @@ def evaluate_file(
         The ``scale`` of :func:`~dcstereo.datasets.load_scene`: the ground truth's stored
         gray value per pixel of disparity, for a 2005/2006 scene of no standard size
         (other layouts refuse it: their files give the scale).
+    frame : str or int, optional
+        The frame of a KITTI training folder (``"000046_10"``).
 
     Returns
     -------
@@ -253,7 +262,7 @@ def evaluate_file(
     """
     from .io import read_disparity
 
-    scene = load_scene(scene_dir, scale=truth_scale)
+    scene = load_scene(scene_dir, scale=truth_scale, frame=frame)
     disparity = read_disparity(prediction, scale=scale)
     return {
         "prediction": str(prediction),
@@ -323,7 +332,8 @@ def bench(
     Parameters
     ----------
     scenes : iterable of StereoScene or path-like
-        Scenes, or scene folders (loaded with :func:`load_scene`).
+        Scenes, or scene folders (loaded with :func:`load_scene`), or ``(KITTI training
+        folder, frame)`` pairs.
     methods : sequence of str
         Names from :func:`available_methods`.
     options : dict, optional
@@ -388,7 +398,12 @@ def bench(
 
 
 def _load(folder, truth_scale: float | None) -> StereoScene:
-    """:func:`load_scene`, with ``truth_scale`` for a 2005/2006 folder only."""
+    """:func:`load_scene`, with ``truth_scale`` for a 2005/2006 folder only.
+
+    ``folder`` may be ``(KITTI training folder, frame)``.
+    """
+    if isinstance(folder, tuple):
+        return load_scene(folder[0], frame=folder[1])
     is_2005 = scene_layout(folder) == "2005/2006"
     return load_scene(folder, scale=truth_scale if is_2005 else None)
 
@@ -406,7 +421,9 @@ def bench_folder(data_dir: str | os.PathLike, methods: Sequence[str], **kwargs) 
         When there is no scene under ``data_dir``, or a scene cannot be loaded (the
         message lists every such scene).
     """
-    folders = find_scenes(data_dir)
+    from .kitti import expand_frames
+
+    folders = expand_frames(find_scenes(data_dir))  # a KITTI folder: each of its frames
     if not folders:
         raise ValueError(f"no scene folder (of any known layout) under {data_dir}")
     problems = []
