@@ -300,8 +300,8 @@ def is_kitti(scene: Any) -> bool:
 def kitti_table(rows: Sequence[dict], *, title: str | None = None) -> Any:
     """A rich table of KITTI's measures of :func:`dcstereo.evaluation.bench` rows.
 
-    Columns: scene, method, then D1, bad-2.0 and bad-3.0 (%, dense maps) over ``nonocc``
-    (KITTI's noc) and ``all``; ``-`` where a scene lacks the region or the row was not
+    Columns: scene, method, then D1, bad-2 and bad-3 (%, dense maps) over ``noc`` (the
+    mask ``nonocc``) and ``all``; ``-`` where a scene lacks the region or the row was not
     scored with KITTI's measures.
     """
     from rich.table import Table
@@ -309,10 +309,10 @@ def kitti_table(rows: Sequence[dict], *, title: str | None = None) -> Any:
     from .evaluation import _cell
 
     table = Table(title=title)
-    table.add_column("scene")
-    table.add_column("method")
-    for region in ("nonocc", "all"):
-        for key in ("d1", "bad-2.0", "bad-3.0"):
+    table.add_column("scene", no_wrap=True)
+    table.add_column("method", no_wrap=True)
+    for region in ("noc", "all"):  # KITTI's names of the regions
+        for key in ("D1", "bad-2", "bad-3"):
             table.add_column(f"{key} {region} %", justify="right")
     for row in rows:
         cells = [
