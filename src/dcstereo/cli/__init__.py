@@ -13,6 +13,7 @@ from .compare import compare
 from .datasets import datasets
 from .demo import demo
 from .eval import eval_command
+from .rectify import rectify
 from .run import run
 from .scanline import scanline
 from .video import video
@@ -33,3 +34,4 @@ main.add_command(bench)
 main.add_command(datasets)
 main.add_command(compare)
 main.add_command(scanline)
+main.add_command(rectify)
