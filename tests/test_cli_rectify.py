@@ -25,35 +25,72 @@ def rig_files(tmp_path):
     Image.fromarray(rig.unrectify(left, 1)).save(tmp_path / "cam1.png")
     Image.fromarray(rig.unrectify(right, 2)).save(tmp_path / "cam2.png")
     c = rig.calibration()
-    write_filestorage(tmp_path / "stereo.yml", {"K1": c.K1, "D1": c.D1, "K2": c.K2,
-                                                "D2": c.D2, "R": c.R, "T": c.T,
-                                                "image_size": np.array([200, 120])})  # fmt: skip
+    write_filestorage(
+        tmp_path / "stereo.yml",
+        {
+            "K1": c.K1,
+            "D1": c.D1,
+            "K2": c.K2,
+            "D2": c.D2,
+            "R": c.R,
+            "T": c.T,
+            "image_size": np.array([200, 120]),
+        },
+    )
     return tmp_path, c
 
 
 def test_rectify_writes_pair_and_calib_for_run(rig_files):
     folder, c = rig_files
     out = folder / "rect"
-    result = invoke("rectify", folder / "cam1.png", folder / "cam2.png", folder / "stereo.yml",
-                    "-o", out)  # fmt: skip
+    result = invoke(
+        "rectify", folder / "cam1.png", folder / "cam2.png", folder / "stereo.yml", "-o", out
+    )
     assert result.exit_code == 0, result.output
     assert "baseline 60" in result.output
-    assert sorted(p.name for p in out.iterdir()) == ["calib.txt", "left.png", "right.png",
-                                                     "valid.png"]  # fmt: skip
+    assert sorted(p.name for p in out.iterdir()) == [
+        "calib.txt",
+        "left.png",
+        "right.png",
+        "valid.png",
+    ]
     calibration = Calibration.from_middlebury(out / "calib.txt")
     assert calibration.baseline == pytest.approx(60.0, rel=1e-6)
     assert io.read_image(out / "left.png").shape == (120, 200)
     # run --calib on the written pair, and run --rectify in one go: the same depth
-    a = invoke("run", out / "left.png", out / "right.png", "-o", folder / "a.pfm", "-q",
-               "--max-disparity", 40, "--calib", out / "calib.txt", "--depth-out",
-               folder / "a_depth.pfm")  # fmt: skip
+    a = invoke(
+        "run",
+        out / "left.png",
+        out / "right.png",
+        "-o",
+        folder / "a.pfm",
+        "-q",
+        "--max-disparity",
+        40,
+        "--calib",
+        out / "calib.txt",
+        "--depth-out",
+        folder / "a_depth.pfm",
+    )
     assert a.exit_code == 0, a.output
-    b = invoke("run", folder / "cam1.png", folder / "cam2.png", "-o", folder / "b.pfm", "-q",
-               "--max-disparity", 40, "--rectify", folder / "stereo.yml", "--depth-out",
-               folder / "b_depth.pfm")  # fmt: skip
+    b = invoke(
+        "run",
+        folder / "cam1.png",
+        folder / "cam2.png",
+        "-o",
+        folder / "b.pfm",
+        "-q",
+        "--max-disparity",
+        40,
+        "--rectify",
+        folder / "stereo.yml",
+        "--depth-out",
+        folder / "b_depth.pfm",
+    )
     assert b.exit_code == 0, b.output
-    np.testing.assert_array_equal(io.read_disparity(folder / "a.pfm"),
-                                  io.read_disparity(folder / "b.pfm"))  # fmt: skip
+    np.testing.assert_array_equal(
+        io.read_disparity(folder / "a.pfm"), io.read_disparity(folder / "b.pfm")
+    )
     depth_a = io.read_depth(folder / "a_depth.pfm")
     depth_b = io.read_depth(folder / "b_depth.pfm")
     np.testing.assert_allclose(depth_a, depth_b, rtol=1e-5)
@@ -67,11 +104,19 @@ def test_rectify_middlebury_calib_copies(tmp_path, pair):
         "cam0=[300 0 31.5; 0 300 11.5; 0 0 1]\ncam1=[300 0 31.5; 0 300 11.5; 0 0 1]\n"
         "doffs=0\nbaseline=100\nwidth=64\nheight=24\n"
     )
-    result = invoke("rectify", folder / "left.png", folder / "right.png", folder / "calib.txt",
-                    "-o", folder / "out", "-q")  # fmt: skip
+    result = invoke(
+        "rectify",
+        folder / "left.png",
+        folder / "right.png",
+        folder / "calib.txt",
+        "-o",
+        folder / "out",
+        "-q",
+    )
     assert result.exit_code == 0, result.output
-    np.testing.assert_array_equal(io.read_image(folder / "out" / "left.png"),
-                                  io.read_image(folder / "left.png"))  # fmt: skip
+    np.testing.assert_array_equal(
+        io.read_image(folder / "out" / "left.png"), io.read_image(folder / "left.png")
+    )
 
 
 @pytest.mark.parametrize(
@@ -89,11 +134,26 @@ def test_rectify_bad_calibration_one_line_nothing_written(rig_files, change, mes
     entries.update(change)
     write_filestorage(folder / "bad.yml", {k: v for k, v in entries.items() if v is not None})
     for args in (
-        ["rectify", folder / "cam1.png", folder / "cam2.png", folder / "bad.yml", "-o",
-         folder / "out"],
-        ["run", folder / "cam1.png", folder / "cam2.png", "-o", folder / "d.pfm", "--rectify",
-         folder / "bad.yml", "--max-disparity", 40],
-    ):  # fmt: skip
+        [
+            "rectify",
+            folder / "cam1.png",
+            folder / "cam2.png",
+            folder / "bad.yml",
+            "-o",
+            folder / "out",
+        ],
+        [
+            "run",
+            folder / "cam1.png",
+            folder / "cam2.png",
+            "-o",
+            folder / "d.pfm",
+            "--rectify",
+            folder / "bad.yml",
+            "--max-disparity",
+            40,
+        ],
+    ):
         result = invoke(*args)
         assert result.exit_code == 1
         assert message in result.output
@@ -104,17 +164,35 @@ def test_rectify_bad_calibration_one_line_nothing_written(rig_files, change, mes
 def test_rectify_failed_write_leaves_nothing(rig_files, refuse_move):
     folder, _ = rig_files
     refuse_move("calib.txt")
-    result = invoke("rectify", folder / "cam1.png", folder / "cam2.png", folder / "stereo.yml",
-                    "-o", folder / "out")  # fmt: skip
+    result = invoke(
+        "rectify",
+        folder / "cam1.png",
+        folder / "cam2.png",
+        folder / "stereo.yml",
+        "-o",
+        folder / "out",
+    )
     assert result.exit_code == 1 and "permission denied" in result.output
     assert not (folder / "out").exists()
 
 
 def test_run_rectify_with_calib_refused(rig_files):
     folder, _ = rig_files
-    result = invoke("run", folder / "cam1.png", folder / "cam2.png", "-o", folder / "d.pfm",
-                    "--rectify", folder / "stereo.yml", "--calib", folder / "x.txt",
-                    "--depth-out", folder / "z.pfm", "--max-disparity", 40)  # fmt: skip
+    result = invoke(
+        "run",
+        folder / "cam1.png",
+        folder / "cam2.png",
+        "-o",
+        folder / "d.pfm",
+        "--rectify",
+        folder / "stereo.yml",
+        "--calib",
+        folder / "x.txt",
+        "--depth-out",
+        folder / "z.pfm",
+        "--max-disparity",
+        40,
+    )
     assert result.exit_code == 1 and "--rectify gives the calibration" in result.output
 
 
@@ -132,8 +210,17 @@ def test_rectify_without_opencv_names_the_extra(rig_files, monkeypatch):
     folder, _ = rig_files
     result = CliRunner().invoke(
         main,
-        [str(a) for a in ("rectify", folder / "cam1.png", folder / "cam2.png",
-                          folder / "stereo.yml", "-o", folder / "out")],  # fmt: skip
+        [
+            str(a)
+            for a in (
+                "rectify",
+                folder / "cam1.png",
+                folder / "cam2.png",
+                folder / "stereo.yml",
+                "-o",
+                folder / "out",
+            )
+        ],
     )
     assert result.exit_code == 1
-    assert 'dcstereo[opencv]' in result.output and "Traceback" not in result.output
+    assert "dcstereo[opencv]" in result.output and "Traceback" not in result.output

@@ -47,8 +47,9 @@ def write_kitti(root, layout, frames_=("000000_10", "000046_10"), gray=False):
         "kitti2012": ("image_0", "image_1") if gray else ("colored_0", "colored_1"),
         "kitti2015": ("image_2", "image_3"),
     }[layout]
-    occ_dir, noc_dir = ("disp_occ", "disp_noc") if layout == "kitti2012" else (
-        "disp_occ_0", "disp_noc_0")  # fmt: skip
+    occ_dir, noc_dir = (
+        ("disp_occ", "disp_noc") if layout == "kitti2012" else ("disp_occ_0", "disp_noc_0")
+    )
     for sub in (*names, occ_dir, noc_dir):
         (root / sub).mkdir(parents=True, exist_ok=True)
     truths = {}
@@ -75,8 +76,9 @@ def test_d1_by_hand():
     assert "d1" not in evaluate(estimate, truth, {"all": np.isfinite(truth)})["all"]
 
 
-@pytest.mark.parametrize("layout, gray", [("kitti2012", False), ("kitti2012", True),
-                                          ("kitti2015", False)])  # fmt: skip
+@pytest.mark.parametrize(
+    "layout, gray", [("kitti2012", False), ("kitti2012", True), ("kitti2015", False)]
+)
 def test_kitti_training_folder(tmp_path, layout, gray):
     truths = write_kitti(tmp_path / "training", layout, gray=gray)
     folder = tmp_path / "training"
@@ -99,8 +101,9 @@ def test_eval_kitti_frame_json_has_d1_per_region(tmp_path):
     estimate = np.where(np.isfinite(occ), occ, 5.0).astype(np.float32)
     estimate[:, 30:34] += 4.0  # 4 px off at d = 8: over 3 px and over 5 %: D1 outliers
     io.write_pfm(tmp_path / "pred.pfm", estimate)
-    result = invoke("eval", "--json", tmp_path / "pred.pfm", tmp_path / "training",
-                    "--frame", "000046_10")  # fmt: skip
+    result = invoke(
+        "eval", "--json", tmp_path / "pred.pfm", tmp_path / "training", "--frame", "000046_10"
+    )
     assert result.exit_code == 0, result.output
     report = json.loads(result.output)
     assert report["layout"] == "kitti2015"

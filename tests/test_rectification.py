@@ -72,9 +72,12 @@ class Rig:
         src = cv2.undistortPoints(points, K, D, R=R, P=P, criteria=criteria)
         src = src.reshape(height, width, 2)
         return cv2.remap(
-            image, src[..., 0].astype(np.float32), src[..., 1].astype(np.float32),
-            cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT,
-        )  # fmt: skip
+            image,
+            src[..., 0].astype(np.float32),
+            src[..., 1].astype(np.float32),
+            cv2.INTER_LINEAR,
+            borderMode=cv2.BORDER_REFLECT,
+        )
 
     def to_new_frame(self, disparity, pair):
         """Map a disparity map of the original rectified left view into ``pair``'s frame.
@@ -172,8 +175,9 @@ def test_round_trip_middlebury():
     scene = load_scene(folder)
     c = scene.calibration
     height, width = scene.shape
-    rig = Rig(focal=c.focal, cx=c.cx, cy=c.cy, baseline=c.baseline, doffs=c.doffs,
-              size=(width, height))  # fmt: skip
+    rig = Rig(
+        focal=c.focal, cx=c.cx, cy=c.cy, baseline=c.baseline, doffs=c.doffs, size=(width, height)
+    )
     pair, error, figures = round_trip(
         scene.left, scene.right, scene.disparity, rig, scene.max_disparity
     )
@@ -314,18 +318,29 @@ def test_reads_stereo_calib_sample_files_xml_with_m1(tmp_path):
     """OpenCV's stereo_calib sample: intrinsics (M1 D1 M2 D2) and extrinsics (R T ...)."""
     rig = Rig(focal=220.0, cx=99.5, cy=59.5, baseline=60.0)
     c = rig.calibration()
-    write_filestorage(tmp_path / "intrinsics.xml", {"M1": c.K1, "D1": c.D1.reshape(1, -1),
-                                                    "M2": c.K2, "D2": c.D2.reshape(1, -1)})  # fmt: skip
+    write_filestorage(
+        tmp_path / "intrinsics.xml",
+        {"M1": c.K1, "D1": c.D1.reshape(1, -1), "M2": c.K2, "D2": c.D2.reshape(1, -1)},
+    )
     write_filestorage(tmp_path / "extrinsics.xml", {"R": c.R, "T": c.T.reshape(3, 1)})
     read = read_calibration(tmp_path / "intrinsics.xml", tmp_path / "extrinsics.xml")
     np.testing.assert_allclose(read.K1, c.K1)
     np.testing.assert_allclose(read.T, c.T)
     assert read.image_size is None
     # image_width/image_height, as OpenCV's calibration sample writes them
-    write_filestorage(tmp_path / "all.yaml", {"cameraMatrix1": c.K1, "distCoeffs1": c.D1,
-                                              "cameraMatrix2": c.K2, "distCoeffs2": c.D2,
-                                              "R": c.R, "T": c.T, "image_width": 200,
-                                              "image_height": 120})  # fmt: skip
+    write_filestorage(
+        tmp_path / "all.yaml",
+        {
+            "cameraMatrix1": c.K1,
+            "distCoeffs1": c.D1,
+            "cameraMatrix2": c.K2,
+            "distCoeffs2": c.D2,
+            "R": c.R,
+            "T": c.T,
+            "image_width": 200,
+            "image_height": 120,
+        },
+    )
     assert read_calibration(tmp_path / "all.yaml").image_size == (200, 120)
 
 
@@ -407,5 +422,5 @@ def test_missing_opencv_is_one_line(monkeypatch):
     rig = Rig(focal=220.0, cx=99.5, cy=59.5, baseline=60.0)
     image = np.zeros((120, 200), np.uint8)
     calibration = rig.calibration()
-    with pytest.raises(ImportError, match=r'dcstereo\[opencv\]'):
+    with pytest.raises(ImportError, match=r"dcstereo\[opencv\]"):
         rectify(image, image, calibration)

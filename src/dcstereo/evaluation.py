@@ -16,6 +16,7 @@ import platform
 import time
 from collections.abc import Iterable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -128,7 +129,7 @@ def run_method(
     if method in OPENCV_METHODS:
         from .opencv import match_opencv
 
-        settings = dict(OPENCV_METHODS[method])
+        settings: dict[str, Any] = dict(OPENCV_METHODS[method])
         if settings["method"] == "sgbm":
             settings["colour"] = np.ndim(left) == 3 and np.ndim(right) == 3
         return match_opencv(left, right, max_disparity=max_disparity, **settings, **options)
@@ -317,7 +318,7 @@ def _warm_up(method: str, scene: StereoScene, options: dict, done: set) -> None:
 
 
 def bench(
-    scenes: Iterable[StereoScene | str | os.PathLike],
+    scenes: Iterable[StereoScene | str | os.PathLike | tuple[Path, str]],
     methods: Sequence[str],
     *,
     options: dict | None = None,
@@ -481,7 +482,7 @@ def missing_mask_lines(rows: Sequence[dict]) -> list[str]:
     over the other 3``. The table shows ``-`` in those cells, and the mean rows average
     each mask over the scenes that have it.
     """
-    scenes = {}
+    scenes: dict[str, dict] = {}
     for row in rows:
         scenes.setdefault(row["scene"], row.get("masks_missing", {}))
     lines = []
@@ -549,7 +550,7 @@ def bench_table(rows: Sequence[dict], *, title: str | None = None, threshold: fl
         ("density %", "right"),
         ("time ms", "right"),
     ]:
-        table.add_column(name, justify=justify)
+        table.add_column(name, justify=justify)  # type: ignore[arg-type]
     means = mean_rows(rows)
     for index, row in enumerate(list(rows) + means):
         if index == len(rows):
@@ -587,9 +588,10 @@ def render(table, width: int = 120) -> str:
     """Render a rich table as plain text (no colour codes), for printing or files."""
     from rich.console import Console
 
-    console = Console(file=io.StringIO(), width=width, color_system=None, force_terminal=False)
+    buffer = io.StringIO()
+    console = Console(file=buffer, width=width, color_system=None, force_terminal=False)
     console.print(table)
-    return console.file.getvalue()
+    return buffer.getvalue()
 
 
 def json_rows(rows: Sequence[dict]) -> list[dict]:

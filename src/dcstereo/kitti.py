@@ -61,7 +61,7 @@ KITTI_SCALE = 256.0
 
 
 def kitti_layout(folder: str | os.PathLike) -> str | None:
-    """The KITTI layout of ``folder`` (a key of :data:`KITTI_LAYOUTS`), or None."""
+    """Return the KITTI layout of ``folder`` (a key of :data:`KITTI_LAYOUTS`), or None."""
     folder = Path(folder)
     for layout, (lefts, rights, occ, _) in KITTI_FOLDERS.items():
         if (
@@ -139,7 +139,6 @@ def load_kitti(folder: str | os.PathLike, frame: str | int) -> Any:
         message names a few that have), or one of its files is missing or of another size.
     """
     from .datasets import MASK_SOURCES, MISSING_MASKS, StereoScene, _read_image
-    from .io import read_disparity
 
     folder = Path(folder).expanduser()
     layout = kitti_layout(folder)
@@ -298,7 +297,7 @@ def is_kitti(scene: Any) -> bool:
 
 
 def kitti_table(rows: Sequence[dict], *, title: str | None = None) -> Any:
-    """A rich table of KITTI's measures of :func:`dcstereo.evaluation.bench` rows.
+    """Build a rich table of KITTI's measures of :func:`dcstereo.evaluation.bench` rows.
 
     Columns: scene, method, then D1, bad-2 and bad-3 (%, dense maps) over ``noc`` (the
     mask ``nonocc``) and ``all``; ``-`` where a scene lacks the region or the row was not

@@ -142,9 +142,10 @@ class StereoCalibration:
             raise ValueError(
                 f"{where}: R must be a 3x3 rotation (or a 3-vector), got shape {rotation.shape}"
             )
-        if not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-4) or np.linalg.det(
-            rotation
-        ) < 0:
+        if (
+            not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-4)
+            or np.linalg.det(rotation) < 0
+        ):
             raise ValueError(f"{where}: R is not a rotation matrix (R R^T != I or det(R) < 0)")
         object.__setattr__(self, "R", rotation)
         translation = _real(self.T, where, "T").ravel()
@@ -165,7 +166,7 @@ class StereoCalibration:
         return float(np.linalg.norm(self.T))
 
     def swapped(self) -> StereoCalibration:
-        """The same rig with the cameras' roles exchanged (camera 2 becomes camera 1).
+        """Return the same rig with the cameras' roles exchanged (camera 2 becomes camera 1).
 
         For a calibration made with the right images passed first (``T[0] > 0``): rectify
         ``(right, left)`` with the swapped calibration.
@@ -361,9 +362,7 @@ def _from_entries(entries: Mapping[str, Any], source: str) -> StereoCalibration:
                 f"calibration {source} lacks {name} (looked for {', '.join(spellings)})"
             )
         found[name] = entries[key]
-    return StereoCalibration(
-        **found, image_size=_image_size(entries, source), source=source
-    )
+    return StereoCalibration(**found, image_size=_image_size(entries, source), source=source)
 
 
 def _image_size(entries: Mapping[str, Any], source: str) -> tuple[int, int] | None:
@@ -541,10 +540,12 @@ def rectify(
     )
     if abs(P2[1, 3]) > abs(P2[0, 3]):  # stereoRectify chose a vertical layout
         raise ValueError(f"{calibration.source}: vertical rig (see dcstereo.rectify's notes)")
-    out_left, valid = _remap(cv2, left, calibration.K1, calibration.D1, R1, P1, size, modes,
-                             interpolation)  # fmt: skip
-    out_right, right_valid = _remap(cv2, right, calibration.K2, calibration.D2, R2, P2, size,
-                                    modes, interpolation)  # fmt: skip
+    out_left, valid = _remap(
+        cv2, left, calibration.K1, calibration.D1, R1, P1, size, modes, interpolation
+    )
+    out_right, right_valid = _remap(
+        cv2, right, calibration.K2, calibration.D2, R2, P2, size, modes, interpolation
+    )
     rectified = Calibration(
         focal=P1[0, 0],
         baseline=-P2[0, 3] / P2[0, 0],

@@ -48,9 +48,7 @@ def eval_command(prediction, scene_dir, scale, gt_scale, frame, as_json):
     """
     from ..evaluation import evaluate_file, mask_lines, render, scores_table, to_json
 
-    result = evaluate_file(
-        prediction, scene_dir, scale=scale, truth_scale=gt_scale, frame=frame
-    )
+    result = evaluate_file(prediction, scene_dir, scale=scale, truth_scale=gt_scale, frame=frame)
     if as_json:
         click.echo(to_json(result, indent=2))
     else:
