@@ -77,11 +77,13 @@ def kitti_layout(folder: str | os.PathLike) -> str | None:
 
 
 def _is_16_bit(path: Path) -> bool:
-    from .io import open_image
+    """Whether an image file holds 16-bit (or 32-bit integer) gray, from its header only."""
+    from PIL import Image
 
     try:
-        return open_image(path).mode in ("I;16", "I;16B", "I;16L", "I")
-    except (ValueError, OSError):
+        with Image.open(path) as image:
+            return image.mode in ("I;16", "I;16B", "I;16L", "I")
+    except Exception:  # a broken file: not this layout (load_scene then says why)
         return False
 
 
