@@ -291,6 +291,10 @@ def test_2014_layout_cross_check_and_no_mask(tmp_path):
     scene = load_scene(tmp_path / "b")
     np.testing.assert_array_equal(scene.masks["nonocc"], scene.masks["all"])
     (tmp_path / "b" / "calib.txt").write_text("width=9\n")
+    # no ndisp (ETH3D's calib.txt may lack it): the ground truth's ceiling bounds the range
+    no_ndisp = load_scene(tmp_path / "b")
+    assert no_ndisp.max_disparity == int(np.ceil(np.nanmax(no_ndisp.disparity)))
+    (tmp_path / "b" / "calib.txt").write_text("width=9\nndisp=7.5\n")
     with pytest.raises(ValueError, match="integer ndisp"):
         load_scene(tmp_path / "b")
 

@@ -26,6 +26,7 @@ install_locator()
 from dcstereo.api import match
 from dcstereo.compat.stereo_dc import StereoDC
 from dcstereo.params import DEFAULT_METHOD, METHODS, MatchParams
+from dcstereo.rectification import RectifiedPair, StereoCalibration, read_calibration, rectify
 from dcstereo.result import (
     FLAG_BORDER,
     FLAG_FEATURE,
@@ -46,8 +47,12 @@ __all__ = [
     "METHODS",
     "DisparityResult",
     "MatchParams",
+    "RectifiedPair",
+    "StereoCalibration",
     "StereoDC",
     "fill_occlusions",
     "match",
+    "read_calibration",
+    "rectify",
 ]
 __version__ = "0.1.0"

@@ -128,7 +128,9 @@ class Calibration:
         for key in ("cam0", "baseline"):
             if key not in entries:
                 raise ValueError(f"calibration '{path}' lacks '{key}='")
-        return cls.from_entries(entries, path)
+        calibration = cls.from_entries(entries, path)
+        assert calibration is not None  # cam0 and baseline are there
+        return calibration
 
     @classmethod
     def from_entries(cls, entries: dict, source) -> "Calibration | None":

@@ -13,6 +13,7 @@ from dcstereo.cli.compare import compare
 from dcstereo.cli.datasets import datasets
 from dcstereo.cli.demo import demo
 from dcstereo.cli.eval import eval_command
+from dcstereo.cli.rectify import rectify
 from dcstereo.cli.run import run
 from dcstereo.cli.scanline import scanline
 from dcstereo.cli.video import video
@@ -33,3 +34,4 @@ main.add_command(bench)
 main.add_command(datasets)
 main.add_command(compare)
 main.add_command(scanline)
+main.add_command(rectify)

@@ -82,6 +82,8 @@ def bench(
     masks (a v2 folder with only some of nonocc.png, all.png, disc.png; the other layouts
     have no disc mask) shows - in its cells, the mean is over the scenes that have the
     mask, and a line after the table names them (the JSON: each row's "masks_missing").
+    KITTI training folders (every frame with ground truth) and one-pair KITTI folders
+    get a second table: D1, bad-2.0 and bad-3.0 (%) over nonocc (KITTI's noc) and all.
     """
     from dcstereo import io
     from dcstereo.evaluation.scoring import (
@@ -125,6 +127,11 @@ def bench(
         )
     table = bench_table(rows, title=f"bench {data_dir}", threshold=threshold)
     click.echo(render(table), nl=False)
+    kitti_rows = [r for r in rows if any("d1" in s for s in r["dense"].values())]
+    if kitti_rows:  # KITTI's measures, for the KITTI scenes
+        from ..kitti import kitti_table
+
+        click.echo(render(kitti_table(kitti_rows, title="KITTI's measures (dense)")), nl=False)
     if not quiet:
         for line in missing_mask_lines(rows):
             click.echo(line)

@@ -23,9 +23,14 @@ from dcstereo.cli._common import one_line_errors
     help="Stored gray value per pixel of disparity of the ground truth of a 2005/2006 scene "
     "whose size is not a standard one (default: 1, 2 or 3 from the image height).",
 )
+@click.option(
+    "--frame",
+    default=None,
+    help="The frame of a KITTI 2012/2015 training folder SCENE_DIR, such as 000046_10.",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print the scores as JSON (null: no value).")
 @one_line_errors
-def eval_command(prediction, scene_dir, scale, gt_scale, as_json):
+def eval_command(prediction, scene_dir, scale, gt_scale, frame, as_json):
     """Score PREDICTION (PFM, or 16-bit PNG of d * 256) against the scene in SCENE_DIR.
 
     Bad-pixel rates at 0.5, 1, 2 and 4 pixels, mean absolute and RMS error and density,
@@ -35,6 +40,11 @@ def eval_command(prediction, scene_dir, scale, gt_scale, as_json):
     A v2 scene folder with some of nonocc.png, all.png and disc.png is scored on those,
     one with none on every pixel with ground truth; the output says which masks were
     scored and which not (in the JSON: "masks" and "masks_missing").
+
+    KITTI data (a training folder with --frame, or a one-pair folder of left.png,
+    right.png, a 16-bit disp_gt.png and meta.json) is also scored with KITTI's measures:
+    D1 (error over 3 px and over 5 % of the truth; "d1" in the JSON) and bad-2/3/4, over
+    all (disp_occ) and nonocc (disp_noc, KITTI's noc), those the data has.
     """
     from dcstereo.evaluation.scoring import (
         evaluate_file,
@@ -44,7 +54,7 @@ def eval_command(prediction, scene_dir, scale, gt_scale, as_json):
         to_json,
     )
 
-    result = evaluate_file(prediction, scene_dir, scale=scale, truth_scale=gt_scale)
+    result = evaluate_file(prediction, scene_dir, scale=scale, truth_scale=gt_scale, frame=frame)
     if as_json:
         click.echo(to_json(result, indent=2))
     else:

@@ -94,6 +94,16 @@ from dcstereo.cli._common import (
 )
 @calibration_options
 @click.option(
+    "--rectify",
+    "rectify_calib",
+    multiple=True,
+    type=click.Path(dir_okay=False),
+    help="Rectify LEFT and RIGHT first with this calibration (an OpenCV FileStorage file "
+    "with K1 D1 K2 D2 R T; give it twice for intrinsics and extrinsics files; see dcstereo "
+    "rectify); its rectified geometry is the calibration of --depth-out and --ply. The "
+    "outputs are in the rectified left image's geometry. Needs dcstereo[opencv].",
+)
+@click.option(
     "--confidence-out",
     type=click.Path(dir_okay=False),
     default=None,
@@ -128,6 +138,7 @@ def run(
     ply_out,
     ply_min_confidence,
     calibration,
+    rectify_calib,
     confidence_out,
     rerun_out,
     rerun_spawn,
@@ -152,7 +163,12 @@ def run(
         rerun_out,
     )  # fmt: skip
     check_distinct_paths(
-        {"the left input": left, "the right input": right, "--calib": calibration["calib"]},
+        {
+            "the left input": left,
+            "the right input": right,
+            "--calib": calibration["calib"],
+            **{f"--rectify {path}": path for path in rectify_calib},
+        },
         {
             "--output": output,
             "--occlusion-out": occlusion_out,
@@ -202,9 +218,18 @@ def run(
     right_image = io.read_image(right)
     # the viewer shows the depth, the cloud and the camera when a calibration is given
     given = any(value is not None for value in calibration.values())
-    camera = calibration_of(
-        calibration, left_image.shape, depth_out or ply_out or (viewing and given)
-    )
+    if rectify_calib:  # the rectified pair, and its geometry as the calibration
+        from .rectify import rectify_images
+
+        if given:
+            raise ValueError("--rectify gives the calibration: leave out --calib and --focal & co")
+        pair = rectify_images(left_image, right_image, rectify_calib, 0.0)
+        left_image, right_image = pair.left, pair.right
+        camera = pair.calibration if (depth_out or ply_out or viewing) else None
+    else:
+        camera = calibration_of(
+            calibration, left_image.shape, depth_out or ply_out or (viewing and given)
+        )
     # staged outputs: written only if all succeed; the watch: the kernels' first compile
     # (about a minute) is announced, and the match's time says its share
     with compile_watch(quiet) as watch, staged_outputs() as write:

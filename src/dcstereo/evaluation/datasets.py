@@ -425,6 +425,10 @@ LAYOUTS = {
     "2005/2006": ("view1.png", "view5.png", "disp1.png"),
     "2014": ("im0.png", "im1.png", "calib.txt"),
 }
+# and the KITTI layouts of dcstereo.evaluation.kitti.KITTI_LAYOUTS (kitti2012, kitti2015,
+# kitti-pair).
+# ETH3D's two-view folders (im0.png, im1.png, disp0GT.pfm, mask0nocc.png, calib.txt) are
+# of the "2014" layout; their calib.txt may lack ndisp.
 
 #: Image height of the full, half and third size 2005/2006 scenes, and the disparity
 #: scale (stored gray value per pixel of disparity) of each.
@@ -447,7 +451,12 @@ def scene_layout(folder: str | os.PathLike) -> str | None:
     -------
     str or None
     """
+    from .kitti import kitti_layout
+
     folder = Path(folder)
+    kitti = kitti_layout(folder)  # first: a one-pair KITTI folder has the v2 file names
+    if kitti is not None:
+        return kitti
     for layout, files in LAYOUTS.items():
         if all((folder / name).is_file() for name in files):
             return layout
@@ -482,8 +491,10 @@ def find_scenes(root: str | os.PathLike) -> list[Path]:
     return sorted(found)
 
 
-def load_scene(folder: str | os.PathLike, *, scale: float | None = None) -> StereoScene:
-    """Load a scene folder of any Middlebury layout (see :data:`LAYOUTS`).
+def load_scene(
+    folder: str | os.PathLike, *, scale: float | None = None, frame: str | int | None = None
+) -> StereoScene:
+    """Load a scene folder of any layout (:data:`LAYOUTS`, :data:`.kitti.KITTI_LAYOUTS`).
 
     Parameters
     ----------
@@ -493,6 +504,9 @@ def load_scene(folder: str | os.PathLike, *, scale: float | None = None) -> Ster
         2005/2006 layout only (other layouts refuse it: their files give the scale): stored
         gray value per pixel of disparity; default inferred from the image height
         (:data:`SCALE_BY_HEIGHT_2005`).
+    frame : str or int, optional
+        The frame of a KITTI training folder (``"000046_10"``), required there and refused
+        elsewhere.
 
     Returns
     -------
@@ -523,6 +537,24 @@ def load_scene(folder: str | os.PathLike, *, scale: float | None = None) -> Ster
             f"a ground-truth scale applies to 2005/2006 scenes only; {folder} is a "
             f"{layout} scene, whose files give the scale"
         )
+    if layout.startswith("kitti"):
+        from . import kitti
+
+        if scale is not None:
+            raise ValueError(f"a ground-truth scale applies to 2005/2006 scenes only, not {folder}")
+        if layout == "kitti-pair":
+            if frame is not None:
+                raise ValueError(f"{folder} holds one pair: it takes no frame")
+            return kitti.load_pair(folder)
+        if frame is None:
+            found = kitti.frames(folder)
+            raise ValueError(
+                f"{folder} is a {layout} training folder of {len(found)} frames: give a frame "
+                f"(--frame {found[0] if found else '000000_10'})"
+            )
+        return kitti.load_kitti(folder, frame)
+    if frame is not None:
+        raise ValueError(f"a frame applies to KITTI training folders only; {folder} is {layout}")
     if layout == "v2":
         scene = load_middlebury(folder)
         scene.meta.setdefault("layout", "v2")
@@ -639,11 +671,11 @@ def _load_2014(folder: Path) -> StereoScene:
     if truth_file is None:
         raise ValueError(f"2014 scene folder {folder} lacks disp0GT.pfm (or disp0.pfm)")
     calib = read_calib(folder / "calib.txt")
-    try:
-        ndisp = _integer(calib["ndisp"])
-    except (KeyError, ValueError):
+    try:  # ETH3D's calib.txt may have no ndisp: the ground truth's ceiling + 1 then
+        ndisp = _integer(calib["ndisp"]) if "ndisp" in calib else None
+    except ValueError:
         raise ValueError(f"{folder / 'calib.txt'} must give an integer ndisp") from None
-    if ndisp < 1:
+    if ndisp is not None and ndisp < 1:
         raise ValueError(f"{folder / 'calib.txt'}: ndisp must be at least 1, got {ndisp}")
     left = _read_image(folder / "im0.png")
     right = _read_image(folder / "im1.png")
@@ -651,6 +683,10 @@ def _load_2014(folder: Path) -> StereoScene:
     if stored.ndim != 2:
         raise ValueError(f"{folder / truth_file} must be a gray (Pf) PFM file")
     truth = np.where(np.isfinite(stored), stored, np.nan).astype(np.float32)
+    if ndisp is None:
+        if not np.isfinite(truth).any():
+            raise ValueError(f"{folder / truth_file} holds no known disparity")
+        ndisp = int(math.ceil(float(np.nanmax(truth)))) + 1
     arrays = {"im1.png": right, truth_file: truth}
     known = np.isfinite(truth)
     meta = {"name": folder.name, "layout": "2014", "ndisp": ndisp, "truth": truth_file}

@@ -32,6 +32,13 @@ from dcstereo._checks import is_number
 #: Thresholds of the bad-pixel rates reported by :func:`evaluate`, in pixels.
 DEFAULT_THRESHOLDS = (0.5, 1.0, 2.0, 4.0)
 
+#: KITTI's bad-pixel thresholds (bad-2, bad-3, bad-4), in pixels.
+KITTI_THRESHOLDS = (2.0, 3.0, 4.0)
+
+#: KITTI's D1 outlier rule: an error over this many pixels and over this share of the truth.
+D1_PIXELS = 3.0
+D1_RELATIVE = 0.05
+
 
 def _as_real(array, name: str) -> np.ndarray:
     array = np.asarray(array)
@@ -221,6 +228,54 @@ def density(estimate: np.ndarray, truth: np.ndarray, *, mask: np.ndarray | None 
     return 100.0 * float(np.count_nonzero(np.isfinite(estimate[scored]))) / float(scored.sum())
 
 
+def _d1_rate(error: np.ndarray, truth: np.ndarray) -> float:
+    # ``not (...)`` makes a NaN error (no estimate) an outlier, as in _bad_rate
+    fine = (error <= D1_PIXELS) | (error <= D1_RELATIVE * np.abs(truth))
+    return 100.0 * float(np.count_nonzero(~fine)) / error.size
+
+
+def d1_rate(estimate: np.ndarray, truth: np.ndarray, *, mask: np.ndarray | None = None) -> float:
+    """KITTI's D1: percentage of scored pixels whose error is over 3 px and over 5 % of truth.
+
+    A scored pixel is an outlier when ``|estimate - truth| > 3`` **and**
+    ``|estimate - truth| > 0.05 * |truth|``, or when its estimate is not finite (KITTI's
+    devkit fills a sparse map before scoring; here a missing estimate counts as an
+    outlier, as in :func:`bad_pixel_rate`). The denominator is the number of scored
+    pixels, ``mask & isfinite(truth)``: for KITTI, the pixels with LiDAR ground truth in
+    the region (``disp_occ`` for "all", ``disp_noc`` for "noc").
+
+    Parameters
+    ----------
+    estimate, truth, mask
+        As in :func:`bad_pixel_rate`.
+
+    Returns
+    -------
+    float
+        Percentage in ``[0, 100]``.
+
+    Raises
+    ------
+    ValueError
+        When the shapes differ or no pixel is scored.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> truth = np.array([[10.0, 100.0, 100.0, 50.0]])
+    >>> estimate = np.array([[13.5, 104.0, 106.0, np.nan]])  # out, in (4 < 5), out, none
+    >>> d1_rate(estimate, truth)
+    75.0
+
+    References
+    ----------
+    M. Menze and A. Geiger, "Object scene flow for autonomous vehicles", CVPR 2015 (the
+    KITTI 2015 stereo benchmark's D1).
+    """
+    estimate, truth, scored = _scored(estimate, truth, mask)
+    return _d1_rate(np.abs(estimate[scored] - truth[scored]), truth[scored])
+
+
 def bad_key(threshold: float) -> str:
     """Return the key of the bad-pixel rate at ``threshold`` in :func:`evaluate`'s scores.
 
@@ -235,6 +290,8 @@ def evaluate(
     truth: np.ndarray,
     masks: Mapping[str, np.ndarray],
     thresholds: Sequence[float] = DEFAULT_THRESHOLDS,
+    *,
+    d1: bool = False,
 ) -> dict[str, dict[str, float]]:
     """All metrics of one disparity map, for each evaluation mask.
 
@@ -249,6 +306,8 @@ def evaluate(
         (``"nonocc"``, ``"all"``, ``"disc"``).
     thresholds : sequence of float
         Thresholds of the bad-pixel rates, in pixels.
+    d1 : bool
+        Also KITTI's D1 (:func:`d1_rate`), under ``"d1"`` (percent).
 
     Returns
     -------
@@ -256,7 +315,8 @@ def evaluate(
         ``{mask_name: {"bad-0.5": ..., "bad-1.0": ..., ..., "mae": ..., "rms": ...,
         "density": ...}}``, with the keys of :func:`bad_pixel_rate` (``"bad-<threshold>"``,
         percent), :func:`mean_abs_error` (``"mae"``, pixels), :func:`rms_error` (``"rms"``,
-        pixels) and :func:`density` (``"density"``, percent).
+        pixels) and :func:`density` (``"density"``, percent), and ``"d1"`` first when
+        asked for.
 
     Raises
     ------
@@ -290,7 +350,8 @@ def evaluate(
         signed = est[scored] - tru[scored]
         error = np.abs(signed)
         finite = np.isfinite(error)
-        row = {bad_key(t): _bad_rate(error, t) for t in thresholds}
+        row = {"d1": _d1_rate(error, tru[scored])} if d1 else {}
+        row.update({bad_key(t): _bad_rate(error, t) for t in thresholds})
         if finite.any():
             row["mae"] = float(error[finite].mean())
             row["rms"] = float(np.sqrt(np.mean(signed[finite] ** 2)))

@@ -16,6 +16,7 @@ import platform
 import time
 from collections.abc import Iterable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -28,7 +29,7 @@ from dcstereo.evaluation.datasets import (
     load_scene,
     scene_layout,
 )
-from dcstereo.evaluation.metrics import DEFAULT_THRESHOLDS, bad_key, evaluate
+from dcstereo.evaluation.metrics import DEFAULT_THRESHOLDS, KITTI_THRESHOLDS, bad_key, evaluate
 from dcstereo.params import BT_SUFFIX, METHODS, base_method, check_method_options, options_for
 from dcstereo.result import DisparityResult
 
@@ -128,7 +129,7 @@ def run_method(
     if method in OPENCV_METHODS:
         from dcstereo.compat.opencv import match_opencv
 
-        settings = dict(OPENCV_METHODS[method])
+        settings: dict[str, Any] = dict(OPENCV_METHODS[method])
         if settings["method"] == "sgbm":
             settings["colour"] = np.ndim(left) == 3 and np.ndim(right) == 3
         return match_opencv(left, right, max_disparity=max_disparity, **settings, **options)
@@ -161,7 +162,9 @@ def score(
     dict
         ``{mask: {"bad-0.5": %, ..., "mae": px, "rms": px, "density": %}}``, masks in the
         order of :data:`MASK_ORDER`; ``mae`` and ``rms`` are NaN where the map has no
-        estimate in the mask (``null`` in :func:`to_json`).
+        estimate in the mask (``null`` in :func:`to_json`). A KITTI scene
+        (``scene.meta["kitti"]``) has KITTI's measures too: ``"d1"`` first and bad-2.0,
+        bad-3.0 and bad-4.0 (:data:`dcstereo.evaluation.metrics.KITTI_THRESHOLDS`).
 
     Raises
     ------
@@ -176,7 +179,12 @@ def score(
         )
     names = [m for m in MASK_ORDER if m in scene.masks]
     names += [m for m in scene.masks if m not in names]
-    return evaluate(disparity, scene.disparity, {m: scene.masks[m] for m in names}, thresholds)
+    # KITTI's D1 and bad-2/3/4 too (dcstereo.evaluation.kitti)
+    kitti = bool(scene.meta.get("kitti"))
+    if kitti:
+        thresholds = sorted({*thresholds, *KITTI_THRESHOLDS})
+    masks = {m: scene.masks[m] for m in names}
+    return evaluate(disparity, scene.disparity, masks, thresholds, d1=kitti)
 
 
 def scene_masks(scene: StereoScene) -> dict:
@@ -226,6 +234,7 @@ def evaluate_file(
     *,
     scale: float | None = None,
     truth_scale: float | None = None,
+    frame: str | int | None = None,
 ) -> dict:
     """Score a disparity file (PFM, or 16-bit PNG of ``d * 256``) against a scene folder.
 
@@ -243,6 +252,8 @@ def evaluate_file(
         The ``scale`` of :func:`~dcstereo.evaluation.datasets.load_scene`: the ground truth's stored
         gray value per pixel of disparity, for a 2005/2006 scene of no standard size
         (other layouts refuse it: their files give the scale).
+    frame : str or int, optional
+        The frame of a KITTI training folder (``"000046_10"``).
 
     Returns
     -------
@@ -253,7 +264,7 @@ def evaluate_file(
     """
     from dcstereo.io import read_disparity
 
-    scene = load_scene(scene_dir, scale=truth_scale)
+    scene = load_scene(scene_dir, scale=truth_scale, frame=frame)
     disparity = read_disparity(prediction, scale=scale)
     return {
         "prediction": str(prediction),
@@ -308,7 +319,7 @@ def _warm_up(method: str, scene: StereoScene, options: dict, done: set) -> None:
 
 
 def bench(
-    scenes: Iterable[StereoScene | str | os.PathLike],
+    scenes: Iterable[StereoScene | str | os.PathLike | tuple[Path, str]],
     methods: Sequence[str],
     *,
     options: dict | None = None,
@@ -323,7 +334,8 @@ def bench(
     Parameters
     ----------
     scenes : iterable of StereoScene or path-like
-        Scenes, or scene folders (loaded with :func:`load_scene`).
+        Scenes, or scene folders (loaded with :func:`load_scene`), or ``(KITTI training
+        folder, frame)`` pairs.
     methods : sequence of str
         Names from :func:`available_methods`.
     options : dict, optional
@@ -388,7 +400,12 @@ def bench(
 
 
 def _load(folder, truth_scale: float | None) -> StereoScene:
-    """:func:`load_scene`, with ``truth_scale`` for a 2005/2006 folder only."""
+    """:func:`load_scene`, with ``truth_scale`` for a 2005/2006 folder only.
+
+    ``folder`` may be ``(KITTI training folder, frame)``.
+    """
+    if isinstance(folder, tuple):
+        return load_scene(folder[0], frame=folder[1])
     is_2005 = scene_layout(folder) == "2005/2006"
     return load_scene(folder, scale=truth_scale if is_2005 else None)
 
@@ -406,7 +423,9 @@ def bench_folder(data_dir: str | os.PathLike, methods: Sequence[str], **kwargs) 
         When there is no scene under ``data_dir``, or a scene cannot be loaded (the
         message lists every such scene).
     """
-    folders = find_scenes(data_dir)
+    from .kitti import expand_frames
+
+    folders = expand_frames(find_scenes(data_dir))  # a KITTI folder: each of its frames
     if not folders:
         raise ValueError(f"no scene folder (of any known layout) under {data_dir}")
     problems = []
@@ -464,7 +483,7 @@ def missing_mask_lines(rows: Sequence[dict]) -> list[str]:
     over the other 3``. The table shows ``-`` in those cells, and the mean rows average
     each mask over the scenes that have it.
     """
-    scenes = {}
+    scenes: dict[str, dict] = {}
     for row in rows:
         scenes.setdefault(row["scene"], row.get("masks_missing", {}))
     lines = []
@@ -532,7 +551,7 @@ def bench_table(rows: Sequence[dict], *, title: str | None = None, threshold: fl
         ("density %", "right"),
         ("time ms", "right"),
     ]:
-        table.add_column(name, justify=justify)
+        table.add_column(name, justify=justify)  # type: ignore[arg-type]
     means = mean_rows(rows)
     for index, row in enumerate(list(rows) + means):
         if index == len(rows):
@@ -570,9 +589,10 @@ def render(table, width: int = 120) -> str:
     """Render a rich table as plain text (no colour codes), for printing or files."""
     from rich.console import Console
 
-    console = Console(file=io.StringIO(), width=width, color_system=None, force_terminal=False)
+    buffer = io.StringIO()
+    console = Console(file=buffer, width=width, color_system=None, force_terminal=False)
     console.print(table)
-    return console.file.getvalue()
+    return buffer.getvalue()
 
 
 def json_rows(rows: Sequence[dict]) -> list[dict]:
