@@ -155,7 +155,7 @@ def default_data_dir() -> Path:
     override = os.environ.get(DATA_ENV_VAR)
     if override:
         return Path(override).expanduser()
-    return Path(__file__).resolve().parents[3] / "shared" / "data"
+    return Path(__file__).resolve().parents[4] / "shared" / "data"  # src/dcstereo/evaluation/
 
 
 def middlebury_dir(root: str | os.PathLike | None = None) -> Path:
