@@ -129,7 +129,7 @@ def bench(
     click.echo(render(table), nl=False)
     kitti_rows = [r for r in rows if any("d1" in s for s in r["dense"].values())]
     if kitti_rows:  # KITTI's measures, for the KITTI scenes
-        from ..kitti import kitti_table
+        from dcstereo.evaluation.kitti import kitti_table
 
         click.echo(render(kitti_table(kitti_rows, title="KITTI's measures (dense)")), nl=False)
     if not quiet:

@@ -219,7 +219,7 @@ def run(
     # the viewer shows the depth, the cloud and the camera when a calibration is given
     given = any(value is not None for value in calibration.values())
     if rectify_calib:  # the rectified pair, and its geometry as the calibration
-        from .rectify import rectify_images
+        from dcstereo.cli.rectify import rectify_images
 
         if given:
             raise ValueError("--rectify gives the calibration: leave out --calib and --focal & co")

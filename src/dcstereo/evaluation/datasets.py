@@ -451,7 +451,7 @@ def scene_layout(folder: str | os.PathLike) -> str | None:
     -------
     str or None
     """
-    from .kitti import kitti_layout
+    from dcstereo.evaluation.kitti import kitti_layout
 
     folder = Path(folder)
     kitti = kitti_layout(folder)  # first: a one-pair KITTI folder has the v2 file names
@@ -538,7 +538,7 @@ def load_scene(
             f"{layout} scene, whose files give the scale"
         )
     if layout.startswith("kitti"):
-        from . import kitti
+        from dcstereo.evaluation import kitti
 
         if scale is not None:
             raise ValueError(f"a ground-truth scale applies to 2005/2006 scenes only, not {folder}")

@@ -423,7 +423,7 @@ def bench_folder(data_dir: str | os.PathLike, methods: Sequence[str], **kwargs) 
         When there is no scene under ``data_dir``, or a scene cannot be loaded (the
         message lists every such scene).
     """
-    from .kitti import expand_frames
+    from dcstereo.evaluation.kitti import expand_frames
 
     folders = expand_frames(find_scenes(data_dir))  # a KITTI folder: each of its frames
     if not folders:
