@@ -181,16 +181,13 @@ def test_motorcycle():
 
 from dcstereo import io as dio  # noqa: E402
 from dcstereo.evaluation.datasets import (  # noqa: E402
-    REGISTRY,
-    RegistryEntry,
-    RemoteFile,
     cross_check,
-    fetch,
     find_scenes,
     load_scene,
     read_calib,
     scene_layout,
 )
+from dcstereo.evaluation.downloads import REGISTRY, RegistryEntry, RemoteFile, fetch  # noqa: E402
 
 
 def write_2005_scene(folder, *, height=370, width=12, with_right=True, seed=3):

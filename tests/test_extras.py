@@ -11,7 +11,7 @@ from click.testing import CliRunner
 
 from dcstereo import _extras
 from dcstereo.cli import main
-from dcstereo.evaluation import datasets
+from dcstereo.evaluation import downloads as datasets
 from dcstereo.viz import colorize
 
 ROOT = Path(__file__).resolve().parents[1]

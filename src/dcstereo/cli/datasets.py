@@ -16,7 +16,7 @@ def list_command():
     """List the registry: name, layout, whether its checksums are verified, description."""
     from rich.table import Table
 
-    from dcstereo.evaluation.datasets import REGISTRY
+    from dcstereo.evaluation.downloads import REGISTRY
     from dcstereo.evaluation.scoring import render
 
     table = Table(title=f"{len(REGISTRY)} Middlebury scenes (dcstereo datasets fetch NAME)")
@@ -50,7 +50,8 @@ def list_command():
 @one_line_errors
 def fetch_command(name, cache, allow_unverified):
     """Download scene NAME once (checked against its sha256) and print its folder."""
-    from dcstereo.evaluation.datasets import fetch, load_scene, scene_layout
+    from dcstereo.evaluation.datasets import load_scene, scene_layout
+    from dcstereo.evaluation.downloads import fetch
 
     folder, hashes = fetch(name, cache=cache, allow_unverified=allow_unverified)
     for url, digest in hashes.items():

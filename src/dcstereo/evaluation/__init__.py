@@ -1,7 +1,8 @@
 """Evaluation: the metrics, the datasets and their layouts, scoring and benchmarks.
 
 * :mod:`.metrics`: pure metric functions with explicit masks;
-* :mod:`.datasets`: the Middlebury layouts and the downloads;
+* :mod:`.datasets`: the Middlebury layouts (and, through :mod:`.kitti`, KITTI's and
+  ETH3D's); :mod:`.downloads`: the public scenes' registry and fetcher;
 * :mod:`.scoring`: a method run on a scene and scored (``bench``, ``evaluate_file``);
 * :mod:`.synthetic`: synthetic pairs with known disparity.
 
