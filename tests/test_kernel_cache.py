@@ -47,6 +47,10 @@ def test_digest_follows_every_file(tmp_path):
     assert _cache.sources_digest(tmp_path) == first
     (tmp_path / "c.py").write_text("")
     assert _cache.sources_digest(tmp_path) != first
+    second = _cache.sources_digest(tmp_path)
+    (tmp_path / "cli").mkdir()
+    (tmp_path / "cli" / "run.py").write_text("z = 1\n")  # the command line: no kernel reads it
+    assert _cache.sources_digest(tmp_path) == second
 
 
 _CALLER = """
