@@ -17,7 +17,6 @@ from hypothesis import strategies as st
 import dcstereo
 import naive
 from dcstereo import _records as records
-from dcstereo import api
 from dcstereo._vector import scratch, simd
 from dcstereo.costs import band as band_costs
 from dcstereo.costs import window as costs
@@ -312,7 +311,7 @@ def test_pins_of_the_ground_control_points_give_gcp_row(tmp_path):
 
 def gcp_in_mode(mode, left, right, **kw):
     """``dsi3-gcp`` forced into one way of running (``mbands._search_band_mode``; 0: row by row)."""
-    with mock.patch.object(api, "_search_band_mode", lambda params, width: mode):
+    with mock.patch.object(mbands, "_search_band_mode", lambda params, width: mode):
         return dcstereo.match(left, right, **kw)
 
 
@@ -351,7 +350,7 @@ def test_gcp_runs_as_dc_does_by_the_band_array():
 
     def modes_run(**kw):
         with (
-            mock.patch.object(api, "_band_rows", wraps=mbands._band_rows) as bands,
+            mock.patch.object(mbands, "_band_rows", wraps=mbands._band_rows) as bands,
             mock.patch.object(gcp, "match_gcp_rows", wraps=gcp.match_gcp_rows) as rows,
         ):
             dcstereo.match(left, right, max_disparity=7, method="dsi3-gcp", **kw)
@@ -359,7 +358,7 @@ def test_gcp_runs_as_dc_does_by_the_band_array():
 
     assert modes_run() == [2]
     assert modes_run(cost="bt") == [2]
-    with mock.patch.object(api, "DC_BAND_BYTES", 0):  # the bound reaches the choice
+    with mock.patch.object(mbands, "DC_BAND_BYTES", 0):  # the bound reaches the choice
         assert mbands._search_band_mode(params, 40) == 3
         assert mbands._search_band_mode(bt, 40) == 0
         assert modes_run() == [3]
@@ -1066,7 +1065,7 @@ def dc_by_rows(left, right, **options):
 
 def dc_in_mode(mode, left, right, **options):
     """``dc`` row by row (0), on bands with the band's cost array (2) or without it (3)."""
-    with mock.patch.object(api, "_dc_band_mode", lambda params, width: mode):
+    with mock.patch.object(mdc, "_dc_band_mode", lambda params, width: mode):
         return dcstereo.match(left, right, **{"method": "dc", **options})
 
 
@@ -1119,7 +1118,7 @@ def test_dc_on_bands_equals_the_row_kernel(cost, seed):
         # one chunk: its bands after the first move the sums down a row, and the pass that
         # makes the costs (mode 2: the cost pass; mode 3: the block match) block-matches
         # the columns it moves (with 8 chunks these rows are one band each)
-        with mock.patch.object(api, "_band_chunks", lambda height: 1):
+        with mock.patch.object(mbands, "_band_chunks", lambda height: 1):
             for mode in (2,) if options.get("lr_check") else modes:
                 assert_same_dc(expected, dc_in_mode(mode, left, right, **kw))
         accepted += len(got.features)
@@ -1154,7 +1153,7 @@ def test_dc_on_bands_rejects_crossing_pairs_as_the_row_kernel(seed):
     on_patch = pairs[pairs[:, 1] - pairs[:, 2] == offset]
     assert len(np.unique(on_patch[:, 0])) >= 3  # the patch is matched in some rows
     for chunks in (1, 8):
-        with mock.patch.object(api, "_band_chunks", lambda height, c=chunks: c):
+        with mock.patch.object(mbands, "_band_chunks", lambda height, c=chunks: c):
             assert_same_dc(expected, dc_in_mode(2, left, right, **kw))
     assert_same_dc(expected, dc_in_mode(3, left, right, **kw))
 
@@ -1172,7 +1171,7 @@ def test_dc_on_bands_with_keys_too_wide_for_32_bits(window):
     assert band_costs._keys_fit(4080, window // 2, shift) == (window == 63)
     kw = dict(max_disparity=61, window=window, feature_floor=0.0)
     expected = dc_by_rows(left, right, **kw)
-    with mock.patch.object(api, "_band_chunks", lambda height: 1):
+    with mock.patch.object(mbands, "_band_chunks", lambda height: 1):
         got = dc_in_mode(2, left, right, **kw)
     assert_same_dc(expected, got)
     assert len(got.features) > 0
@@ -1190,7 +1189,10 @@ def test_dc_on_bands_scales_ser_as_the_row_kernel(steps):
     noise = rng.integers(-6, 7, left.shape)  # finite SERs
     right = np.clip(texture[:, 6:54].astype(int) + noise, 0, 255).astype(np.uint8)  # d = 4
     kw = dict(max_disparity=7, window=5)
-    with mock.patch.object(api, "SIGNAL_STEPS", steps):
+    with (
+        mock.patch.object(mdc, "SIGNAL_STEPS", steps),
+        mock.patch.object(mbands, "SIGNAL_STEPS", steps),
+    ):
         expected = dc_by_rows(left, right, **kw)
         got = dc_in_mode(2, left, right, **kw)
     assert_same_dc(expected, got)
@@ -1285,12 +1287,12 @@ def test_band_cost_arrays_fit_the_memory_bound_together():
         ("dc", {"cost": "bt"}, 2), ("dc", {}, 2), ("dc", {"lr_check": True}, 2),
         ("dsi3-gcp", {}, 2), ("dsi5", {}, 6), ("block", {}, 6),
     ]  # fmt: skip
-    with mock.patch.object(api, "_band_chunks", lambda height: 6):
+    with mock.patch.object(mbands, "_band_chunks", lambda height: 6):
         assert mbands._array_chunks(params, (48, 40)) == 6
         for method, kw, capped in cases:
             expected = chunks_run(method, **kw)
             assert expected[0] == [6]
-            with mock.patch.object(api, "BAND_ARRAY_BYTES", 3 * one - 1):
+            with mock.patch.object(mbands, "BAND_ARRAY_BYTES", 3 * one - 1):
                 assert mbands._array_chunks(params, (48, 40)) == 2
                 used, got = chunks_run(method, **kw)
             assert used == [capped], (method, kw)
@@ -1299,7 +1301,7 @@ def test_band_cost_arrays_fit_the_memory_bound_together():
             np.testing.assert_array_equal(got.features, expected[1].features)
         for method in ("block", "dsi5", "dc"):
             expected = chunks_run(method, cost="bt")[1]
-            with mock.patch.object(api, "BAND_ARRAY_BYTES", one - 1):  # not one array: rows
+            with mock.patch.object(mbands, "BAND_ARRAY_BYTES", one - 1):  # not one array: rows
                 assert not mbands._band_array_fits(params, 40)
                 used, got = chunks_run(method, cost="bt")
             assert used == []
@@ -1411,7 +1413,7 @@ def test_bt_runs_on_bands_while_the_cost_array_fits():
     right = np.roll(left, 3, axis=1)
     for method in ("block", "dsi3", "dsi5"):
         band = dcstereo.match(left, right, max_disparity=7, method=method, cost="bt")
-        with mock.patch.object(api, "BAND_ARRAY_BYTES", 0):
+        with mock.patch.object(mbands, "BAND_ARRAY_BYTES", 0):
             rows = dcstereo.match(left, right, max_disparity=7, method=method, cost="bt")
         assert band.disparity.tobytes() == rows.disparity.tobytes()
         np.testing.assert_array_equal(band.flags, rows.flags)

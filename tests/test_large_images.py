@@ -27,7 +27,7 @@ from PIL import Image
 
 import dcstereo
 import synthetic
-from dcstereo import api, io
+from dcstereo import io
 from dcstereo.batch.tiling import match_tiled
 from dcstereo.cli import main
 from dcstereo.methods import _bands as mbands
@@ -82,8 +82,8 @@ def test_small_memory_bounds_and_tiles_give_the_unbounded_map(name, options, two
     expected = dcstereo.match(left, right, max_disparity=MAX_DISPARITY, **options)
     for band_bytes, dc_bytes in BOUNDS:
         with (
-            mock.patch.object(api, "BAND_ARRAY_BYTES", band_bytes),
-            mock.patch.object(api, "DC_BAND_BYTES", dc_bytes),
+            mock.patch.object(mbands, "BAND_ARRAY_BYTES", band_bytes),
+            mock.patch.object(mbands, "DC_BAND_BYTES", dc_bytes),
         ):
             got = dcstereo.match(left, right, max_disparity=MAX_DISPARITY, **options)
             _same(got, expected, f"bounds {band_bytes}, {dc_bytes}")
@@ -98,11 +98,11 @@ def test_the_bounds_reach_the_paths():
     # methods: sgm's strips have a bound of their own, sgm.VOLUME_BYTES)
     params = dcstereo.MatchParams(max_disparity=MAX_DISPARITY, method="dc", cost="bt")
     assert mbands._band_array_fits(params, 64)
-    with mock.patch.object(api, "BAND_ARRAY_BYTES", 4096):
+    with mock.patch.object(mbands, "BAND_ARRAY_BYTES", 4096):
         assert not mbands._band_array_fits(params, 64)
     dc = dcstereo.MatchParams(max_disparity=MAX_DISPARITY, method="dc")
     assert mdc._dc_band_mode(dc, 64) == 2  # the costs kept
-    with mock.patch.object(api, "DC_BAND_BYTES", 0):
+    with mock.patch.object(mbands, "DC_BAND_BYTES", 0):
         assert mdc._dc_band_mode(dc, 64) == 3  # the costs made twice
 
 
@@ -168,7 +168,10 @@ def test_the_cli_tiles_a_pair_as_match_does(pair, two_threads):
     # dc with BT costs: the bounds are those of the scanline methods' band arrays
     folder, _ = pair
     out = folder / "tiled.pfm"
-    with mock.patch.object(api, "BAND_ARRAY_BYTES", 0), mock.patch.object(api, "DC_BAND_BYTES", 0):
+    with (
+        mock.patch.object(mbands, "BAND_ARRAY_BYTES", 0),
+        mock.patch.object(mbands, "DC_BAND_BYTES", 0),
+    ):
         done = CliRunner().invoke(
             main, ["run", str(folder / "left.png"), str(folder / "right.png"), "-o", str(out),
                    "--max-disparity", "12", "--tile-rows", "5", "--method", "dc", "--cost", "bt",

@@ -2,14 +2,7 @@
 
 from dcstereo import _records as records
 from dcstereo.divide import bands
-from dcstereo.methods._bands import (
-    _array_chunks,
-    _band_array_fits,
-    _band_chunks,
-    _dsi,
-    _padded_signals,
-    cost_scale,
-)
+from dcstereo.methods import _bands
 from dcstereo.methods._pipeline import REFINE, Method, core
 from dcstereo.params import MatchParams
 from dcstereo.result import DisparityResult
@@ -24,18 +17,22 @@ def _match_block(left, right, params: MatchParams) -> DisparityResult:
     with as many chunks at once as ``BAND_ARRAY_BYTES`` holds arrays, and where one array
     alone would pass it, runs row by row instead.
     """
-    left_p, right_p = _padded_signals(left, right, params.window // 2)
+    left_p, right_p = _bands._padded_signals(left, right, params.window // 2)
     out = records.outputs(*left.shape[:2])
     bt = params.cost == "bt"
-    if bt and not _band_array_fits(params, left.shape[1]):
+    if bt and not _bands._band_array_fits(params, left.shape[1]):
         nchunks = rows.chunk_count(left.shape[0])
-        rows.match_block_rows(left_p, right_p, _dsi(params), True, nchunks, out)
+        rows.match_block_rows(left_p, right_p, _bands._dsi(params), True, nchunks, out)
     else:
-        nchunks = _array_chunks(params, left.shape) if bt else _band_chunks(left.shape[0])
+        nchunks = (
+            _bands._array_chunks(params, left.shape) if bt else _bands._band_chunks(left.shape[0])
+        )
         # SAD_COST: the version compiled without the BT code
         cost = bands.BT_COST if bt else bands.SAD_COST
-        bands.match_block_bands(left_p, right_p, _dsi(params), nchunks, out, cost)
-    return DisparityResult(out.disparity, out.flags, params, out.total / cost_scale(params.window))
+        bands.match_block_bands(left_p, right_p, _bands._dsi(params), nchunks, out, cost)
+    return DisparityResult(
+        out.disparity, out.flags, params, out.total / _bands.cost_scale(params.window)
+    )
 
 
 METHOD = Method(

@@ -4,17 +4,7 @@ import numpy as np
 
 from dcstereo import _records as records
 from dcstereo.divide import bands, divide
-from dcstereo.methods._bands import (
-    ROW_BY_ROW,
-    _band_array_fits,
-    _band_rows,
-    _dsi,
-    _features,
-    _padded_signals,
-    _search_band_mode,
-    _step_costs,
-    cost_scale,
-)
+from dcstereo.methods import _bands
 from dcstereo.methods._pipeline import REFINE, Method, core
 from dcstereo.params import MatchParams
 from dcstereo.result import FLAG_FEATURE, DisparityResult
@@ -37,9 +27,9 @@ def _match_dc(left, right, params: MatchParams, clock=None) -> DisparityResult:
     path through the pairs (the row-by-row one leaves
     out intervals with no left pixel inside). ``clock``: as ``_match_dsi``'s.
     """
-    left_p, right_p = _padded_signals(left, right, params.window // 2)
+    left_p, right_p = _bands._padded_signals(left, right, params.window // 2)
     height, width = left.shape[:2]
-    step_costs = _step_costs(params, five=True)
+    step_costs = _bands._step_costs(params, five=True)
     tests = records.feature_tests(
         ser_min=params.ser_min,
         vs_max=params.vs_max,
@@ -52,20 +42,22 @@ def _match_dc(left, right, params: MatchParams, clock=None) -> DisparityResult:
         max_candidates=min(params.max_candidates, width),  # a row has no more candidates
         linear=params.method == "dc-linear",
     )
-    scale = cost_scale(params.window)
+    scale = _bands.cost_scale(params.window)
     band_mode = _dc_band_mode(params, width)
-    if band_mode != ROW_BY_ROW:
+    if band_mode != _bands.ROW_BY_ROW:
         # each row's pairs, compactly (only the first few of each row are touched)
         out = records.outputs(height, width, pairs=True)
-        _band_rows(left_p, right_p, params, step_costs, out, clock, mode=band_mode, tests=tests)
+        _bands._band_rows(
+            left_p, right_p, params, step_costs, out, clock, mode=band_mode, tests=tests
+        )
         features = divide.collect_pairs(out.pairs, out.counts, FLAG_FEATURE, out.flags)
         path_cost = out.total / (2.0 * scale)
         return DisparityResult(out.disparity, out.flags, params, path_cost, features)
     out = records.outputs(height, width, partner=True, reliability=True)
     nchunks = rows.chunk_count(height)
     bt = params.cost == "bt"
-    divide.match_dc_rows(left_p, right_p, _dsi(params), bt, step_costs, tests, nchunks, out)
-    features = _features(out.partner, out.flags, out.ser, out.vs)
+    divide.match_dc_rows(left_p, right_p, _bands._dsi(params), bt, step_costs, tests, nchunks, out)
+    features = _bands._features(out.partner, out.flags, out.ser, out.vs)
     path_cost = out.total / (2.0 * scale)
     if params.method == "dc-linear":
         path_cost = np.full_like(path_cost, np.nan)
@@ -82,18 +74,18 @@ def _edge_guard(params: MatchParams, width: int) -> int:
 
 
 def _dc_band_mode(params: MatchParams, width: int) -> int:
-    """How ``dc`` runs: ``ROW_BY_ROW``, else the ``mode`` of ``match_band_rows``.
+    """How ``dc`` runs: ``_bands.ROW_BY_ROW``, else the ``mode`` of ``match_band_rows``.
 
     ``bands.SEARCH`` or ``bands.SEARCH_TWICE`` ("modes" 2 and 3: 0 is row by row).
     """
     if not (params.method == "dc" and params.uniqueness > 0 and params.max_candidates == 0):
-        return ROW_BY_ROW
-    mode = _search_band_mode(params, width)
+        return _bands.ROW_BY_ROW
+    mode = _bands._search_band_mode(params, width)
     if mode == bands.SEARCH or (mode == bands.SEARCH_TWICE and not params.lr_check):
         return mode
     # the BT cost and dc's left-right check read the band's array, which SEARCH_TWICE does
     # not keep: kept past the caches, 1.5-3.5x faster than row by row (BAND_ARRAY_BYTES)
-    return bands.SEARCH if _band_array_fits(params, width) else ROW_BY_ROW
+    return bands.SEARCH if _bands._band_array_fits(params, width) else _bands.ROW_BY_ROW
 
 
 _DC_STEPS = "costs (eq. 4) + feature pairs (SER eq. 2, VS eq. 3, recursive split) + DP (eq. 5)"

@@ -1,14 +1,7 @@
 """``dsi3`` and ``dsi5``: the scanline DP over the disparity-space image (eq. 5 for ``dsi5``)."""
 
 from dcstereo import _records as records
-from dcstereo.methods._bands import (
-    _band_array_fits,
-    _band_rows,
-    _dsi,
-    _padded_signals,
-    _step_costs,
-    cost_scale,
-)
+from dcstereo.methods import _bands
 from dcstereo.methods._pipeline import REFINE, Method, core
 from dcstereo.params import MatchParams
 from dcstereo.result import DisparityResult
@@ -26,15 +19,15 @@ def _match_dsi(left, right, params: MatchParams, clock=None) -> DisparityResult:
     kernel's stage counters (``match_band_rows``; ``benchmarks/bench_stages.py``), the band
     path only.
     """
-    left_p, right_p = _padded_signals(left, right, params.window // 2)
+    left_p, right_p = _bands._padded_signals(left, right, params.window // 2)
     out = records.outputs(*left.shape[:2])
-    step_costs = _step_costs(params, five=params.method == "dsi5")
-    if params.cost == "bt" and not _band_array_fits(params, left.shape[1]):
+    step_costs = _bands._step_costs(params, five=params.method == "dsi5")
+    if params.cost == "bt" and not _bands._band_array_fits(params, left.shape[1]):
         nchunks = rows.chunk_count(left.shape[0])
-        rows.match_dsi_rows(left_p, right_p, _dsi(params), True, step_costs, nchunks, out)
+        rows.match_dsi_rows(left_p, right_p, _bands._dsi(params), True, step_costs, nchunks, out)
     else:
-        _band_rows(left_p, right_p, params, step_costs, out, clock)
-    scale = cost_scale(params.window)
+        _bands._band_rows(left_p, right_p, params, step_costs, out, clock)
+    scale = _bands.cost_scale(params.window)
     return DisparityResult(out.disparity, out.flags, params, out.total / (2.0 * scale))
 
 

@@ -2,16 +2,7 @@
 
 from dcstereo import _records as records
 from dcstereo.divide import gcp
-from dcstereo.methods._bands import (
-    ROW_BY_ROW,
-    _band_rows,
-    _dsi,
-    _features,
-    _padded_signals,
-    _search_band_mode,
-    _step_costs,
-    cost_scale,
-)
+from dcstereo.methods import _bands
 from dcstereo.methods._pipeline import REFINE, Method, core
 from dcstereo.params import MatchParams
 from dcstereo.result import DisparityResult
@@ -29,15 +20,15 @@ def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
     ``x_left`` and ``x_right``. They come back as ``features`` (SER and VS NaN) and carry
     ``FLAG_FEATURE``. It runs on the band kernels (``match_band_rows``' ``gcp``: the band's
     costs and block match as for ``dc``, the points of each row from them, the DP through
-    them), in ``dc``'s modes (``_search_band_mode``): with the band's cost array while it
+    them), in ``dc``'s modes (``_bands._search_band_mode``): with the band's cost array while it
     fits ``DC_BAND_BYTES``, else with the SAD cost the costs made twice, a column at a
     time; the Birchfield-Tomasi cost on images too wide for the array runs row by row
     (``gcp.match_gcp_rows``). All give the same points and maps, bit for bit.
     """
-    left_p, right_p = _padded_signals(left, right, params.window // 2)
+    left_p, right_p = _bands._padded_signals(left, right, params.window // 2)
     height, width = left.shape[:2]
     out = records.outputs(height, width, partner=True)
-    step_costs = _step_costs(params, five=False)
+    step_costs = _bands._step_costs(params, five=False)
     # the points read the variance floor, the uniqueness and the signal steps
     # (band_feature_mask, band_lane_variance); no guard
     tests = records.feature_tests(
@@ -45,15 +36,19 @@ def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
         uniqueness=params.gcp_uniqueness,
         signal_steps=SIGNAL_STEPS,
     )
-    mode = _search_band_mode(params, width)
-    if mode != ROW_BY_ROW:
-        _band_rows(left_p, right_p, params, step_costs, out, mode=mode, tests=tests, gcp=True)
+    mode = _bands._search_band_mode(params, width)
+    if mode != _bands.ROW_BY_ROW:
+        _bands._band_rows(
+            left_p, right_p, params, step_costs, out, mode=mode, tests=tests, gcp=True
+        )
     else:
         nchunks = rows.chunk_count(height)
         bt = params.cost == "bt"
-        gcp.match_gcp_rows(left_p, right_p, _dsi(params), bt, step_costs, tests, nchunks, out)
-    features = _features(out.partner, out.flags)
-    scale = cost_scale(params.window)
+        gcp.match_gcp_rows(
+            left_p, right_p, _bands._dsi(params), bt, step_costs, tests, nchunks, out
+        )
+    features = _bands._features(out.partner, out.flags)
+    scale = _bands.cost_scale(params.window)
     return DisparityResult(out.disparity, out.flags, params, out.total / (2.0 * scale), features)
 
 
