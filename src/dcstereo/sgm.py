@@ -34,6 +34,7 @@ the system zeroed page by page, a sixth of a run on a 720 x 496 x 73 pair);
 
 import threading
 
+import numba
 import numpy as np
 
 from .consistency import fill_with_colour
@@ -46,10 +47,7 @@ from .signal import SIGNAL_STEPS, padded_signal
 
 assert FLAG_MISMATCH == sgm_kernels.FLAG_MISMATCH
 
-#: The most memory (bytes) the volumes of one strip take; larger images run in strips.
-VOLUME_BYTES = 768 * 2**20
-
-#: Rows of context above and below each strip of a large image.
+#: Rows (and columns) of context on each side of a tile of a large image.
 STRIP_MARGIN = 32
 
 #: The kernels' costs per cost unit: thirds, so that the sum of three channels' absolute
@@ -149,31 +147,165 @@ def _reversed_right(array: np.ndarray, before: int, after: int) -> np.ndarray:
     return np.ascontiguousarray(np.pad(array, widths, mode="edge")[..., ::-1])
 
 
-_WORKSPACE = threading.local()
+class _VolumePool:
+    """The volumes of all ``sgm`` calls of the process, in use and kept, within one bound.
 
-
-def _volumes(size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Return three int16 volumes of ``size`` values: the costs and the two sums of paths.
-
-    Kept from call to call in each thread (the largest asked for so far, at most
-    :data:`VOLUME_BYTES` together): fresh volumes larger than the allocator's reuse bound
-    (32 MiB, ``dcstereo._memory``) come from the system zeroed page by page, which cost a
-    sixth of the run on a 720 x 496 x 73 pair. :func:`release_workspace` frees them.
+    A call takes a set of three int16 volumes (the costs and the two sums of paths) with
+    :meth:`take` and gives it back with :meth:`give`. Sets given back are kept for the next
+    calls (fresh volumes larger than the allocator's reuse bound, 32 MiB, come from the
+    system zeroed page by page, a sixth of a run on a 720 x 496 x 73 pair), at most
+    :data:`KEPT_BYTES` of them, the largest first, and freed :data:`IDLE_SECONDS` after the
+    last call ends. Sets in use and kept together never pass :data:`WORKSPACE_BYTES`: a
+    call that would pass it frees kept sets, then waits for other calls to give theirs back
+    (a call alone always runs). ``peak`` is the most bytes held at once since the last
+    :meth:`release`; ``in_use`` and ``kept`` the bytes now.
     """
-    held = getattr(_WORKSPACE, "volumes", None)
-    if held is None or held[0].size < size:
+
+    def __init__(self):
+        self._lock = threading.Condition()
+        self._free = []  # sets of three volumes of one size, the largest last
+        self.in_use = 0
+        self.kept = 0
+        self.peak = 0
+        self._calls = 0  # calls begun: the idle timer frees only when none began since it
+        self._timer = None
+
+    def take(self, size):
+        """Return three int16 volumes of ``size`` values (flat), and the set to give back."""
+        need = 3 * 2 * size
+        with self._lock:
+            self._calls += 1
+            while True:
+                fits = [i for i, held in enumerate(self._free) if held[0].size >= size]
+                if fits:  # the smallest kept set that holds the call
+                    held = self._free.pop(fits[0])
+                    self.kept -= 3 * held[0].nbytes
+                    self.in_use += 3 * held[0].nbytes
+                    return tuple(volume[:size] for volume in held), held
+                if self.in_use + self.kept + need <= WORKSPACE_BYTES or not (
+                    self.in_use or self._free
+                ):
+                    break
+                if self._free:  # too small for this call: freed, the smallest first
+                    self.kept -= 3 * self._free.pop(0)[0].nbytes
+                else:
+                    self._lock.wait()
+            self.in_use += need
+            self.peak = max(self.peak, self.in_use + self.kept)
         held = tuple(np.empty(size, dtype=np.int16) for _ in range(3))
-        _WORKSPACE.volumes = held
-    return tuple(volume[:size] for volume in held)
+        return held, held
+
+    def give(self, held):
+        """Take back a set of :meth:`take`; keep it (within :data:`KEPT_BYTES`) or free it."""
+        with self._lock:
+            self.in_use -= 3 * held[0].nbytes
+            self._free.append(held)
+            self._free.sort(key=lambda volumes: volumes[0].size)
+            self.kept += 3 * held[0].nbytes
+            while self.kept > KEPT_BYTES:
+                self.kept -= 3 * self._free.pop(0)[0].nbytes
+            self._lock.notify_all()
+            if self._free and self._timer is None and IDLE_SECONDS is not None:
+                self._arm()
+
+    def _arm(self):
+        self._timer = threading.Timer(IDLE_SECONDS, self._idle, args=(self._calls,))
+        self._timer.daemon = True
+        self._timer.start()
+
+    def _idle(self, calls):
+        with self._lock:
+            self._timer = None
+            if self._calls == calls and not self.in_use:
+                self._drop()
+            elif self._free:
+                self._arm()
+
+    def _drop(self):
+        self._free = []
+        self.kept = 0
+
+    def release(self):
+        """Free the kept sets now (sets in use are freed when their calls end)."""
+        with self._lock:
+            self._drop()
+            self.peak = self.in_use
+
+
+#: The most memory (bytes) one call's volumes take: larger images run in tiles.
+VOLUME_BYTES = 768 * 2**20
+
+#: The most memory (bytes) the volumes of all calls take at once, those kept included.
+WORKSPACE_BYTES = 2 * VOLUME_BYTES
+
+#: The most memory (bytes) of volumes kept between calls, for the whole process.
+KEPT_BYTES = VOLUME_BYTES
+
+#: Seconds after the last call ends that the kept volumes are freed (None: kept until
+#: :func:`release_workspace`).
+IDLE_SECONDS = 10.0
+
+_POOL = _VolumePool()
 
 
 def release_workspace() -> None:
-    """Free the volumes this thread keeps between ``sgm`` runs.
+    """Free the volumes ``sgm`` keeps between calls (see the module's text).
 
-    The costs and the sums of paths, kept to save the zeroing of fresh pages (see the
-    module's text).
+    The costs and the sums of paths, kept to save the zeroing of fresh pages; volumes of
+    calls still running are freed when they end.
     """
-    _WORKSPACE.volumes = None
+    _POOL.release()
+
+
+def workspace_bytes() -> dict:
+    """Return the bytes of volumes in use, kept, and the most held at once (``peak``).
+
+    ``peak`` counts from the last :func:`release_workspace`.
+    """
+    with _POOL._lock:
+        return {"in_use": _POOL.in_use, "kept": _POOL.kept, "peak": _POOL.peak}
+
+
+def tiles(height: int, width: int, lanes: int) -> list[tuple[tuple[int, ...], tuple[int, ...]]]:
+    """Return the tiles of an image whose volumes pass :data:`VOLUME_BYTES`.
+
+    Each tile is ``((m0, s0, s1, m1), (c0, k0, k1, c1))``: rows ``m0..m1 - 1`` and columns
+    ``c0..c1 - 1`` are computed, of which rows ``s0..s1 - 1`` and columns ``k0..k1 - 1`` are
+    kept; the others are :data:`STRIP_MARGIN` rows or columns of context on each side
+    within the image. One tile holds the image when its volumes fit; otherwise the grid
+    of row strips and column tiles that computes the fewest pixels, each tile's volumes
+    within the bound (tiles of at least ``2 * STRIP_MARGIN + 1`` pixels a side, whatever
+    the bound).
+    """
+    pixels = max(1, VOLUME_BYTES // (6 * lanes))
+    margin = STRIP_MARGIN
+    if height * width <= pixels:
+        return [((0, 0, height, height), (0, 0, width, width))]
+
+    def computed(size, parts):  # the most a part computes of ``size`` split in ``parts``
+        return min(size, -(-size // parts) + (2 * margin if parts > 1 else 0))
+
+    best = None
+    for nrows in range(1, height + 1):
+        rows = computed(height, nrows)
+        cols = max(pixels // rows, 2 * margin + 1)
+        ncols = 1 if cols >= width else -(-width // max(1, cols - 2 * margin))
+        while computed(width, ncols) > cols and ncols < width:
+            ncols += 1
+        work = nrows * ncols * rows * computed(width, ncols)
+        if best is None or work < best[0]:
+            best = (work, nrows, ncols)
+        if ncols == 1:
+            break  # more strips only add margins
+
+    def bounds(size, parts):
+        out = []
+        for i in range(parts):
+            s0, s1 = i * size // parts, (i + 1) * size // parts
+            out.append((max(0, s0 - margin), s0, s1, min(size, s1 + margin)))
+        return out
+
+    return [(r, c) for r in bounds(height, best[1]) for c in bounds(width, best[2])]
 
 
 def _census(signal: np.ndarray, rows: int, cols: int, out: np.ndarray) -> None:
@@ -227,33 +359,46 @@ def _run(left, right, params, want_confidence):
     bit_cost = census_bit_cost(params.census_window)
     diagonals = params.paths == 8
 
+    best = np.empty((height, width), dtype=np.int16)
+    value = np.empty((height, width), dtype=np.int16)
+    candidate = np.empty((height, width), dtype=np.float32)
+    margin = np.empty((height, width if want_confidence else 0), dtype=np.float32)
+    threads = numba.get_num_threads()
+    plan = tiles(height, width, lanes)
+    largest_tile = max((r[3] - r[0]) * (c[3] - c[0]) for r, c in plan)
+    volumes, held = _POOL.take(largest_tile * lanes)
+    try:
+        for (m0, s0, s1, m1), (c0, k0, k1, c1) in plan:
+            n, w = m1 - m0, c1 - c0
+            whole = (c0, c1) == (0, width)
+            tile_l = codes_l if whole else np.ascontiguousarray(codes_l[:, c0:c1])
+            # the reversed right rows of the tile: columns ``width - c1`` on (``_reversed_right``)
+            right = slice(width - c1, width - c0 + pad + after)
+            tile_r = codes_r if whole else np.ascontiguousarray(codes_r[:, right])
+            ad_l, ad_r = colour_l, colour_r
+            if params.cost == "census-ad" and not whole:
+                ad_l = np.ascontiguousarray(colour_l[:, :, c0:c1])
+                ad_r = np.ascontiguousarray(colour_r[:, :, right])
+            volume, down, up = (v[: n * w * lanes] for v in volumes)
+            volume = volume.reshape(n, w, lanes)
+            census_kernels.cost_volume(
+                tile_l, tile_r, ad_l, ad_r, dmin, ndisp, bit_cost, ad_max, params.window,
+                reciprocal, pad_cost, m0, volume,
+            )  # fmt: skip
+            cost = volume.reshape(-1)
+            luma = np.ascontiguousarray(luma_l[m0:m1, c0:c1])
+            sgm_kernels.vertical_passes(cost, luma, p1, table, diagonals, down, up, threads)
+            sgm_kernels.final_pass(
+                cost, luma, down, up, s0 - m0, s1 - m0, k0 - c0, k1 - c0, dmin, ndisp, p1,
+                table, _SUBPIXEL[params.subpixel], best[s0:s1, k0:k1], value[s0:s1, k0:k1],
+                candidate[s0:s1, k0:k1], margin[s0:s1, k0:k1], threads,
+            )  # fmt: skip
+    finally:
+        _POOL.give(held)
     disparity = np.empty((height, width), dtype=np.float32)
     flags = np.empty((height, width), dtype=np.uint8)
-    margin = np.empty((height, width if want_confidence else 0), dtype=np.float32)
-    per_row = width * lanes * 2 * 3
-    strip = max(1, VOLUME_BYTES // per_row - 2 * STRIP_MARGIN)
-    for s0 in range(0, height, strip):
-        s1 = min(height, s0 + strip)
-        m0, m1 = (
-            (0, height)
-            if strip >= height
-            else (max(0, s0 - STRIP_MARGIN), min(height, s1 + STRIP_MARGIN))
-        )
-        n = m1 - m0
-        volume, down, up = _volumes(n * width * lanes)
-        volume = volume.reshape(n, width, lanes)
-        census_kernels.cost_volume(
-            codes_l, codes_r, colour_l, colour_r, dmin, ndisp, bit_cost, ad_max, params.window,
-            reciprocal, pad_cost, m0, volume,
-        )  # fmt: skip
-        cost = volume.reshape(-1)
-        luma = np.ascontiguousarray(luma_l[m0:m1])
-        sgm_kernels.vertical_passes(cost, luma, p1, table, diagonals, down, up)
-        sgm_kernels.final_pass(
-            cost, luma, down, up, s0 - m0, s1 - m0, dmin, ndisp, p1, table,
-            _SUBPIXEL[params.subpixel], -1 if params.lr_tolerance is None else params.lr_tolerance,
-            disparity[s0:s1], flags[s0:s1], margin[s0:s1],
-        )  # fmt: skip
+    tolerance = -1 if params.lr_tolerance is None else params.lr_tolerance
+    sgm_kernels.left_right_check(best, value, candidate, dmin, tolerance, disparity, flags, threads)
     result = DisparityResult(disparity, flags, params, np.full(height, np.nan))
     if params.fill:
         if colour_l.shape[1:] != (height, width):  # cost="census" keeps no colours
