@@ -274,11 +274,11 @@ def tiles(height: int, width: int, lanes: int) -> list[tuple[tuple[int, ...], tu
     kept; the others are :data:`STRIP_MARGIN` rows or columns of context on each side
     within the image. One tile holds the image when its volumes fit; otherwise the grid
     of row strips and column tiles that computes the fewest pixels, each tile's volumes
-    within the bound (tiles of at least ``2 * STRIP_MARGIN + 1`` pixels a side, whatever
-    the bound).
+    within the bound (or within ``(2 * STRIP_MARGIN + 1) ** 2`` pixels, where the bound is
+    smaller).
     """
-    pixels = max(1, VOLUME_BYTES // (6 * lanes))
     margin = STRIP_MARGIN
+    pixels = max(VOLUME_BYTES // (6 * lanes), (2 * margin + 1) ** 2)
     if height * width <= pixels:
         return [((0, 0, height, height), (0, 0, width, width))]
 
@@ -288,10 +288,13 @@ def tiles(height: int, width: int, lanes: int) -> list[tuple[tuple[int, ...], tu
     best = None
     for nrows in range(1, height + 1):
         rows = computed(height, nrows)
-        cols = max(pixels // rows, 2 * margin + 1)
-        ncols = 1 if cols >= width else -(-width // max(1, cols - 2 * margin))
-        while computed(width, ncols) > cols and ncols < width:
-            ncols += 1
+        cols = pixels // rows
+        if cols >= width:
+            ncols = 1
+        elif cols > 2 * margin:
+            ncols = -(-width // (cols - 2 * margin))
+        else:
+            continue
         work = nrows * ncols * rows * computed(width, ncols)
         if best is None or work < best[0]:
             best = (work, nrows, ncols)
@@ -306,6 +309,28 @@ def tiles(height: int, width: int, lanes: int) -> list[tuple[tuple[int, ...], tu
         return out
 
     return [(r, c) for r in bounds(height, best[1]) for c in bounds(width, best[2])]
+
+
+def tile_columns(codes_l, codes_r, colour_l, colour_r, c0, c1, colour):
+    """Return the inputs of the cost kernel for left columns ``c0..c1 - 1``.
+
+    ``codes_l`` is ``(H, W)``, ``codes_r`` the right codes as the kernel reads them
+    (:func:`_reversed_right`: ``W + pad + after`` columns), ``colour_l`` and ``colour_r`` the
+    ``(C, H, .)`` colours, cut too where ``colour`` (the census-ad cost reads them). The
+    tile's right columns are a slice of the reversed ones: ``W - c1`` on, ``c1 - c0 + pad +
+    after`` of them. The box average repeats the tile's edge columns, so a tile's costs
+    equal the image's but in the ``window // 2`` columns at a cut.
+    """
+    width = codes_l.shape[1]
+    if (c0, c1) == (0, width):
+        return codes_l, codes_r, colour_l, colour_r
+    right = slice(width - c1, width - c0 + codes_r.shape[1] - width)
+    tile_l = np.ascontiguousarray(codes_l[:, c0:c1])
+    tile_r = np.ascontiguousarray(codes_r[:, right])
+    if colour:
+        colour_l = np.ascontiguousarray(colour_l[:, :, c0:c1])
+        colour_r = np.ascontiguousarray(colour_r[:, :, right])
+    return tile_l, tile_r, colour_l, colour_r
 
 
 def _census(signal: np.ndarray, rows: int, cols: int, out: np.ndarray) -> None:
@@ -370,15 +395,9 @@ def _run(left, right, params, want_confidence):
     try:
         for (m0, s0, s1, m1), (c0, k0, k1, c1) in plan:
             n, w = m1 - m0, c1 - c0
-            whole = (c0, c1) == (0, width)
-            tile_l = codes_l if whole else np.ascontiguousarray(codes_l[:, c0:c1])
-            # the reversed right rows of the tile: columns ``width - c1`` on (``_reversed_right``)
-            right = slice(width - c1, width - c0 + pad + after)
-            tile_r = codes_r if whole else np.ascontiguousarray(codes_r[:, right])
-            ad_l, ad_r = colour_l, colour_r
-            if params.cost == "census-ad" and not whole:
-                ad_l = np.ascontiguousarray(colour_l[:, :, c0:c1])
-                ad_r = np.ascontiguousarray(colour_r[:, :, right])
+            tile_l, tile_r, ad_l, ad_r = tile_columns(
+                codes_l, codes_r, colour_l, colour_r, c0, c1, params.cost == "census-ad"
+            )
             volume, down, up = (v[: n * w * lanes] for v in volumes)
             volume = volume.reshape(n, w, lanes)
             census_kernels.cost_volume(
