@@ -19,6 +19,7 @@ import pytest
 
 from dcstereo import sgm
 from dcstereo.kernels import census as census_kernels
+from dcstereo.kernels import sgm_simd
 from dcstereo.params import MatchParams
 from dcstereo.signal import padded_signal
 
@@ -148,6 +149,25 @@ def test_tiled_results_differ_from_the_whole_only_near_the_cuts(monkeypatch, hei
     assert np.abs(tiled.disparity[both] - whole.disparity[both]).max() <= 1.0
     truth = np.isfinite(tiled.disparity)
     assert np.mean(np.abs(tiled.disparity[truth] - 6) <= 1) > 0.98
+
+
+@numba.njit(parallel=True)
+def _count_tasks(tasks, threads):
+    done = np.zeros(tasks, dtype=np.int64)
+    counter = np.zeros(1, dtype=np.int64)
+    for _ in numba.prange(threads):
+        task = sgm_simd.next_task(counter)
+        while task < tasks:
+            done[task] += 1
+            task = sgm_simd.next_task(counter)
+    return done
+
+
+def test_task_counter_hands_out_each_task_once():
+    counter = np.zeros(1, dtype=np.int64)
+    assert [sgm_simd.next_task(counter) for _ in range(3)] == [0, 1, 2]
+    for tasks in (1, 7, 5000):
+        assert np.all(_count_tasks(tasks, max(2, numba.get_num_threads())) == 1)
 
 
 # --------------------------------------------------------------------------- many callers

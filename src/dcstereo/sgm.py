@@ -22,14 +22,25 @@ function of arrays with its parameters in :class:`~dcstereo.params.MatchParams`:
    (:mod:`dcstereo.consistency`);
 6. the median post-filter (``median``, by :func:`dcstereo.match`).
 
-Memory: the volumes of a strip of rows (costs and two sums of paths, 6 bytes per pixel and
-disparity, the disparities rounded up to a multiple of 16). Images whose volumes would
-pass :data:`VOLUME_BYTES` run in strips of rows, each with :data:`STRIP_MARGIN` rows of
-context above and below; paths then start at the strip's edge, so such a result differs
-(slightly, near the strips' seams) from the whole-image one. The volumes are kept from one
-call to the next in each thread (fresh volumes past the allocator's reuse bound come from
-the system zeroed page by page, a sixth of a run on a 720 x 496 x 73 pair);
-:func:`release_workspace` frees them.
+Memory of a call on a ``W x H`` pair searching ``D`` disparities (``Dp``: ``D`` rounded up to
+a multiple of 16): the volumes (the costs and two sums of paths, int16) of one tile,
+``6 * tile pixels * Dp`` bytes, at most :data:`VOLUME_BYTES` (768 MiB): the whole image when
+``6 * W * H * Dp`` fits, otherwise a grid of tiles of rows and columns (:func:`tiles`), each
+with :data:`STRIP_MARGIN` rows and columns of context on each side, which the paths cross
+from the tile's edge, so that such a result differs (slightly, near the cuts) from the
+whole-image one; about 45 bytes a pixel of images, codes and choices; and each thread's
+path buffers, about ``16 * tile width * Dp`` bytes. When the call ends its volumes go back
+to one pool for the whole process: kept for the next call (at most :data:`KEPT_BYTES`
+together, the largest first; fresh volumes past the allocator's reuse bound come from the
+system zeroed page by page, a sixth of a run on a 720 x 496 x 73 pair) and freed
+:data:`IDLE_SECONDS` (10 s) after the last call ends, or by :func:`release_workspace`. Calls
+from several threads at once hold at most :data:`WORKSPACE_BYTES` (1.5 GiB) of volumes
+together, those kept included: a call that would pass it waits for another to end.
+
+Threads: numba's thread count (``numba.set_num_threads``, or ``NUMBA_NUM_THREADS`` before
+numba starts; all cores by default). The parallel loops hand out small tasks (the two vertical
+passes, a pair of rows, a row) to whichever thread is free, so a thread that waits for a
+core (other work on the machine) holds back one task.
 """
 
 import threading
@@ -402,7 +413,7 @@ def _run(left, right, params, want_confidence):
             volume = volume.reshape(n, w, lanes)
             census_kernels.cost_volume(
                 tile_l, tile_r, ad_l, ad_r, dmin, ndisp, bit_cost, ad_max, params.window,
-                reciprocal, pad_cost, m0, volume,
+                reciprocal, pad_cost, m0, volume, threads,
             )  # fmt: skip
             cost = volume.reshape(-1)
             luma = np.ascontiguousarray(luma_l[m0:m1, c0:c1])

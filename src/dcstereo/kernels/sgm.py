@@ -29,11 +29,8 @@ the two pixels' intensities (1/16 gray levels): smaller across edges.
 
 import numba as nb
 import numpy as np
-from llvmlite import ir
-from numba.core import types
-from numba.extending import intrinsic, overload
 
-from .sgm_simd import path_step, path_total_step, paths_step
+from .sgm_simd import next_task, path_step, path_total_step, paths_step
 
 #: Pad of the path buffers at ``k = -1`` and ``k = Dp`` (never less than a path value;
 #: ``PAD + P1`` saturates at the int16 bound).
@@ -143,31 +140,6 @@ def vertical_pass(cost, luma, y_first, y_last, step, p1, p2_table, diagonals, su
         if y == y_last:
             break
         y += step
-
-
-def next_task(counter):
-    """Return ``counter[0]`` and add one to it: atomically, compiled (``counter``: int64)."""
-    task = counter[0]
-    counter[0] += 1
-    return task
-
-
-@intrinsic
-def _fetch_add(typingctx, counter):
-    if not (isinstance(counter, types.Array) and counter.dtype == types.int64):
-        return None
-
-    def codegen(context, builder, sig, args):
-        array = context.make_array(sig.args[0])(context, builder, args[0])
-        one = ir.Constant(ir.IntType(64), 1)
-        return builder.atomic_rmw("add", array.data, one, "monotonic")
-
-    return types.int64(counter), codegen
-
-
-@overload(next_task)
-def _next_task_compiled(counter):
-    return lambda counter: _fetch_add(counter)
 
 
 @nb.njit(cache=True, parallel=True)
