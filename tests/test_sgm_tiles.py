@@ -8,6 +8,7 @@ here) changes nothing in the results. Speed is measured in ``benchmarks/bench_sp
 (``--wide``, ``--load``), never here.
 """
 
+import os
 import subprocess
 import sys
 import threading
@@ -263,3 +264,15 @@ def test_busy_machine_changes_no_result(busy):
             loop.wait()
     _same(loaded, quiet)
     _same(alone, quiet)
+
+
+def test_free_threads_leaves_the_cores_other_work_takes():
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    assert sgm.free_threads(1, "0.0 0.0 0.0 1/90 7") == 1
+    assert sgm.free_threads(4, "0.0 0.0 0.0 1/90 7") == min(4, cores)  # the caller alone
+    assert sgm.free_threads(4, f"5.0 5.0 5.0 {cores + 3}/90 7") == 1  # every core taken
+    assert sgm.free_threads(4, "garbled") == 4  # unknown: numba's count
+    threads = numba.get_num_threads()
+    with sgm.threads_with_cores():
+        assert 1 <= numba.get_num_threads() <= threads
+    assert numba.get_num_threads() == threads

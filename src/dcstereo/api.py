@@ -11,6 +11,7 @@ from .postfilter import median_filter
 from .redert import match_redert as _match_redert
 from .result import FLAG_FEATURE, DisparityResult
 from .sgm import match_sgm as _match_sgm
+from .sgm import threads_with_cores
 from .signal import SIGNAL_STEPS, check_pair, padded_signal
 from .subpixel import refine_subpixel
 
@@ -93,7 +94,8 @@ def match(
     if params.subpixel is not None and params.method != "sgm":  # sgm fits its own costs
         result = refine_subpixel(result, left, right, fit=params.subpixel)
     if params.median:
-        result = median_filter(result, params.median)
+        with threads_with_cores():  # as sgm's own stages: the threads that have a core
+            result = median_filter(result, params.median)
     return result.filled() if params.fill else result
 
 

@@ -43,6 +43,8 @@ passes, a pair of rows, a row) to whichever thread is free, so a thread that wai
 core (other work on the machine) holds back one task.
 """
 
+import contextlib
+import os
 import threading
 
 import numba
@@ -322,6 +324,44 @@ def tiles(height: int, width: int, lanes: int) -> list[tuple[tuple[int, ...], tu
     return [(r, c) for r in bounds(height, best[1]) for c in bounds(width, best[2])]
 
 
+def free_threads(threads: int, loadavg: str | None = None) -> int:
+    """Return how many of ``threads`` have a core now: at least one.
+
+    The cores this process may run on, less the tasks the system is running now besides
+    the caller (the fourth field of ``/proc/loadavg``, ``running/total``; ``loadavg`` is
+    that file's text, read when ``None``). Where that cannot be read, ``threads``. A
+    parallel loop waits for its slowest thread at its end: on cores taken by other work,
+    each of the few loops of a call would wait for the scheduler to give a core back (2.7x
+    the one-thread time with both of two cores busy).
+    """
+    if threads <= 1:
+        return 1
+    try:
+        if loadavg is None:
+            with open("/proc/loadavg") as file:
+                loadavg = file.read()
+        running = int(loadavg.split()[3].split("/")[0])
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None
+    except (OSError, ValueError, IndexError):
+        return threads
+    cores = cores or os.cpu_count() or threads
+    return max(1, min(threads, cores - (running - 1)))
+
+
+@contextlib.contextmanager
+def threads_with_cores():
+    """Run the block with numba's thread count lowered to :func:`free_threads`'.
+
+    Set for the calling thread alone (numba's count is per thread), restored at the end.
+    """
+    threads = numba.get_num_threads()
+    numba.set_num_threads(free_threads(threads))
+    try:
+        yield
+    finally:
+        numba.set_num_threads(threads)
+
+
 def tile_columns(codes_l, codes_r, colour_l, colour_r, c0, c1, colour):
     """Return the inputs of the cost kernel for left columns ``c0..c1 - 1``.
 
@@ -366,7 +406,17 @@ def sgm_confidence(left: np.ndarray, right: np.ndarray, params: MatchParams) -> 
 
 
 def _run(left, right, params, want_confidence):
-    """Run the pipeline; return the result (filled when ``params.fill``) and the confidence."""
+    """Run the pipeline; return the result (filled when ``params.fill``) and the confidence.
+
+    With the threads that have a core now (:func:`free_threads`), set for the calling
+    thread alone and restored at the end.
+    """
+    with threads_with_cores():
+        return _run_threads(left, right, params, want_confidence)
+
+
+def _run_threads(left, right, params, want_confidence):
+    """:func:`_run` at the thread count set."""
     height, width = left.shape[:2]
     dmin, ndisp = params.min_disparity, params.num_disparities
     lanes = -(-ndisp // LANES) * LANES
