@@ -470,8 +470,8 @@ def _run_threads(left, right, params, want_confidence):
             sgm_kernels.vertical_passes(cost, luma, p1, table, diagonals, down, up, threads)
             sgm_kernels.final_pass(
                 cost, luma, down, up, s0 - m0, s1 - m0, k0 - c0, k1 - c0, dmin, ndisp, p1,
-                table, _SUBPIXEL[params.subpixel], best[s0:s1, k0:k1], value[s0:s1, k0:k1],
-                candidate[s0:s1, k0:k1], margin[s0:s1, k0:k1], threads,
+                table, _SUBPIXEL[params.subpixel], best, value, candidate, margin, s0, k0,
+                threads,
             )  # fmt: skip
     finally:
         _POOL.give(held)

@@ -191,16 +191,17 @@ def _margin(t, off, k, ndisp, best):
 @nb.njit(cache=True, parallel=True)
 def final_pass(
     cost, luma, down, up, y0, y1, x0, x1, dmin, ndisp, p1, p2_table, subpixel, best, value,
-    candidate, confidence, threads,
+    candidate, confidence, out_y, out_x, threads,
 ):  # fmt: skip
     """Horizontal paths, totals and winner-take-all of rows ``y0..y1 - 1``, columns ``x0..x1 - 1``.
 
     Rows and columns of the volume's tile (``luma``'s; ``cost``, ``down`` and ``up`` its
     flattened ``(H, W, Dp)`` volumes); the horizontal paths run over all of the tile's
     columns. The total of a pixel is the sum of the four path sums (saturated). Pixel
-    ``(y, x)`` writes ``[y - y0, x - x0]`` of ``best`` (int16: the least total's ``k``, the
-    first of equals), ``value`` (int16: that total) and ``candidate`` (float32: ``dmin + k``
-    plus the sub-pixel offset), which :func:`left_right_check` reads.
+    ``(y, x)`` writes ``[out_y + y - y0, out_x + x - x0]`` (its place in the image) of
+    ``best`` (int16: the least total's ``k``, the first of equals), ``value`` (int16: that
+    total) and ``candidate`` (float32: ``dmin + k`` plus the sub-pixel offset), ``(H, W)``
+    arrays, which :func:`left_right_check` reads.
 
     ``confidence`` (float32, the shape of ``best``, or of no columns: not wanted) receives
     ``(rival - best) / rival`` of each pixel's totals, ``rival`` the least total of the
@@ -228,14 +229,15 @@ def final_pass(
                 cost, luma, down, up, y0 + ra, y0 + rb, pair, lanes, p1, p2_table,
                 hbuf_a, hbuf_b, back_a, back_b, total_a, total_b, best_a, best_b, ndisp,
             )  # fmt: skip
+            ya, yb = out_y + ra, out_y + rb
             _choose_row(
-                total_a, best_a, lanes, x0, x1, dmin, ndisp, subpixel, best[ra], value[ra],
-                candidate[ra], confidence[ra],
+                total_a, best_a, lanes, x0, x1, dmin, ndisp, subpixel, best[ya], value[ya],
+                candidate[ya], confidence[ya], out_x,
             )  # fmt: skip
             if pair:
                 _choose_row(
-                    total_b, best_b, lanes, x0, x1, dmin, ndisp, subpixel, best[rb], value[rb],
-                    candidate[rb], confidence[rb],
+                    total_b, best_b, lanes, x0, x1, dmin, ndisp, subpixel, best[yb], value[yb],
+                    candidate[yb], confidence[yb], out_x,
                 )  # fmt: skip
             i = next_task(counter)
 
@@ -292,12 +294,12 @@ def _horizontal_rows(
 
 @nb.njit(cache=True)
 def _choose_row(total, best_k, lanes, x0, x1, dmin, ndisp, subpixel, best, value, candidate,
-                confidence):  # fmt: skip
+                confidence, out_x):  # fmt: skip
     """Winner-take-all and sub-pixel fit of columns ``x0..x1 - 1`` of a row (``final_pass``)."""
     for x in range(x0, x1):
         k = best_k[x]
         total_k = total[x * lanes + k]
-        j = x - x0
+        j = out_x + x - x0
         best[j] = k
         value[j] = total_k
         if confidence.size:
