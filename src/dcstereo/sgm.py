@@ -46,6 +46,7 @@ core (other work on the machine) holds back one task.
 import contextlib
 import os
 import threading
+import time
 
 import numba
 import numpy as np
@@ -180,14 +181,13 @@ class _VolumePool:
         self.in_use = 0
         self.kept = 0
         self.peak = 0
-        self._calls = 0  # calls begun: the idle timer frees only when none began since it
+        self._given = 0.0  # time.monotonic() of the last set given back
         self._timer = None
 
     def take(self, size):
         """Return three int16 volumes of ``size`` values (flat), and the set to give back."""
         need = 3 * 2 * size
         with self._lock:
-            self._calls += 1
             while True:
                 fits = [i for i, held in enumerate(self._free) if held[0].size >= size]
                 if fits:  # the smallest kept set that holds the call
@@ -218,21 +218,23 @@ class _VolumePool:
             while self.kept > KEPT_BYTES:
                 self.kept -= 3 * self._free.pop(0)[0].nbytes
             self._lock.notify_all()
+            self._given = time.monotonic()
             if self._free and self._timer is None and IDLE_SECONDS is not None:
-                self._arm()
+                self._arm(IDLE_SECONDS)
 
-    def _arm(self):
-        self._timer = threading.Timer(IDLE_SECONDS, self._idle, args=(self._calls,))
+    def _arm(self, seconds):
+        self._timer = threading.Timer(seconds, self._idle)
         self._timer.daemon = True
         self._timer.start()
 
-    def _idle(self, calls):
+    def _idle(self):
         with self._lock:
             self._timer = None
-            if self._calls == calls and not self.in_use:
+            idle = time.monotonic() - self._given
+            if not self.in_use and idle >= IDLE_SECONDS:
                 self._drop()
-            elif self._free:
-                self._arm()
+            elif self._free:  # a call runs, or one ended since: wait from the last end
+                self._arm(IDLE_SECONDS - idle if not self.in_use else IDLE_SECONDS)
 
     def _drop(self):
         self._free = []
