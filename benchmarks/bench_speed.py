@@ -63,6 +63,15 @@ with that folder filled (load from the cache), and the steady-state call.
     python benchmarks/bench_speed.py --interleave 21 --json speed.json --markdown SPEED.md
     python benchmarks/bench_speed.py --rounds 3 --interleave 21 --markdown SPEED.md
     python benchmarks/bench_speed.py --same-range --skip-large --threads 1 --interleave 21
+
+With ``--wide``, synthetic pairs of 400 rows and widths up to 16,000 px (``--wide
+3000x400x256,16000x400x512`` names others) are measured as the large pair is: the cost of
+wide images, whose volumes ``sgm`` splits into tiles. With ``--load N``, ``N`` processes
+that each keep a core busy (a Python loop) run while everything is measured, as other work
+on a user's machine does; they are stopped at the end.
+
+    python benchmarks/bench_speed.py --scenes none --skip-large --wide --methods sgm,opencv-sgbm
+    python benchmarks/bench_speed.py --methods sgm,opencv-sgbm --skip-large --load 1
 """
 
 import argparse
@@ -87,6 +96,8 @@ SGBM = "opencv-sgbm"
 LARGE_NAME = "synthetic"
 RESULT_TAG = "BENCH_SPEED_RESULT "
 STRIP_ROWS = 32
+WIDE_SIZES = "3000x400x256,6000x400x256,8000x400x256,16000x400x256,16000x400x512"
+BUSY_LOOP = "while True: pass"
 
 
 # --------------------------------------------------------------------------- inputs
@@ -783,6 +794,20 @@ def parse_args(argv):
     parser.add_argument(
         "--timeout", type=float, default=900.0, help="seconds allowed per child process (900)"
     )
+    parser.add_argument(
+        "--wide",
+        nargs="?",
+        const=WIDE_SIZES,
+        metavar="WxHxD,...",
+        help=f"also measure wide synthetic pairs (default sizes: {WIDE_SIZES})",
+    )
+    parser.add_argument(
+        "--load",
+        type=int,
+        default=0,
+        metavar="N",
+        help="keep N cores busy with other processes (Python loops) while measuring (0)",
+    )
     parser.add_argument("--json", type=Path, help="also write the results to this JSON file")
     parser.add_argument("--markdown", type=Path, help="also write the tables as markdown")
     return parser.parse_args(argv)
@@ -885,9 +910,39 @@ def main(argv=None):
                     "same_range": args.same_range,
                 }
             )
+        for text in comma_list(args.wide or ""):
+            try:
+                width, height, disparities = parse_size(text)
+            except argparse.ArgumentTypeError as err:
+                return fail(f"--wide: {err}")
+            left, right, truth = synthetic_pair(width, height, disparities)
+            name = f"{width}x{height}x{disparities}"
+            path = workdir / f"{name}.npz"
+            np.savez(path, left=left, right=right, truth=truth)
+            del left, right, truth
+            cases.append(
+                {
+                    "kind": "synthetic",
+                    "name": name,
+                    "path": str(path),
+                    "disparities": disparities,
+                    "same_range": args.same_range,
+                }
+            )
         if not cases:
             return fail("nothing to measure: no scenes and --skip-large")
-        return measure(args, cases, methods, threads, notes, workdir, cv2)
+        if args.load < 0:
+            return fail("--load must be 0 or a number of busy processes")
+        busy = [subprocess.Popen([sys.executable, "-c", BUSY_LOOP]) for _ in range(args.load)]
+        if busy:
+            notes.append(f"{len(busy)} busy process(es) (a Python loop each) ran throughout.")
+            print(notes[-1])
+        try:
+            return measure(args, cases, methods, threads, notes, workdir, cv2)
+        finally:
+            for process in busy:
+                process.kill()
+                process.wait()
     finally:
         shutil.rmtree(workdir, ignore_errors=True)
 
@@ -982,6 +1037,8 @@ def measure(args, cases, methods, threads, notes, workdir, cv2):
         "interleave": args.interleave,
         "rounds": args.rounds,
         "same_range": args.same_range,
+        "wide": args.wide,
+        "load": args.load,
     }
     payload = {
         "machine": machine,

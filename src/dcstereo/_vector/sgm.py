@@ -12,6 +12,9 @@ count ``n`` is a multiple of :data:`LANES` (the cost rows are padded to it), off
 counts are ``int64``, and the arrays are C-contiguous ``int16``, read and written at flat
 offsets.
 
+One more operation is not vector code: :func:`next_task`, the shared counter from which the
+parallel loops of the aggregation and the costs take their tasks (an atomic add).
+
 Sums saturate at the ``int16`` bounds (``llvm.sadd.sat``, one instruction on x86); the
 parameters are validated so that no real cost comes near them (:mod:`dcstereo.methods.sgm`).
 """
@@ -565,3 +568,35 @@ def compiled_path_total_step(
 def compiled_first_min(values, off, n):
     """``first_min`` as compiled code runs it."""
     return first_min(values, off, n)
+
+
+# --------------------------------------------------------------------------- task counter
+
+
+def next_task(counter):
+    """Return ``counter[0]`` and add one to it, atomically when compiled (``counter``: int64).
+
+    The threads of a parallel loop share one counter and take tasks ``0, 1, ...`` from it,
+    each the next when it is done with its last, so that a thread that waits for a core
+    holds back one task, not a fixed share of them.
+    """
+    task = counter[0]
+    counter[0] += 1
+    return task
+
+
+@intrinsic
+def _fetch_add(typingctx, counter):
+    if not (isinstance(counter, types.Array) and counter.dtype == types.int64):
+        return None
+
+    def codegen(context, builder, sig, args):
+        array = context.make_array(sig.args[0])(context, builder, args[0])
+        return builder.atomic_rmw("add", array.data, ir.Constant(_I64, 1), "monotonic")
+
+    return types.int64(counter), codegen
+
+
+@overload(next_task)
+def _next_task_compiled(counter):
+    return lambda counter: _fetch_add(counter)

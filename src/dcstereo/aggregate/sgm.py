@@ -14,7 +14,12 @@ The volume is swept three times, each sweep streaming through it once:
   by side (:func:`vertical_passes`);
 * :func:`final_pass`, rows in parallel: the two horizontal paths of the row, the total
   of the four sums, the least total of each pixel (winner-take-all) with its sub-pixel
-  fit, and the left-right check against the right view's choices.
+  fit; then :func:`left_right_check`, on whole rows (a volume may hold a tile of columns),
+  against the right view's choices.
+
+Parallel loops hand out their tasks (a pass, a pair of rows, a row) from a shared counter
+(:func:`next_task`): each thread takes the next task when it is done with its last, so a
+thread that waits for a core holds back one task, not a fixed share of the work.
 
 Costs and path values are ``int16``; lanes ``k >= ndisp`` of each pixel (the vector
 padding) hold a cost no real one reaches, so they never win and never lower a minimum.
@@ -25,7 +30,7 @@ the two pixels' intensities (1/16 gray levels): smaller across edges.
 import numba as nb
 import numpy as np
 
-from dcstereo._vector.sgm import path_step, path_total_step, paths_step
+from dcstereo._vector.sgm import next_task, path_step, path_total_step, paths_step
 from dcstereo.result import FLAG_BORDER, FLAG_MISMATCH, FLAG_OCCLUDED
 
 #: Pad of the path buffers at ``k = -1`` and ``k = Dp`` (never less than a path value;
@@ -134,14 +139,22 @@ def vertical_pass(cost, luma, y_first, y_last, step, p1, p2_table, diagonals, su
 
 
 @nb.njit(cache=True, parallel=True)
-def vertical_passes(cost, luma, p1, p2_table, diagonals, down, up):
-    """:func:`vertical_pass` down the strip into ``down`` and up it into ``up``, side by side."""
+def vertical_passes(cost, luma, p1, p2_table, diagonals, down, up, threads):
+    """:func:`vertical_pass` down the strip into ``down`` and up it into ``up``, side by side.
+
+    Two tasks for whichever of ``threads`` (numba's thread count) come first: one thread
+    alone runs both.
+    """
     last = luma.shape[0] - 1
-    for task in nb.prange(2):
-        if task == 0:
-            vertical_pass(cost, luma, 0, last, 1, p1, p2_table, diagonals, down)
-        else:
-            vertical_pass(cost, luma, last, 0, -1, p1, p2_table, diagonals, up)
+    counter = np.zeros(1, dtype=np.int64)
+    for _ in nb.prange(max(1, min(threads, 2))):
+        task = next_task(counter)
+        while task < 2:
+            if task == 0:
+                vertical_pass(cost, luma, 0, last, 1, p1, p2_table, diagonals, down)
+            else:
+                vertical_pass(cost, luma, last, 0, -1, p1, p2_table, diagonals, up)
+            task = next_task(counter)
 
 
 @nb.njit(cache=True)
@@ -173,51 +186,56 @@ def _margin(t, off, k, ndisp, best):
 
 @nb.njit(cache=True, parallel=True)
 def final_pass(
-    cost, luma, down, up, y0, y1, dmin, ndisp, p1, p2_table, subpixel, tolerance, disparity, flags,
-    confidence,
+    cost, luma, down, up, y0, y1, x0, x1, dmin, ndisp, p1, p2_table, subpixel, best, value,
+    candidate, confidence, out_y, out_x, threads,
 ):  # fmt: skip
-    """Horizontal paths, totals, winner-take-all and left-right check of rows ``y0..y1 - 1``.
+    """Horizontal paths, totals and winner-take-all of rows ``y0..y1 - 1``, columns ``x0..x1 - 1``.
 
-    Rows of the strip (``luma``'s rows; ``cost``, ``down`` and ``up`` its flattened
-    ``(H, W, Dp)`` volumes); the results of strip row ``y`` go to row ``y - y0`` of
-    ``disparity`` and ``flags``. The total of a pixel is the sum of the four path sums (saturated).
-    The left-right check follows OpenCV's SGBM: each right pixel keeps the disparity of
-    the left pixel of least total that chose it; a left pixel whose disparity differs from
-    its right pixel's by more than ``tolerance`` loses its estimate (NaN), flagged
-    ``FLAG_OCCLUDED`` where the right pixel's disparity is the larger (it belongs to a
-    nearer surface, which hides this pixel from the right view) and ``FLAG_MISMATCH``
-    otherwise; a choice whose right pixel lies beyond the image is ``FLAG_BORDER``.
+    Rows and columns of the volume's tile (``luma``'s; ``cost``, ``down`` and ``up`` its
+    flattened ``(H, W, Dp)`` volumes); the horizontal paths run over all of the tile's
+    columns. The total of a pixel is the sum of the four path sums (saturated). Pixel
+    ``(y, x)`` writes ``[out_y + y - y0, out_x + x - x0]`` (its place in the image) of
+    ``best`` (int16: the least total's ``k``, the first of equals), ``value`` (int16: that
+    total) and ``candidate`` (float32: ``dmin + k`` plus the sub-pixel offset), ``(H, W)``
+    arrays, which :func:`left_right_check` reads.
 
-    ``confidence`` (float32, the shape of ``disparity``, or of no columns: not wanted) receives
+    ``confidence`` (float32, the shape of ``best``, or of no columns: not wanted) receives
     ``(rival - best) / rival`` of each pixel's totals, ``rival`` the least total of the
     disparities two or more away from the chosen one (NaN where there is none or it is 0).
+    ``threads`` is numba's thread count (the pairs of rows are handed out one at a time).
     """
     height, width = luma.shape
     lanes = cost.size // (height * width)
     rows = y1 - y0
-    for i in nb.prange((rows + 1) // 2):  # two rows at a time: two chains of dependent steps
-        ra = 2 * i
-        pair = ra + 1 < rows
-        rb = ra + 1 if pair else ra
+    pairs = (rows + 1) // 2  # two rows a task: two chains of dependent steps
+    counter = np.zeros(1, dtype=np.int64)
+    for _ in nb.prange(max(1, min(threads, pairs))):
         hbuf_a, hbuf_b = _path_buffer(width, lanes), _path_buffer(width, lanes)
         back_a, back_b = _path_buffer(2, lanes), _path_buffer(2, lanes)
         total_a = np.empty(width * lanes, dtype=np.int16)
         total_b = np.empty(width * lanes, dtype=np.int16)
         best_a = np.empty(width, dtype=np.int64)
         best_b = np.empty(width, dtype=np.int64)
-        _horizontal_rows(
-            cost, luma, down, up, y0 + ra, y0 + rb, pair, lanes, p1, p2_table,
-            hbuf_a, hbuf_b, back_a, back_b, total_a, total_b, best_a, best_b, ndisp,
-        )  # fmt: skip
-        _choose_row(
-            total_a, best_a, lanes, width, dmin, ndisp, subpixel, tolerance, disparity[ra],
-            flags[ra], confidence[ra],
-        )  # fmt: skip
-        if pair:
-            _choose_row(
-                total_b, best_b, lanes, width, dmin, ndisp, subpixel, tolerance, disparity[rb],
-                flags[rb], confidence[rb],
+        i = next_task(counter)
+        while i < pairs:
+            ra = 2 * i
+            pair = ra + 1 < rows
+            rb = ra + 1 if pair else ra
+            _horizontal_rows(
+                cost, luma, down, up, y0 + ra, y0 + rb, pair, lanes, p1, p2_table,
+                hbuf_a, hbuf_b, back_a, back_b, total_a, total_b, best_a, best_b, ndisp,
             )  # fmt: skip
+            ya, yb = out_y + ra, out_y + rb
+            _choose_row(
+                total_a, best_a, lanes, x0, x1, dmin, ndisp, subpixel, best[ya], value[ya],
+                candidate[ya], confidence[ya], out_x,
+            )  # fmt: skip
+            if pair:
+                _choose_row(
+                    total_b, best_b, lanes, x0, x1, dmin, ndisp, subpixel, best[yb], value[yb],
+                    candidate[yb], confidence[yb], out_x,
+                )  # fmt: skip
+            i = next_task(counter)
 
 
 @nb.njit(cache=True)
@@ -271,31 +289,58 @@ def _horizontal_rows(
 
 
 @nb.njit(cache=True)
-def _choose_row(total, best_k, lanes, width, dmin, ndisp, subpixel, tolerance, disparity,
-                flags, confidence):  # fmt: skip
-    """Winner-take-all, left-right check and sub-pixel fit of one row (see ``final_pass``)."""
-    right_best = np.full(width, 1 << 30, dtype=np.int64)
-    right_d = np.full(width, -(1 << 30), dtype=np.int64)
-    for x in range(width):  # the right view keeps the best of the left pixels choosing it
+def _choose_row(total, best_k, lanes, x0, x1, dmin, ndisp, subpixel, best, value, candidate,
+                confidence, out_x):  # fmt: skip
+    """Winner-take-all and sub-pixel fit of columns ``x0..x1 - 1`` of a row (``final_pass``)."""
+    for x in range(x0, x1):
         k = best_k[x]
-        value = total[x * lanes + k]
+        total_k = total[x * lanes + k]
+        j = out_x + x - x0
+        best[j] = k
+        value[j] = total_k
         if confidence.size:
-            confidence[x] = _margin(total, x * lanes, k, ndisp, value)
-        xr = x - dmin - k
-        if 0 <= xr < width and value < right_best[xr]:
-            right_best[xr] = value
-            right_d[xr] = dmin + k
-    for x in range(width):
-        k = best_k[x]
-        d = dmin + k
-        xr = x - d
-        if xr < 0 or xr >= width:
-            disparity[x] = np.nan
-            flags[x] = FLAG_BORDER
-        elif tolerance >= 0 and abs(right_d[xr] - d) > tolerance:
-            disparity[x] = np.nan
-            flags[x] = FLAG_OCCLUDED if right_d[xr] > d else FLAG_MISMATCH
-        else:
-            offset = _subpixel(total, x * lanes, k, ndisp, subpixel)  # |offset| < 0.5
-            disparity[x] = np.float32(d + offset)
-            flags[x] = 0
+            confidence[j] = _margin(total, x * lanes, k, ndisp, total_k)
+        offset = _subpixel(total, x * lanes, k, ndisp, subpixel)  # |offset| < 0.5
+        candidate[j] = np.float32(dmin + k + offset)
+
+
+@nb.njit(cache=True, parallel=True)
+def left_right_check(best, value, candidate, dmin, tolerance, disparity, flags, threads):
+    """Check whole rows of :func:`final_pass`'s choices against the right view's, as SGBM.
+
+    Each right pixel keeps the disparity of the left pixel of least total that chose it
+    (the first of equals); a left pixel whose disparity differs from its right pixel's by
+    more than ``tolerance`` (negative: no check) loses its estimate (NaN), flagged
+    ``FLAG_OCCLUDED`` where the right pixel's disparity is the larger (it belongs to a
+    nearer surface, which hides this pixel from the right view) and ``FLAG_MISMATCH``
+    otherwise; a choice whose right pixel lies beyond the image is ``FLAG_BORDER``. The
+    others take their ``candidate``. ``best``, ``value`` and ``candidate`` are ``(H, W)``;
+    ``threads`` is numba's thread count (the rows are handed out one at a time).
+    """
+    height, width = best.shape
+    counter = np.zeros(1, dtype=np.int64)
+    for _ in nb.prange(max(1, min(threads, height))):
+        right_best = np.empty(width, dtype=np.int64)
+        right_d = np.empty(width, dtype=np.int64)
+        y = next_task(counter)
+        while y < height:
+            right_best[:] = 1 << 30
+            right_d[:] = -(1 << 30)
+            for x in range(width):
+                xr = x - dmin - best[y, x]
+                if 0 <= xr < width and value[y, x] < right_best[xr]:
+                    right_best[xr] = value[y, x]
+                    right_d[xr] = dmin + best[y, x]
+            for x in range(width):
+                d = dmin + best[y, x]
+                xr = x - d
+                if xr < 0 or xr >= width:
+                    disparity[y, x] = np.nan
+                    flags[y, x] = FLAG_BORDER
+                elif tolerance >= 0 and abs(right_d[xr] - d) > tolerance:
+                    disparity[y, x] = np.nan
+                    flags[y, x] = FLAG_OCCLUDED if right_d[xr] > d else FLAG_MISMATCH
+                else:
+                    disparity[y, x] = candidate[y, x]
+                    flags[y, x] = 0
+            y = next_task(counter)

@@ -22,6 +22,8 @@ from llvmlite import ir
 from numba.core import cgutils, types
 from numba.extending import intrinsic, overload
 
+from dcstereo._vector.sgm import next_task
+
 
 @nb.njit(cache=True, parallel=True)
 def census_transform(padded, rows, cols, out):
@@ -147,7 +149,7 @@ def pixel_cost_row(codes_l, codes_r, colour_l, colour_r, y, dmin, ndisp, bit_cos
 @nb.njit(cache=True, parallel=True)
 def cost_volume(
     codes_l, codes_r, colour_l, colour_r, dmin, ndisp, bit_cost, ad_max, box, reciprocal,
-    pad_cost, y_begin, out,
+    pad_cost, y_begin, out, threads=1,
 ):  # fmt: skip
     """Write the box-averaged cost volume of rows ``y_begin..``: ``out[y - y_begin, x, k]``.
 
@@ -157,18 +159,23 @@ def cost_volume(
     float32 just above ``1 / box**2``, truncated (``box_reciprocal``: exact for every sum
     the caller allows). The lanes ``k >= ndisp`` up to ``Dp`` (the vector padding) hold
     ``pad_cost``. Rows in parallel, in chunks of 32 (each chunk makes the ``box - 1``
-    per-pixel rows around it again).
+    per-pixel rows around it again), handed out one at a time to ``threads`` (numba's
+    thread count; default 1) as each is free (``sgm_simd.next_task``).
     """
     rows = out.shape[0]
     chunk = 32
     nchunks = (rows + chunk - 1) // chunk
-    for c in nb.prange(nchunks):
-        y0 = y_begin + c * chunk
-        y1 = min(y_begin + rows, y0 + chunk)
-        _volume_rows(
-            codes_l, codes_r, colour_l, colour_r, dmin, ndisp, bit_cost, ad_max, box,
-            reciprocal, pad_cost, y0, y1, y_begin, out,
-        )  # fmt: skip
+    counter = np.zeros(1, dtype=np.int64)
+    for _ in nb.prange(max(1, min(threads, nchunks))):
+        c = next_task(counter)
+        while c < nchunks:
+            y0 = y_begin + c * chunk
+            y1 = min(y_begin + rows, y0 + chunk)
+            _volume_rows(
+                codes_l, codes_r, colour_l, colour_r, dmin, ndisp, bit_cost, ad_max, box,
+                reciprocal, pad_cost, y0, y1, y_begin, out,
+            )  # fmt: skip
+            c = next_task(counter)
 
 
 @nb.njit(cache=True)

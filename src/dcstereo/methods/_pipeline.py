@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dcstereo._threads import threads_with_cores
 from dcstereo.params import MatchParams
 from dcstereo.refine.postfilter import median_filter
 from dcstereo.refine.subpixel import refine_subpixel
@@ -85,12 +86,14 @@ SUBPIXEL = Stage(
     when=lambda params: params.subpixel is not None,
 )
 
+
 #: The median post-filter (``median``): each estimate takes its window's median.
-MEDIAN = Stage(
-    "median",
-    lambda left, right, params, result: median_filter(result, params.median),
-    when=lambda params: bool(params.median),
-)
+def _median(left, right, params, result):
+    with threads_with_cores():  # as sgm's own stages: the threads that have a core
+        return median_filter(result, params.median)
+
+
+MEDIAN = Stage("median", _median, when=lambda params: bool(params.median))
 
 #: The fill (``fill``): pixels still without an estimate take the background disparity.
 FILL = Stage(

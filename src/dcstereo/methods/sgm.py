@@ -22,20 +22,34 @@ function of arrays with its parameters in :class:`~dcstereo.params.MatchParams`:
    (:mod:`dcstereo.refine.consistency`);
 6. the median post-filter (``median``, by :func:`dcstereo.match`).
 
-Memory: the volumes of a strip of rows (costs and two sums of paths, 6 bytes per pixel and
-disparity, the disparities rounded up to a multiple of 16). Images whose volumes would
-pass :data:`VOLUME_BYTES` run in strips of rows, each with :data:`STRIP_MARGIN` rows of
-context above and below; paths then start at the strip's edge, so such a result differs
-(slightly, near the strips' seams) from the whole-image one. The volumes are kept from one
-call to the next in each thread (fresh volumes past the allocator's reuse bound come from
-the system zeroed page by page, a sixth of a run on a 720 x 496 x 73 pair);
-:func:`release_workspace` frees them.
+Memory of a call on a ``W x H`` pair searching ``D`` disparities (``Dp``: ``D`` rounded up to
+a multiple of 16): the volumes (the costs and two sums of paths, int16) of one tile,
+``6 * tile pixels * Dp`` bytes, at most :data:`VOLUME_BYTES` (768 MiB): the whole image when
+``6 * W * H * Dp`` fits, otherwise a grid of tiles of rows and columns (:func:`tiles`), each
+with :data:`STRIP_MARGIN` rows and columns of context on each side, which the paths cross
+from the tile's edge, so that such a result differs (slightly, near the cuts) from the
+whole-image one; about 45 bytes a pixel of images, codes and choices; and each thread's
+path buffers, about ``16 * tile width * Dp`` bytes. When the call ends its volumes go back
+to one pool for the whole process: kept for the next call (at most :data:`KEPT_BYTES`
+together, the largest first; fresh volumes past the allocator's reuse bound come from the
+system zeroed page by page, a sixth of a run on a 720 x 496 x 73 pair) and freed
+:data:`IDLE_SECONDS` (10 s) after the last call ends, or by :func:`release_workspace`. Calls
+from several threads at once hold at most :data:`WORKSPACE_BYTES` (1.5 GiB) of volumes
+together, those kept included: a call that would pass it waits for another to end.
+
+Threads: numba's thread count (``numba.set_num_threads``, or ``NUMBA_NUM_THREADS`` before
+numba starts; all cores by default). The parallel loops hand out small tasks (the two vertical
+passes, a pair of rows, a row) to whichever thread is free, so a thread that waits for a
+core (other work on the machine) holds back one task.
 """
 
 import threading
+import time
 
+import numba
 import numpy as np
 
+from dcstereo._threads import free_threads, threads_with_cores  # noqa: F401 (free_threads: its docs)
 from dcstereo._vector.sgm import HIGH, LANES
 from dcstereo.aggregate import sgm as sgm_kernels
 from dcstereo.costs import census as census_kernels
@@ -45,10 +59,7 @@ from dcstereo.refine.consistency import fill_with_colour
 from dcstereo.result import DisparityResult
 from dcstereo.signal import SIGNAL_STEPS, colour_channels, padded_signal
 
-#: The most memory (bytes) the volumes of one strip take; larger images run in strips.
-VOLUME_BYTES = 768 * 2**20
-
-#: Rows of context above and below each strip of a large image.
+#: Rows (and columns) of context on each side of a tile of a large image.
 STRIP_MARGIN = 32
 
 #: The kernels' costs per cost unit: thirds, so that the sum of three channels' absolute
@@ -120,31 +131,191 @@ def _reversed_right(array: np.ndarray, before: int, after: int) -> np.ndarray:
     return np.ascontiguousarray(np.pad(array, widths, mode="edge")[..., ::-1])
 
 
-_WORKSPACE = threading.local()
+class _VolumePool:
+    """The volumes of all ``sgm`` calls of the process, in use and kept, within one bound.
 
-
-def _volumes(size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Return three int16 volumes of ``size`` values: the costs and the two sums of paths.
-
-    Kept from call to call in each thread (the largest asked for so far, at most
-    :data:`VOLUME_BYTES` together): fresh volumes larger than the allocator's reuse bound
-    (32 MiB, ``dcstereo._memory``) come from the system zeroed page by page, which cost a
-    sixth of the run on a 720 x 496 x 73 pair. :func:`release_workspace` frees them.
+    A call takes a set of three int16 volumes (the costs and the two sums of paths) with
+    :meth:`take` and gives it back with :meth:`give`. Sets given back are kept for the next
+    calls (fresh volumes larger than the allocator's reuse bound, 32 MiB, come from the
+    system zeroed page by page, a sixth of a run on a 720 x 496 x 73 pair), at most
+    :data:`KEPT_BYTES` of them, the largest first, and freed :data:`IDLE_SECONDS` after the
+    last call ends. Sets in use and kept together never pass :data:`WORKSPACE_BYTES`: a
+    call that would pass it frees kept sets, then waits for other calls to give theirs back
+    (a call alone always runs). ``peak`` is the most bytes held at once since the last
+    :meth:`release`; ``in_use`` and ``kept`` the bytes now.
     """
-    held = getattr(_WORKSPACE, "volumes", None)
-    if held is None or held[0].size < size:
+
+    def __init__(self):
+        self._lock = threading.Condition()
+        self._free = []  # sets of three volumes of one size, the largest last
+        self.in_use = 0
+        self.kept = 0
+        self.peak = 0
+        self._given = 0.0  # time.monotonic() of the last set given back
+        self._timer = None
+
+    def take(self, size):
+        """Return three int16 volumes of ``size`` values (flat), and the set to give back."""
+        need = 3 * 2 * size
+        with self._lock:
+            while True:
+                fits = [i for i, held in enumerate(self._free) if held[0].size >= size]
+                if fits:  # the smallest kept set that holds the call
+                    held = self._free.pop(fits[0])
+                    self.kept -= 3 * held[0].nbytes
+                    self.in_use += 3 * held[0].nbytes
+                    return tuple(volume[:size] for volume in held), held
+                if self.in_use + self.kept + need <= WORKSPACE_BYTES or not (
+                    self.in_use or self._free
+                ):
+                    break
+                if self._free:  # too small for this call: freed, the smallest first
+                    self.kept -= 3 * self._free.pop(0)[0].nbytes
+                else:
+                    self._lock.wait()
+            self.in_use += need
+            self.peak = max(self.peak, self.in_use + self.kept)
         held = tuple(np.empty(size, dtype=np.int16) for _ in range(3))
-        _WORKSPACE.volumes = held
-    return tuple(volume[:size] for volume in held)
+        return held, held
+
+    def give(self, held):
+        """Take back a set of :meth:`take`; keep it (within :data:`KEPT_BYTES`) or free it."""
+        with self._lock:
+            self.in_use -= 3 * held[0].nbytes
+            self._free.append(held)
+            self._free.sort(key=lambda volumes: volumes[0].size)
+            self.kept += 3 * held[0].nbytes
+            while self.kept > KEPT_BYTES:
+                self.kept -= 3 * self._free.pop(0)[0].nbytes
+            self._lock.notify_all()
+            self._given = time.monotonic()
+            if self._free and self._timer is None and IDLE_SECONDS is not None:
+                self._arm(IDLE_SECONDS)
+
+    def _arm(self, seconds):
+        self._timer = threading.Timer(seconds, self._idle)
+        self._timer.daemon = True
+        self._timer.start()
+
+    def _idle(self):
+        with self._lock:
+            self._timer = None
+            idle = time.monotonic() - self._given
+            if not self.in_use and idle >= IDLE_SECONDS:
+                self._drop()
+            elif self._free:  # a call runs, or one ended since: wait from the last end
+                self._arm(IDLE_SECONDS - idle if not self.in_use else IDLE_SECONDS)
+
+    def _drop(self):
+        self._free = []
+        self.kept = 0
+
+    def release(self):
+        """Free the kept sets now (sets in use are freed when their calls end)."""
+        with self._lock:
+            self._drop()
+            self.peak = self.in_use
+
+
+#: The most memory (bytes) one call's volumes take: larger images run in tiles.
+VOLUME_BYTES = 768 * 2**20
+
+#: The most memory (bytes) the volumes of all calls take at once, those kept included.
+WORKSPACE_BYTES = 2 * VOLUME_BYTES
+
+#: The most memory (bytes) of volumes kept between calls, for the whole process.
+KEPT_BYTES = VOLUME_BYTES
+
+#: Seconds after the last call ends that the kept volumes are freed (None: kept until
+#: :func:`release_workspace`).
+IDLE_SECONDS = 10.0
+
+_POOL = _VolumePool()
 
 
 def release_workspace() -> None:
-    """Free the volumes this thread keeps between ``sgm`` runs.
+    """Free the volumes ``sgm`` keeps between calls (see the module's text).
 
-    The costs and the sums of paths, kept to save the zeroing of fresh pages (see the
-    module's text).
+    The costs and the sums of paths, kept to save the zeroing of fresh pages; volumes of
+    calls still running are freed when they end.
     """
-    _WORKSPACE.volumes = None
+    _POOL.release()
+
+
+def workspace_bytes() -> dict:
+    """Return the bytes of volumes in use, kept, and the most held at once (``peak``).
+
+    ``peak`` counts from the last :func:`release_workspace`.
+    """
+    with _POOL._lock:
+        return {"in_use": _POOL.in_use, "kept": _POOL.kept, "peak": _POOL.peak}
+
+
+def tiles(height: int, width: int, lanes: int) -> list[tuple[tuple[int, ...], tuple[int, ...]]]:
+    """Return the tiles of an image whose volumes pass :data:`VOLUME_BYTES`.
+
+    Each tile is ``((m0, s0, s1, m1), (c0, k0, k1, c1))``: rows ``m0..m1 - 1`` and columns
+    ``c0..c1 - 1`` are computed, of which rows ``s0..s1 - 1`` and columns ``k0..k1 - 1`` are
+    kept; the others are :data:`STRIP_MARGIN` rows or columns of context on each side
+    within the image. One tile holds the image when its volumes fit; otherwise the grid
+    of row strips and column tiles that computes the fewest pixels, each tile's volumes
+    within the bound (or within ``(2 * STRIP_MARGIN + 1) ** 2`` pixels, where the bound is
+    smaller).
+    """
+    margin = STRIP_MARGIN
+    pixels = max(VOLUME_BYTES // (6 * lanes), (2 * margin + 1) ** 2)
+    if height * width <= pixels:
+        return [((0, 0, height, height), (0, 0, width, width))]
+
+    def computed(size, parts):  # the most a part computes of ``size`` split in ``parts``
+        return min(size, -(-size // parts) + (2 * margin if parts > 1 else 0))
+
+    best = None
+    for nrows in range(1, height + 1):
+        rows = computed(height, nrows)
+        cols = pixels // rows
+        if cols >= width:
+            ncols = 1
+        elif cols > 2 * margin:
+            ncols = -(-width // (cols - 2 * margin))
+        else:
+            continue
+        work = nrows * ncols * rows * computed(width, ncols)
+        if best is None or work < best[0]:
+            best = (work, nrows, ncols)
+        if ncols == 1:
+            break  # more strips only add margins
+
+    def bounds(size, parts):
+        out = []
+        for i in range(parts):
+            s0, s1 = i * size // parts, (i + 1) * size // parts
+            out.append((max(0, s0 - margin), s0, s1, min(size, s1 + margin)))
+        return out
+
+    return [(r, c) for r in bounds(height, best[1]) for c in bounds(width, best[2])]
+
+
+def tile_columns(codes_l, codes_r, colour_l, colour_r, c0, c1, colour):
+    """Return the inputs of the cost kernel for left columns ``c0..c1 - 1``.
+
+    ``codes_l`` is ``(H, W)``, ``codes_r`` the right codes as the kernel reads them
+    (:func:`_reversed_right`: ``W + pad + after`` columns), ``colour_l`` and ``colour_r`` the
+    ``(C, H, .)`` colours, cut too where ``colour`` (the census-ad cost reads them). The
+    tile's right columns are a slice of the reversed ones: ``W - c1`` on, ``c1 - c0 + pad +
+    after`` of them. The box average repeats the tile's edge columns, so a tile's costs
+    equal the image's but in the ``window // 2`` columns at a cut.
+    """
+    width = codes_l.shape[1]
+    if (c0, c1) == (0, width):
+        return codes_l, codes_r, colour_l, colour_r
+    right = slice(width - c1, width - c0 + codes_r.shape[1] - width)
+    tile_l = np.ascontiguousarray(codes_l[:, c0:c1])
+    tile_r = np.ascontiguousarray(codes_r[:, right])
+    if colour:
+        colour_l = np.ascontiguousarray(colour_l[:, :, c0:c1])
+        colour_r = np.ascontiguousarray(colour_r[:, :, right])
+    return tile_l, tile_r, colour_l, colour_r
 
 
 def _census(signal: np.ndarray, rows: int, cols: int, out: np.ndarray) -> None:
@@ -169,7 +340,17 @@ def sgm_confidence(left: np.ndarray, right: np.ndarray, params: MatchParams) -> 
 
 
 def _run(left, right, params, want_confidence):
-    """Run the pipeline; return the result (filled when ``params.fill``) and the confidence."""
+    """Run the pipeline; return the result (filled when ``params.fill``) and the confidence.
+
+    With the threads that have a core now (:func:`free_threads`), set for the calling
+    thread alone and restored at the end.
+    """
+    with threads_with_cores():
+        return _run_threads(left, right, params, want_confidence)
+
+
+def _run_threads(left, right, params, want_confidence):
+    """:func:`_run` at the thread count set."""
     height, width = left.shape[:2]
     dmin, ndisp = params.min_disparity, params.num_disparities
     lanes = -(-ndisp // LANES) * LANES
@@ -198,33 +379,40 @@ def _run(left, right, params, want_confidence):
     bit_cost = census_bit_cost(params.census_window)
     diagonals = params.paths == 8
 
+    best = np.empty((height, width), dtype=np.int16)
+    value = np.empty((height, width), dtype=np.int16)
+    candidate = np.empty((height, width), dtype=np.float32)
+    margin = np.empty((height, width if want_confidence else 0), dtype=np.float32)
+    threads = numba.get_num_threads()
+    plan = tiles(height, width, lanes)
+    largest_tile = max((r[3] - r[0]) * (c[3] - c[0]) for r, c in plan)
+    volumes, held = _POOL.take(largest_tile * lanes)
+    try:
+        for (m0, s0, s1, m1), (c0, k0, k1, c1) in plan:
+            n, w = m1 - m0, c1 - c0
+            tile_l, tile_r, ad_l, ad_r = tile_columns(
+                codes_l, codes_r, colour_l, colour_r, c0, c1, params.cost == "census-ad"
+            )
+            volume, down, up = (v[: n * w * lanes] for v in volumes)
+            volume = volume.reshape(n, w, lanes)
+            census_kernels.cost_volume(
+                tile_l, tile_r, ad_l, ad_r, dmin, ndisp, bit_cost, ad_max, params.window,
+                reciprocal, pad_cost, m0, volume, threads,
+            )  # fmt: skip
+            cost = volume.reshape(-1)
+            luma = np.ascontiguousarray(luma_l[m0:m1, c0:c1])
+            sgm_kernels.vertical_passes(cost, luma, p1, table, diagonals, down, up, threads)
+            sgm_kernels.final_pass(
+                cost, luma, down, up, s0 - m0, s1 - m0, k0 - c0, k1 - c0, dmin, ndisp, p1,
+                table, _SUBPIXEL[params.subpixel], best, value, candidate, margin, s0, k0,
+                threads,
+            )  # fmt: skip
+    finally:
+        _POOL.give(held)
     disparity = np.empty((height, width), dtype=np.float32)
     flags = np.empty((height, width), dtype=np.uint8)
-    margin = np.empty((height, width if want_confidence else 0), dtype=np.float32)
-    per_row = width * lanes * 2 * 3
-    strip = max(1, VOLUME_BYTES // per_row - 2 * STRIP_MARGIN)
-    for s0 in range(0, height, strip):
-        s1 = min(height, s0 + strip)
-        m0, m1 = (
-            (0, height)
-            if strip >= height
-            else (max(0, s0 - STRIP_MARGIN), min(height, s1 + STRIP_MARGIN))
-        )
-        n = m1 - m0
-        volume, down, up = _volumes(n * width * lanes)
-        volume = volume.reshape(n, width, lanes)
-        census_kernels.cost_volume(
-            codes_l, codes_r, colour_l, colour_r, dmin, ndisp, bit_cost, ad_max, params.window,
-            reciprocal, pad_cost, m0, volume,
-        )  # fmt: skip
-        cost = volume.reshape(-1)
-        luma = np.ascontiguousarray(luma_l[m0:m1])
-        sgm_kernels.vertical_passes(cost, luma, p1, table, diagonals, down, up)
-        sgm_kernels.final_pass(
-            cost, luma, down, up, s0 - m0, s1 - m0, dmin, ndisp, p1, table,
-            _SUBPIXEL[params.subpixel], -1 if params.lr_tolerance is None else params.lr_tolerance,
-            disparity[s0:s1], flags[s0:s1], margin[s0:s1],
-        )  # fmt: skip
+    tolerance = -1 if params.lr_tolerance is None else params.lr_tolerance
+    sgm_kernels.left_right_check(best, value, candidate, dmin, tolerance, disparity, flags, threads)
     result = DisparityResult(disparity, flags, params, np.full(height, np.nan))
     if params.fill:
         if colour_l.shape[1:] != (height, width):  # cost="census" keeps no colours
