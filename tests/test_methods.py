@@ -93,3 +93,52 @@ def test_match_docstring_states_the_records_defaults(method):
     else:
         assert f"``occlusion_cost`` {P.DEFAULT_OCCLUSION_COST}" in doc
     assert f'``"{P.DEFAULT_METHOD}"`` (default' in doc
+
+
+COMMON = {"max_disparity", "min_disparity", "window", "cost", "fill", "subpixel", "median"}
+
+
+@pytest.mark.parametrize("name", P.METHODS)
+def test_each_method_has_a_record_of_the_options_it_reads(name):
+    from dataclasses import fields
+
+    record = REGISTRY[name].params
+    assert record.METHOD == name
+    own = {f.name for f in fields(record)} - COMMON
+    reads = {option for option, readers in P.METHOD_OPTIONS.items() if name in readers}
+    assert own == reads
+    made = record(max_disparity=12)
+    flat = P.MatchParams(max_disparity=12, method=name)
+    for f in fields(record):  # the defaults are MatchParams', resolved for the method
+        assert getattr(made, f.name) == getattr(flat, f.name), f.name
+    assert made.match_params() == flat
+
+
+def test_a_record_refuses_another_methods_option_and_checks_values_as_match_does():
+    from dcstereo.methods.dc import DCParams
+    from dcstereo.methods.sgm import SGMParams
+
+    with pytest.raises(TypeError, match="p1"):
+        DCParams(max_disparity=8, p1=10)
+    with pytest.raises(ValueError, match=r"p2 \(10\) must be at least p1 \(60\)"):
+        SGMParams(max_disparity=8, p2=10)
+    with pytest.raises(ValueError, match=r"p2 \(10\) must be at least p1 \(60\)"):
+        dcstereo.match(np.zeros((4, 9)), np.zeros((4, 9)), max_disparity=8, p2=10)
+    record = SGMParams(max_disparity=8, p1=40, median=0)
+    assert record.p1 == 40 and record.window == 3  # sgm's window, resolved
+    with pytest.raises(AttributeError):
+        record.p1 = 50  # frozen
+
+
+def test_a_record_runs_as_its_options():
+    from dataclasses import asdict
+
+    from dcstereo.methods.dsi import DSI5Params
+
+    rng = np.random.default_rng(5)
+    right = rng.integers(0, 256, (20, 36), dtype=np.uint8)
+    left = np.roll(right, 3, axis=1)
+    record = DSI5Params(max_disparity=6, occlusion_cost=12.0, fill=True)
+    ours = REGISTRY["dsi5"].run(left, right, record.match_params())
+    theirs = dcstereo.match(left, right, method=record.METHOD, **asdict(record))
+    np.testing.assert_array_equal(ours.disparity, theirs.disparity)

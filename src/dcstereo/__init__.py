@@ -25,6 +25,12 @@ install_locator()
 
 from dcstereo.api import match
 from dcstereo.compat.stereo_dc import StereoDC
+from dcstereo.methods.block import BlockParams
+from dcstereo.methods.dc import DCLinearParams, DCParams
+from dcstereo.methods.dsi import DSI3Params, DSI5Params
+from dcstereo.methods.gcp import GCPParams
+from dcstereo.methods.redert import RedertParams
+from dcstereo.methods.sgm import SGMParams
 from dcstereo.params import DEFAULT_METHOD, METHODS, MatchParams
 from dcstereo.rectification import RectifiedPair, StereoCalibration, read_calibration, rectify
 from dcstereo.result import (
@@ -38,6 +44,14 @@ from dcstereo.result import (
 )
 
 __all__ = [
+    "BlockParams",
+    "DCLinearParams",
+    "DCParams",
+    "DSI3Params",
+    "DSI5Params",
+    "GCPParams",
+    "RedertParams",
+    "SGMParams",
     "FLAG_BORDER",
     "FLAG_FEATURE",
     "FLAG_FILLED",

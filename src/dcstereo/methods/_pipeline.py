@@ -12,7 +12,7 @@ dsi5: dsi5 [costs (SAD or BT, eq. 4) + five-step DP (eq. 5)] -> subpixel -> medi
 """
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, field, fields
 
 import numpy as np
 
@@ -48,6 +48,47 @@ class Stage:
         return f"{self.name} [{self.steps}]" if self.steps else self.name
 
 
+def option(name: str):
+    """Return a record field with :class:`~dcstereo.MatchParams`' default for ``name``.
+
+    The defaults are stated once, in :class:`~dcstereo.MatchParams` (and the constants of
+    :mod:`dcstereo.params` it reads); a method's record takes them from there.
+    """
+    return field(default=MatchParams.__dataclass_fields__[name].default)
+
+
+@dataclass(frozen=True, kw_only=True)
+class MethodParams:
+    """What every method reads: the range, the window, the cost and the refinement.
+
+    A method's record (:class:`~dcstereo.methods.sgm.SGMParams`, ...) adds the options that
+    method reads, and nothing else: an option of another method is a ``TypeError`` by
+    construction. ``None`` takes the method's default (:data:`dcstereo.params.METHOD_DEFAULTS`),
+    resolved when the record is made; every value is checked as :class:`~dcstereo.MatchParams`
+    checks it (the one place the checks are written).
+    """
+
+    #: The method the record is for (a class constant, not a field).
+    METHOD = ""
+
+    max_disparity: int
+    min_disparity: int = 0
+    window: int | None = None
+    cost: str | None = None
+    fill: bool | None = None
+    subpixel: str | None = None
+    median: int | None = None
+
+    def __post_init__(self):
+        resolved = self.match_params()
+        for name in (f.name for f in fields(self)):
+            object.__setattr__(self, name, getattr(resolved, name))
+
+    def match_params(self) -> MatchParams:
+        """Return the flat :class:`~dcstereo.MatchParams` of this record (validated)."""
+        return MatchParams(method=self.METHOD, **asdict(self))
+
+
 @dataclass(frozen=True)
 class Method:
     """A method of :func:`dcstereo.match`: its name and its stages, run in order."""
@@ -55,6 +96,8 @@ class Method:
     name: str
     stages: tuple[Stage, ...]
     summary: str = ""
+    #: The method's parameter record (a :class:`MethodParams`).
+    params: type | None = None
 
     def run(self, left: np.ndarray, right: np.ndarray, params: MatchParams) -> DisparityResult:
         """Run the stages whose options are on; the pair and ``params`` already validated."""

@@ -1,9 +1,11 @@
 """``block``: winner-take-all SAD (or Birchfield-Tomasi) block matching (Hannah)."""
 
+from dataclasses import dataclass
+
 from dcstereo import _records as records
 from dcstereo.divide import bands
 from dcstereo.methods import _bands
-from dcstereo.methods._pipeline import REFINE, Method, core
+from dcstereo.methods._pipeline import REFINE, Method, MethodParams, core
 from dcstereo.params import MatchParams
 from dcstereo.result import DisparityResult
 from dcstereo.scanline import rows
@@ -35,8 +37,16 @@ def _match_block(left, right, params: MatchParams) -> DisparityResult:
     )
 
 
+@dataclass(frozen=True, kw_only=True)
+class BlockParams(MethodParams):
+    """``block``'s parameters: what every method reads, nothing more."""
+
+    METHOD = "block"
+
+
 METHOD = Method(
     "block",
     (core("block", _match_block, "costs (SAD or BT, eq. 4) + winner-take-all"), *REFINE),
     "winner-take-all block matching (Hannah)",
+    params=BlockParams,
 )

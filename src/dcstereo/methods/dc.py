@@ -1,11 +1,13 @@
 """``dc`` and ``dc-linear``: the paper's divide and conquer (section 2) and its DP (section 3)."""
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from dcstereo import _records as records
 from dcstereo.divide import bands, divide
 from dcstereo.methods import _bands
-from dcstereo.methods._pipeline import REFINE, Method, core
+from dcstereo.methods._pipeline import REFINE, Method, MethodParams, core, option
 from dcstereo.params import MatchParams
 from dcstereo.result import FLAG_FEATURE, DisparityResult
 from dcstereo.scanline import rows
@@ -89,9 +91,44 @@ def _dc_band_mode(params: MatchParams, width: int) -> int:
 
 
 _DC_STEPS = "costs (eq. 4) + feature pairs (SER eq. 2, VS eq. 3, recursive split) + DP (eq. 5)"
-METHOD = Method("dc", (core("dc", _match_dc, _DC_STEPS), *REFINE), "the paper's method")
+
+
+@dataclass(frozen=True, kw_only=True)
+class DCParams(MethodParams):
+    """``dc``'s parameters: the DP's costs (eq. 5) and the feature pairs' tests (eq. 2 and 3).
+
+    Defaults as :class:`~dcstereo.MatchParams`' (and :func:`dcstereo.match`'s).
+    """
+
+    METHOD = "dc"
+    occlusion_cost: float = option("occlusion_cost")
+    slant_cost: float | None = option("slant_cost")
+    ser_min: float = option("ser_min")
+    vs_max: float = option("vs_max")
+    vs_relative: bool = option("vs_relative")
+    feature_floor: float = option("feature_floor")
+    max_candidates: int = option("max_candidates")
+    lr_check: bool = option("lr_check")
+    uniqueness: float = option("uniqueness")
+    edge_guard: int | None = option("edge_guard")
+
+
+@dataclass(frozen=True, kw_only=True)
+class DCLinearParams(DCParams):
+    """``dc-linear``'s parameters: ``dc``'s (the same feature pairs, interpolated)."""
+
+    METHOD = "dc-linear"
+
+
+METHOD = Method(
+    "dc",
+    (core("dc", _match_dc, _DC_STEPS), *REFINE),
+    "the paper's method",
+    params=DCParams,
+)
 LINEAR = Method(
     "dc-linear",
     (core("dc-linear", _match_dc, "costs (eq. 4) + feature pairs + linear interpolation"), *REFINE),
     "the paper's feature pairs, interpolated linearly",
+    params=DCLinearParams,
 )

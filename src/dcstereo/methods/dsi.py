@@ -1,8 +1,10 @@
 """``dsi3`` and ``dsi5``: the scanline DP over the disparity-space image (eq. 5 for ``dsi5``)."""
 
+from dataclasses import dataclass
+
 from dcstereo import _records as records
 from dcstereo.methods import _bands
-from dcstereo.methods._pipeline import REFINE, Method, core
+from dcstereo.methods._pipeline import REFINE, Method, MethodParams, core, option
 from dcstereo.params import MatchParams
 from dcstereo.result import DisparityResult
 from dcstereo.scanline import rows
@@ -31,13 +33,35 @@ def _match_dsi(left, right, params: MatchParams, clock=None) -> DisparityResult:
     return DisparityResult(out.disparity, out.flags, params, out.total / (2.0 * scale))
 
 
+@dataclass(frozen=True, kw_only=True)
+class DSI5Params(MethodParams):
+    """``dsi5``'s parameters: the occlusion cost and the d and e steps' cost (eq. 5).
+
+    Defaults as :class:`~dcstereo.MatchParams`' (and :func:`dcstereo.match`'s).
+    """
+
+    METHOD = "dsi5"
+    occlusion_cost: float = option("occlusion_cost")
+    slant_cost: float | None = option("slant_cost")
+
+
+@dataclass(frozen=True, kw_only=True)
+class DSI3Params(MethodParams):
+    """``dsi3``'s parameters: the occlusion cost of the three-step DP [4]."""
+
+    METHOD = "dsi3"
+    occlusion_cost: float = option("occlusion_cost")
+
+
 DSI3 = Method(
     "dsi3",
     (core("dsi3", _match_dsi, "costs (SAD or BT, eq. 4) + three-step DP [4]"), *REFINE),
     "the three-step scanline DP (Intille and Bobick)",
+    params=DSI3Params,
 )
 DSI5 = Method(
     "dsi5",
     (core("dsi5", _match_dsi, "costs (SAD or BT, eq. 4) + five-step DP (eq. 5)"), *REFINE),
     "the five-step scanline DP of eq. 5",
+    params=DSI5Params,
 )

@@ -1,9 +1,11 @@
 """``dsi3-gcp``: the three-step DP forced through Intille and Bobick's ground control points."""
 
+from dataclasses import dataclass
+
 from dcstereo import _records as records
 from dcstereo.divide import gcp
 from dcstereo.methods import _bands
-from dcstereo.methods._pipeline import REFINE, Method, core
+from dcstereo.methods._pipeline import REFINE, Method, MethodParams, core, option
 from dcstereo.params import MatchParams
 from dcstereo.result import DisparityResult
 from dcstereo.scanline import rows
@@ -52,8 +54,22 @@ def _match_gcp(left, right, params: MatchParams) -> DisparityResult:
     return DisparityResult(out.disparity, out.flags, params, out.total / (2.0 * scale), features)
 
 
+@dataclass(frozen=True, kw_only=True)
+class GCPParams(MethodParams):
+    """``dsi3-gcp``'s parameters: the occlusion cost and the control points' tests.
+
+    Defaults as :class:`~dcstereo.MatchParams`' (and :func:`dcstereo.match`'s).
+    """
+
+    METHOD = "dsi3-gcp"
+    occlusion_cost: float = option("occlusion_cost")
+    gcp_uniqueness: float = option("gcp_uniqueness")
+    gcp_variance_floor: float = option("gcp_variance_floor")
+
+
 METHOD = Method(
     "dsi3-gcp",
     (core("dsi3-gcp", _match_gcp, "costs + ground control points + three-step DP"), *REFINE),
     "the three-step DP through ground control points (Intille and Bobick)",
+    params=GCPParams,
 )

@@ -83,10 +83,12 @@ Memory is O(W x D x (orientations + 2 x discounted pixels)) per thread; rows are
 independent and run in parallel.
 """
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from dcstereo import _records as records
-from dcstereo.methods._pipeline import REFINE, Method, core
+from dcstereo.methods._pipeline import REFINE, Method, MethodParams, core, option
 from dcstereo.params import MatchParams
 from dcstereo.result import DisparityResult
 from dcstereo.scanline import redert as redert_kernels
@@ -204,8 +206,25 @@ def match_redert(
     return (result, slopes) if with_orientation else result
 
 
+@dataclass(frozen=True, kw_only=True)
+class RedertParams(MethodParams):
+    """``redert``'s parameters: the costs of occlusion, slant and orientation, the discount.
+
+    Defaults as :class:`~dcstereo.MatchParams`' (and :func:`dcstereo.match`'s).
+    """
+
+    METHOD = "redert"
+    occlusion_cost: float = option("occlusion_cost")
+    slant_cost: float | None = option("slant_cost")
+    orientations: tuple[float, ...] = option("orientations")
+    orientation_cost: float = option("orientation_cost")
+    occlusion_discount: float = option("occlusion_discount")
+    occlusion_discount_pixels: int = option("occlusion_discount_pixels")
+
+
 METHOD = Method(
     "redert",
     (core("redert", match_redert, "sheared costs + DP with orientations"), *REFINE),
     "the DP with occlusion and orientation of Redert et al. [6]",
+    params=RedertParams,
 )

@@ -27,6 +27,7 @@ a multiple of 16): the volumes (the costs and two sums of paths, int16) of one t
 ``6 * tile pixels * Dp`` bytes, at most :data:`VOLUME_BYTES` (768 MiB): the whole image when
 ``6 * W * H * Dp`` fits, otherwise a grid of tiles of rows and columns (:func:`tiles`), each
 with :data:`STRIP_MARGIN` rows and columns of context on each side, which the paths cross
+from dataclasses import dataclass
 from the tile's edge, so that such a result differs (slightly, near the cuts) from the
 whole-image one; about 45 bytes a pixel of images, codes and choices; and each thread's
 path buffers, about ``16 * tile width * Dp`` bytes. When the call ends its volumes go back
@@ -45,6 +46,7 @@ core (other work on the machine) holds back one task.
 
 import threading
 import time
+from dataclasses import dataclass
 
 import numba
 import numpy as np
@@ -53,7 +55,7 @@ from dcstereo._threads import free_threads, threads_with_cores  # noqa: F401 (fr
 from dcstereo._vector.sgm import HIGH, LANES
 from dcstereo.aggregate import sgm as sgm_kernels
 from dcstereo.costs import census as census_kernels
-from dcstereo.methods._pipeline import FILL, MEDIAN, Method, core
+from dcstereo.methods._pipeline import FILL, MEDIAN, Method, MethodParams, core, option
 from dcstereo.params import MatchParams
 from dcstereo.refine.consistency import fill_with_colour
 from dcstereo.result import DisparityResult
@@ -421,6 +423,23 @@ def _run_threads(left, right, params, want_confidence):
     return result, margin
 
 
+@dataclass(frozen=True, kw_only=True)
+class SGMParams(MethodParams):
+    """``sgm``'s parameters: census window, colour truncation, penalties, paths, tolerance.
+
+    Defaults as :class:`~dcstereo.MatchParams`' (and :func:`dcstereo.match`'s).
+    """
+
+    METHOD = "sgm"
+    census_window: tuple[int, int] = option("census_window")
+    ad_truncation: int = option("ad_truncation")
+    p1: int = option("p1")
+    p2: int = option("p2")
+    p2_gradient: float = option("p2_gradient")
+    paths: int = option("paths")
+    lr_tolerance: int | None = option("lr_tolerance")
+
+
 METHOD = Method(
     "sgm",
     (
@@ -434,4 +453,5 @@ METHOD = Method(
         FILL,
     ),
     "the default: census, semi-global matching, left-right check, fill, median, sub-pixel",
+    params=SGMParams,
 )
