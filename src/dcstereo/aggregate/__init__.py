@@ -1,5 +1,5 @@
 """Aggregation across scanlines: the semi-global paths of ``sgm`` (Hirschmueller 2008).
 
-* :mod:`.sgm`: the path passes over a cost volume, the winner-take-all choice with its
+* ``sgm``: the path passes over a cost volume, the winner-take-all choice with its
   sub-pixel fit, and the left-right check.
 """

@@ -1,8 +1,8 @@
 """Matching costs: a pixel pair's dissimilarity, summed over a window.
 
-* :mod:`.window`: the paper's windowed SAD (eq. 4) and Birchfield-Tomasi's
+* ``window``: the paper's windowed SAD (eq. 4) and Birchfield-Tomasi's
   sampling-insensitive dissimilarity, one scanline at a time;
-* :mod:`.band`: the same costs for ``BAND_ROWS`` rows in lockstep (the band methods);
-* :mod:`.census`: the census transform, its Hamming cost and the truncated colour
+* ``band``: the same costs for ``BAND_ROWS`` rows in lockstep (the band methods);
+* ``census``: the census transform, its Hamming cost and the truncated colour
   difference, and the cost volume of ``sgm`` (averaged over a box).
 """

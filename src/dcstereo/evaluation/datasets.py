@@ -26,7 +26,8 @@ files present (see :data:`LAYOUTS`):
     ``inf`` = unknown, ``calib.txt`` with ``ndisp``, and optionally ``mask0nocc.png`` (255 =
     non-occluded, 128 = occluded, 0 = unknown) or ``disp1.pfm`` (cross-check).
 
-:data:`REGISTRY` lists public Middlebury scenes that :func:`fetch` downloads into a cache
+:data:`~dcstereo.evaluation.downloads.REGISTRY` lists public Middlebury scenes that
+:func:`~dcstereo.evaluation.downloads.fetch` downloads into a cache
 with pooch (``dcstereo datasets list`` / ``dcstereo datasets fetch NAME``).
 """
 

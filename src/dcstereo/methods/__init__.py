@@ -1,11 +1,11 @@
 """The methods of :func:`dcstereo.match`: each a named list of stages (a plain dict of them).
 
-* :mod:`.sgm`: ``sgm``, the default: census and colour costs, semi-global paths, a
+* ``sgm``: ``sgm``, the default: census and colour costs, semi-global paths, a
   left-right check, the colour fill, the median and the sub-pixel fit;
-* :mod:`.dc`: ``dc`` and ``dc-linear``, the paper's divide and conquer;
-* :mod:`.dsi`: ``dsi3`` and ``dsi5``, the scanline DPs; :mod:`.block`: ``block``;
-* :mod:`.gcp`: ``dsi3-gcp``; :mod:`.redert`: ``redert``;
-* :mod:`._pipeline`: what a method and a stage are; :mod:`._bands`: what the paper's
+* ``dc``: ``dc`` and ``dc-linear``, the paper's divide and conquer;
+* ``dsi``: ``dsi3`` and ``dsi5``, the scanline DPs; ``block``: ``block``;
+* ``gcp``: ``dsi3-gcp``; ``redert``: ``redert``;
+* ``_pipeline``: what a method and a stage are; ``_bands``: what the paper's
   methods share (the band kernels' memory bounds).
 
 A new method is a new entry: a :class:`~dcstereo.methods._pipeline.Method` whose stages are

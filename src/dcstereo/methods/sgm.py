@@ -302,7 +302,7 @@ def tile_columns(codes_l, codes_r, colour_l, colour_r, c0, c1, colour):
     """Return the inputs of the cost kernel for left columns ``c0..c1 - 1``.
 
     ``codes_l`` is ``(H, W)``, ``codes_r`` the right codes as the kernel reads them
-    (:func:`_reversed_right`: ``W + pad + after`` columns), ``colour_l`` and ``colour_r`` the
+    (``_reversed_right``: ``W + pad + after`` columns), ``colour_l`` and ``colour_r`` the
     ``(C, H, .)`` colours, cut too where ``colour`` (the census-ad cost reads them). The
     tile's right columns are a slice of the reversed ones: ``W - c1`` on, ``c1 - c0 + pad +
     after`` of them. The box average repeats the tile's edge columns, so a tile's costs
