@@ -285,8 +285,8 @@ def is_complete(path: str | os.PathLike) -> bool:
     interrupted copy). A PFM is complete when its header parses and the file is exactly
     the header plus its ``width * height * channels`` float32 values; a binary PLY (as
     :func:`~dcstereo.io.points.write_ply` writes) when it is exactly its header plus its
-    vertices; any other file when Pillow's ``verify`` passes (a PNG: every chunk's CRC, up to the end chunk).
-    A missing or unreadable file is not complete.
+    vertices; any other file when Pillow's ``verify`` passes (a PNG: every chunk's CRC, up
+    to the end chunk). A missing or unreadable file is not complete.
     """
     path = Path(path)
     if not path.is_file():  # a FIFO or a device would block the read below
