@@ -114,13 +114,12 @@ def register(name):
     return deco
 
 
-# candidates defined in scripts/refine_candidates.py register themselves here
-try:
+def load_candidates():
+    """Add the candidates of scripts/refine_candidates.py (imported here: it imports this)."""
     sys.path.insert(0, str(Path(__file__).parent))
-    import refine_candidates  # noqa: F401,E402
-except ImportError as err:  # pragma: no cover
-    if "refine_candidates" not in str(err):
-        raise
+    import refine_candidates
+
+    CANDIDATES.update(refine_candidates.REGISTRY)
 
 
 # ---- scores ---------------------------------------------------------------------------
@@ -152,6 +151,7 @@ def main(argv=None):
     parser.add_argument("--per-scene", action="store_true")
     parser.add_argument("--cache", default="/tmp/dcstereo_refine_cache")
     args = parser.parse_args(argv)
+    load_candidates()
     cache = Path(args.cache)
     cache.mkdir(parents=True, exist_ok=True)
     groups = args.groups.split(",")
@@ -173,7 +173,8 @@ def main(argv=None):
         colour = colour_channels(pair.left, pair.left)[0]
         params = sgm_params(pair)
         for n in names:
-            CANDIDATES[n](pair, raw, margin, colour, params)  # warm (compile) once per scene
+            if pair is pairs[0]:  # compile before timing
+                CANDIDATES[n](pair, raw, margin, colour, params)
             start = time.perf_counter()
             out = CANDIDATES[n](pair, raw, margin, colour, params)
             times[n] += time.perf_counter() - start
