@@ -53,14 +53,16 @@ for _t in (0.02, 0.05, 0.1):
 from dcstereo.planes import segment_planes  # noqa: E402
 
 
-def _planes(holes="mismatch", conf=None, **kw):
+def _planes(holes="mismatch", conf=None, replace_below=None, **kw):
     def cand(pair, raw, margin, colour, params):
         d = raw.disparity
         usable = None if conf is None else (margin >= conf)
         if holes == "mismatch":  # occluded / border pixels left to the background fill
             replaceable = (raw.flags & (FLAG_OCCLUDED | FLAG_BORDER)) == 0
         else:
-            replaceable = None
+            replaceable = np.ones(d.shape, dtype=bool)
+        if replace_below is not None:  # estimates replaced only where not confident
+            replaceable = replaceable & (np.isnan(d) | (margin < replace_below))
         out = segment_planes(d, colour, usable=usable, replaceable=replaceable,
                              low=pair.min_disparity, high=pair.max_disparity, **kw)
         flags = raw.flags.copy()
@@ -80,3 +82,9 @@ register("planes-o1")(_planes(outlier=1.0))
 register("planes-o3")(_planes(outlier=3.0))
 register("planes-r5")(_planes(min_ratio=0.5))
 register("planes-r7")(_planes(min_ratio=0.7))
+register("planes-rb0")(_planes(replace_below=0.0))
+register("planes-rb05")(_planes(replace_below=0.05))
+register("planes-rb1")(_planes(replace_below=0.1))
+register("planes-rb2")(_planes(replace_below=0.2))
+register("planes-rb1-s12")(_planes(replace_below=0.1, step=12))
+register("planes-rb1-c05")(_planes(replace_below=0.1, conf=0.05))

@@ -27,7 +27,7 @@ def superpixels(colour: np.ndarray, step: int = 16, compactness: float = 20.0,
 
 
 def fit_planes(disparity: np.ndarray, usable: np.ndarray, labels: np.ndarray, step: int,
-               iterations: int = 200, inlier: float = 1.0):  # fmt: skip
+               iterations: int = 200, inlier: float = 1.0, stop: float = 0.9):  # fmt: skip
     """Fit a plane to each segment's ``usable`` estimates; return ``(planes, support)``.
 
     ``planes``: ``(n, 3)`` float64, ``(a, b, c)`` of ``d = a x + b y + c``; ``support``:
@@ -40,7 +40,7 @@ def fit_planes(disparity: np.ndarray, usable: np.ndarray, labels: np.ndarray, st
     support = np.zeros((n, 3), dtype=np.int64)
     _kernels.fit_planes(
         np.ascontiguousarray(disparity, dtype=np.float64), np.ascontiguousarray(usable),
-        labels, n, nx, int(iterations), float(inlier), planes, support,
+        labels, n, nx, int(iterations), float(inlier), float(stop), planes, support,
     )  # fmt: skip
     return planes, support
 
@@ -61,6 +61,7 @@ def segment_planes(
     outlier: float = 2.0,
     min_ratio: float = 0.6,
     min_support: float = 0.3,
+    stop: float = 0.9,
 ) -> np.ndarray:
     """Refine ``disparity`` (float32, NaN where no estimate) by a plane per segment.
 
@@ -74,7 +75,7 @@ def segment_planes(
     usable = finite if usable is None else (usable & finite)
     replaceable = np.ones_like(finite) if replaceable is None else replaceable
     labels = superpixels(colour, step, compactness, slic_iterations)
-    planes, support = fit_planes(disparity, usable, labels, step, iterations, inlier)
+    planes, support = fit_planes(disparity, usable, labels, step, iterations, inlier, stop)
     used, inliers, size = support[:, 0], support[:, 1], support[:, 2]
     trusted = (used >= 3) & (used >= min_support * size) & (inliers >= min_ratio * np.maximum(used, 1))
     out = np.empty_like(disparity)

@@ -164,8 +164,10 @@ def _least_squares(xs, ys, ds, plane, inlier, out):
 
 
 @nb.njit(cache=True)
-def fit_segment(xs, ys, ds, iterations, inlier, seed, out):
+def fit_segment(xs, ys, ds, iterations, inlier, stop, seed, out):
     """RANSAC then least squares over the points; returns the final inlier count.
+
+    The draws stop early at a plane with ``stop`` (a fraction) of the points as inliers.
 
     ``out``: (a, b, c) of ``d = a x + b y + c``. Fewer than three points: no plane, 0.
     """
@@ -194,6 +196,8 @@ def fit_segment(xs, ys, ds, iterations, inlier, seed, out):
         if count > best_count:
             best_count = count
             best[:] = trial
+            if count >= stop * n:  # enough of the points agree: no better plane to find
+                break
     if best_count < 3:
         return 0
     refined = np.empty(3)
@@ -225,7 +229,7 @@ def segment_order(labels, n):
 
 
 @nb.njit(cache=True, parallel=True)
-def fit_planes(disparity, usable, labels, n, nx, iterations, inlier, planes, support):
+def fit_planes(disparity, usable, labels, n, nx, iterations, inlier, stop, planes, support):
     """Fit a plane to each segment's ``usable`` estimates.
 
     ``planes[k]``: (a, b, c); ``support[k]``: (estimates used, inliers, pixels). Segments
@@ -255,7 +259,7 @@ def fit_planes(disparity, usable, labels, n, nx, iterations, inlier, planes, sup
                     ds[m] = disparity[y, x]
                     m += 1
             plane = np.zeros(3)
-            count = fit_segment(xs, ys, ds, iterations, inlier, k, plane)
+            count = fit_segment(xs, ys, ds, iterations, inlier, stop, k, plane)
             planes[k, :] = plane
             support[k, 0] = m
             support[k, 1] = count
