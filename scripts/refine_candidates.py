@@ -88,3 +88,62 @@ register("planes-rb1")(_planes(replace_below=0.1))
 register("planes-rb2")(_planes(replace_below=0.2))
 register("planes-rb1-s12")(_planes(replace_below=0.1, step=12))
 register("planes-rb1-c05")(_planes(replace_below=0.1, conf=0.05))
+register("planes-rb2-it1")(_planes(replace_below=0.2, slic_iterations=1))
+register("planes-rb2-it2")(_planes(replace_below=0.2, slic_iterations=2))
+register("planes-rb3")(_planes(replace_below=0.3))
+register("planes-rb2-c05")(_planes(replace_below=0.2, conf=0.05))
+register("planes-rb2-all")(_planes(replace_below=0.2, holes="all"))
+register("planes-rb2-m10")(_planes(replace_below=0.2, compactness=10.0))
+register("planes-rb2-m40")(_planes(replace_below=0.2, compactness=40.0))
+
+
+def _planes2(border=True, **kw):
+    """planes-rb2-c05 with the left border's pixels (FLAG_BORDER) replaceable too."""
+    def cand(pair, raw, margin, colour, params):
+        d = raw.disparity
+        excluded = FLAG_OCCLUDED if border else (FLAG_OCCLUDED | FLAG_BORDER)
+        replaceable = ((raw.flags & excluded) == 0) & (np.isnan(d) | (margin < 0.2))
+        out = segment_planes(d, colour, usable=margin >= 0.05, replaceable=replaceable,
+                             low=pair.min_disparity, high=pair.max_disparity, **kw)
+        flags = raw.flags.copy()
+        flags[np.isnan(d) & np.isfinite(out)] = 0
+        return finish(replace(raw, disparity=out.astype(np.float32), flags=flags), colour,
+                      params).disparity
+    return cand
+
+
+register("planes-border")(_planes2())
+register("planes-border-m10")(_planes2(compactness=10.0))
+register("planes-m10-c05")(_planes2(border=False, compactness=10.0))
+register("planes-m10-c05-in15")(_planes2(border=False, compactness=10.0, inlier=1.5))
+register("planes-m10-c05-in07")(_planes2(border=False, compactness=10.0, inlier=0.7))
+
+
+from dcstereo.voting import region_vote  # noqa: E402
+
+
+def _vote(conf=0.2, passes=5, planes=False, **kw):
+    """Holes (mismatches) and estimates under ``conf`` of margin refined by region voting."""
+    def cand(pair, raw, margin, colour, params):
+        d = raw.disparity
+        if planes:
+            replaceable = ((raw.flags & FLAG_OCCLUDED) == 0) & (np.isnan(d) | (margin < 0.2))
+            d = segment_planes(d, colour, usable=margin >= 0.05, replaceable=replaceable,
+                               low=pair.min_disparity, high=pair.max_disparity,
+                               compactness=10.0).astype(np.float32)
+        hole_ok = (raw.flags & (FLAG_OCCLUDED | FLAG_BORDER)) == 0
+        trusted = np.isfinite(d) & (margin >= conf) & np.isfinite(raw.disparity)
+        todo = hole_ok & ~trusted
+        out, voted = region_vote(d, colour, trusted=trusted, todo=todo, low=pair.min_disparity,
+                                 high=pair.max_disparity, passes=passes, **kw)
+        flags = raw.flags.copy()
+        flags[np.isnan(raw.disparity) & np.isfinite(out)] = 0
+        return finish(replace(raw, disparity=out, flags=flags), colour, params).disparity
+    return cand
+
+
+register("vote")(_vote())
+register("vote-c1")(_vote(conf=0.1))
+register("vote-p2")(_vote(passes=2))
+register("vote-l17")(_vote(l1=17, l2=8))
+register("vote-planes")(_vote(planes=True))
