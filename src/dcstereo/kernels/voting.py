@@ -22,6 +22,7 @@ def _arm(colour, y, x, dy, dx, tau1, tau2, l1, l2):
     """Length of the arm of ``(y, x)`` along ``(dy, dx)`` (0: not even one step)."""
     channels, height, width = colour.shape
     length = 0
+    y, x = np.int64(y), np.int64(x)  # a prange index may be unsigned
     py, px = y, x
     while length < l1:
         qy, qx = py + dy, px + dx
