@@ -147,3 +147,37 @@ register("vote-c1")(_vote(conf=0.1))
 register("vote-p2")(_vote(passes=2))
 register("vote-l17")(_vote(l1=17, l2=8))
 register("vote-planes")(_vote(planes=True))
+register("p15-s02")(_planes2(border=False, compactness=10.0, inlier=1.5, min_support=0.2))
+register("p15-s05")(_planes2(border=False, compactness=10.0, inlier=1.5, min_support=0.5))
+register("p15-r5")(_planes2(border=False, compactness=10.0, inlier=1.5, min_ratio=0.5))
+register("p15-r7")(_planes2(border=False, compactness=10.0, inlier=1.5, min_ratio=0.7))
+register("p20")(_planes2(border=False, compactness=10.0, inlier=2.0))
+register("p15-it2")(_planes2(border=False, compactness=10.0, inlier=1.5, slic_iterations=2))
+register("p15-o3")(_planes2(border=False, compactness=10.0, inlier=1.5, outlier=3.0))
+
+
+from dcstereo.planes import refine_planes  # noqa: E402
+
+
+@register("refine-planes")
+def cand_refine_planes(pair, raw, margin, colour, params):
+    """The library's stage (dcstereo.planes.refine_planes, defaults), as sgm(planes=True)."""
+    return finish(refine_planes(raw, colour, margin), colour, params).disparity
+
+
+@register("sgm-planes")
+def cand_sgm_planes(pair, raw, margin, colour, params):
+    """The whole pipeline, uncached: dcstereo.match(..., planes=True)."""
+    import dcstereo
+
+    return dcstereo.match(pair.left, pair.right, max_disparity=pair.max_disparity,
+                          min_disparity=pair.min_disparity, planes=True).disparity
+
+
+@register("sgm")
+def cand_sgm(pair, raw, margin, colour, params):
+    """The whole pipeline, uncached: dcstereo.match(...)."""
+    import dcstereo
+
+    return dcstereo.match(pair.left, pair.right, max_disparity=pair.max_disparity,
+                          min_disparity=pair.min_disparity).disparity

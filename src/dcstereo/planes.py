@@ -9,9 +9,52 @@ segment's plane explains most of its estimates, gives the plane's value to its p
 without an estimate and to those whose estimate is far from it.
 """
 
+from dataclasses import dataclass, replace
+
 import numpy as np
 
 from .kernels import planes as _kernels
+from .result import FLAG_BORDER, FLAG_FILLED, FLAG_OCCLUDED, DisparityResult
+
+
+@dataclass(frozen=True)
+class PlaneParams:
+    """Parameters of :func:`refine_planes` (defaults measured on the development scenes,
+    ``scripts/eval_refine.py``).
+
+    ``step``, ``compactness``, ``slic_iterations``: the superpixels (:func:`superpixels`);
+    ``iterations``, ``inlier``, ``stop``: the RANSAC of each segment (:func:`fit_planes`);
+    ``min_support``, ``min_ratio``: when a plane is trusted; ``outlier``: how far from it
+    an estimate is replaced; ``fit_margin``: the least confidence margin of an estimate
+    the planes are fitted to; ``replace_margin``: estimates whose margin is below it may
+    be replaced (those above are kept whatever the plane says).
+    """
+
+    step: int = 16
+    compactness: float = 10.0
+    slic_iterations: int = 3
+    iterations: int = 200
+    inlier: float = 1.5
+    stop: float = 0.9
+    min_support: float = 0.3
+    min_ratio: float = 0.6
+    outlier: float = 2.0
+    fit_margin: float = 0.05
+    replace_margin: float = 0.2
+
+    def __post_init__(self):
+        for name in ("step", "slic_iterations", "iterations"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        for name in ("compactness", "inlier", "outlier"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
+                raise ValueError(f"{name} must be a positive number, got {value!r}")
+        for name in ("stop", "min_support", "min_ratio", "fit_margin", "replace_margin"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, float)) or not 0 <= value <= 1:
+                raise ValueError(f"{name} must be a number from 0 to 1, got {value!r}")
 
 
 def superpixels(colour: np.ndarray, step: int = 16, compactness: float = 20.0,
@@ -84,3 +127,34 @@ def segment_planes(
         float(low), float(high), out,
     )  # fmt: skip
     return out
+
+
+def refine_planes(
+    result: DisparityResult,
+    colour: np.ndarray,
+    margin: np.ndarray,
+    params: PlaneParams = PlaneParams(),
+) -> DisparityResult:
+    """``sgm``'s stage: a plane per segment for its holes and its unsure estimates.
+
+    ``result``: ``sgm``'s map after the left-right check, not filled; ``colour``: the left
+    image's channels ``(C, H, W)``; ``margin``: ``sgm``'s confidence margin per pixel.
+    The planes are fitted to the estimates with a margin of at least ``fit_margin``; the
+    mismatched pixels (not the occluded or border ones: the background fill's) and
+    the estimates with a margin under ``replace_margin`` may take their plane's value
+    (:func:`segment_planes`), limited to the searched range. A hole filled so keeps its
+    reason flag and gains :data:`~dcstereo.result.FLAG_FILLED`.
+    """
+    d = result.disparity
+    occluded = (result.flags & (FLAG_OCCLUDED | FLAG_BORDER)) != 0
+    replaceable = ~occluded & (np.isnan(d) | (margin < params.replace_margin))
+    out = segment_planes(
+        d, colour, usable=margin >= params.fit_margin, replaceable=replaceable,
+        low=result.params.min_disparity, high=result.params.max_disparity, step=params.step,
+        compactness=params.compactness, slic_iterations=params.slic_iterations,
+        iterations=params.iterations, inlier=params.inlier, outlier=params.outlier,
+        min_ratio=params.min_ratio, min_support=params.min_support, stop=params.stop,
+    ).astype(np.float32)  # fmt: skip
+    filled = np.isnan(d) & np.isfinite(out)
+    flags = result.flags | (filled.view(np.uint8) * np.uint8(FLAG_FILLED))
+    return replace(result, disparity=out, flags=flags)

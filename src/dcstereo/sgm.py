@@ -22,6 +22,9 @@ function of arrays with its parameters in :class:`~dcstereo.params.MatchParams`:
    (:mod:`dcstereo.consistency`);
 6. the median post-filter (``median``, by :func:`dcstereo.match`).
 
+With ``planes`` (off by default), between 4 and 5: a robust plane per superpixel of the left
+image for the mismatches and the unsure estimates (:func:`dcstereo.planes.refine_planes`).
+
 Memory: the volumes of a strip of rows (costs and two sums of paths, 6 bytes per pixel and
 disparity, the disparities rounded up to a multiple of 16). Images whose volumes would
 pass :data:`VOLUME_BYTES` run in strips of rows, each with :data:`STRIP_MARGIN` rows of
@@ -41,6 +44,7 @@ from .kernels import census as census_kernels
 from .kernels import sgm as sgm_kernels
 from .kernels.sgm_simd import HIGH, LANES
 from .params import MatchParams
+from .planes import refine_planes
 from .result import FLAG_MISMATCH, DisparityResult
 from .signal import SIGNAL_STEPS, padded_signal
 
@@ -229,7 +233,7 @@ def _run(left, right, params, want_confidence):
 
     disparity = np.empty((height, width), dtype=np.float32)
     flags = np.empty((height, width), dtype=np.uint8)
-    margin = np.empty((height, width if want_confidence else 0), dtype=np.float32)
+    margin = np.empty((height, width if want_confidence or params.planes else 0), dtype=np.float32)
     per_row = width * lanes * 2 * 3
     strip = max(1, VOLUME_BYTES // per_row - 2 * STRIP_MARGIN)
     for s0 in range(0, height, strip):
@@ -255,8 +259,10 @@ def _run(left, right, params, want_confidence):
             disparity[s0:s1], flags[s0:s1], margin[s0:s1],
         )  # fmt: skip
     result = DisparityResult(disparity, flags, params, np.full(height, np.nan))
+    if (params.fill or params.planes) and colour_l.shape[1:] != (height, width):
+        colour_l, _ = colour_channels(left, left)  # cost="census" keeps no colours
+    if params.planes:
+        result = refine_planes(result, colour_l, margin)
     if params.fill:
-        if colour_l.shape[1:] != (height, width):  # cost="census" keeps no colours
-            colour_l, _ = colour_channels(left, left)
         result = fill_with_colour(result, colour_l)
     return result, margin
