@@ -181,3 +181,33 @@ def cand_sgm(pair, raw, margin, colour, params):
 
     return dcstereo.match(pair.left, pair.right, max_disparity=pair.max_disparity,
                           min_disparity=pair.min_disparity).disparity
+
+
+from dcstereo.planes import PlaneParams  # noqa: E402
+
+
+def _two(first, second, second_holes_only=True):
+    def cand(pair, raw, margin, colour, params):
+        r = refine_planes(raw, colour, margin, PlaneParams(**first))
+        m2 = margin
+        if second_holes_only:  # only the holes still open: no estimate is replaceable
+            m2 = np.where(np.isnan(r.disparity), margin, 1.0).astype(np.float32)
+        r = refine_planes(r, colour, m2, PlaneParams(**second))
+        return finish(r, colour, params).disparity
+    return cand
+
+
+def _one(**kw):
+    def cand(pair, raw, margin, colour, params):
+        return finish(refine_planes(raw, colour, margin, PlaneParams(**kw)), colour, params).disparity
+    return cand
+
+
+register("two-16-32")(_two({}, {"step": 32}))
+register("two-16-32-all")(_two({}, {"step": 32}, False))
+register("two-32-16")(_two({"step": 32}, {}, False))
+register("two-16-24")(_two({}, {"step": 24}, False))
+register("one-rm3")(_one(replace_margin=0.3))
+register("one-fm1")(_one(fit_margin=0.1))
+register("one-fm0")(_one(fit_margin=0.0))
+register("one-s20")(_one(step=20))
