@@ -211,3 +211,21 @@ register("one-rm3")(_one(replace_margin=0.3))
 register("one-fm1")(_one(fit_margin=0.1))
 register("one-fm0")(_one(fit_margin=0.0))
 register("one-s20")(_one(step=20))
+
+
+def _multi(*steps, **kw):
+    def cand(pair, raw, margin, colour, params):
+        r = raw
+        for s in steps:
+            r = refine_planes(r, colour, margin, PlaneParams(step=s, **kw))
+        return finish(r, colour, params).disparity
+    return cand
+
+
+register("m-48-32-16")(_multi(48, 32, 16))
+register("m-32-16-24")(_multi(32, 16, 24))
+register("m-32-24-16")(_multi(32, 24, 16))
+register("m-24-16")(_multi(24, 16))
+register("m-32-16-it1")(_multi(32, 16, slic_iterations=1))
+register("m-32-16-i100")(_multi(32, 16, iterations=100))
+register("m-32-16-rm3")(_multi(32, 16, replace_margin=0.3))
