@@ -23,6 +23,9 @@ class PlaneParams:
     ``scripts/eval_refine.py``).
 
     ``step``, ``compactness``, ``slic_iterations``: the superpixels (:func:`superpixels`);
+    ``factors``: one pass of planes each, over segments merged ``factor x factor`` grid
+    cells at a time (:func:`merge_segments`), coarse to fine: each pass fits its planes to
+    the map the pass before left (the holes it filled among the estimates);
     ``iterations``, ``inlier``, ``stop``: the RANSAC of each segment (:func:`fit_planes`);
     ``min_support``, ``min_ratio``: when a plane is trusted; ``outlier``: how far from it
     an estimate is replaced; ``fit_margin``: the least confidence margin of an estimate
@@ -31,6 +34,7 @@ class PlaneParams:
     """
 
     step: int = 16
+    factors: tuple[int, ...] = (3, 2, 1)
     compactness: float = 10.0
     slic_iterations: int = 3
     iterations: int = 200
@@ -47,6 +51,11 @@ class PlaneParams:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        factors = self.factors
+        if not isinstance(factors, tuple) or not factors or not all(
+            isinstance(f, int) and not isinstance(f, bool) and f >= 1 for f in factors
+        ):
+            raise ValueError(f"factors must be a non-empty tuple of positive integers, got {factors!r}")
         for name in ("compactness", "inlier", "outlier"):
             value = getattr(self, name)
             if not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
@@ -69,23 +78,52 @@ def superpixels(colour: np.ndarray, step: int = 16, compactness: float = 20.0,
     return labels
 
 
-def fit_planes(disparity: np.ndarray, usable: np.ndarray, labels: np.ndarray, step: int,
-               iterations: int = 200, inlier: float = 1.0, stop: float = 0.9):  # fmt: skip
+def merge_segments(labels: np.ndarray, nx: int, ny: int, factor: int):
+    """Merge the grid's segments ``factor x factor`` cells at a time: ``(labels, nx, ny)``.
+
+    ``labels`` from :func:`superpixels` (``gy * nx + gx``); the merged segment of cell
+    ``(gy, gx)`` is ``(gy // factor, gx // factor)``: coarser segments whose edges still
+    follow the image's.
+    """
+    if factor == 1:
+        return labels, nx, ny
+    mx, my = -(-nx // factor), -(-ny // factor)
+    merged = (labels // nx // factor) * mx + (labels % nx) // factor
+    return merged.astype(np.int32), mx, my
+
+
+def fit_planes(disparity: np.ndarray, usable: np.ndarray, labels: np.ndarray, nx: int,
+               ny: int, iterations: int = 200, inlier: float = 1.0,
+               stop: float = 0.9):  # fmt: skip
     """Fit a plane to each segment's ``usable`` estimates; return ``(planes, support)``.
 
-    ``planes``: ``(n, 3)`` float64, ``(a, b, c)`` of ``d = a x + b y + c``; ``support``:
-    ``(n, 3)`` int64, (estimates used, inliers within ``inlier`` px, pixels of the segment).
+    ``labels``: ``gy * nx + gx`` on a grid of ``ny x nx`` segments. ``planes``: ``(n, 3)``
+    float64, ``(a, b, c)`` of ``d = a x + b y + c``; ``support``: ``(n, 3)`` int64,
+    (estimates used, inliers within ``inlier`` px, pixels of the segment).
     """
-    height, width = disparity.shape
-    ny, nx = _kernels.grid_shape(height, width, int(step))
     n = ny * nx
     planes = np.zeros((n, 3), dtype=np.float64)
     support = np.zeros((n, 3), dtype=np.int64)
     _kernels.fit_planes(
         np.ascontiguousarray(disparity, dtype=np.float64), np.ascontiguousarray(usable),
-        labels, n, nx, int(iterations), float(inlier), float(stop), planes, support,
+        np.ascontiguousarray(labels), n, nx, int(iterations), float(inlier), float(stop),
+        planes, support,
     )  # fmt: skip
     return planes, support
+
+
+def _plane_pass(disparity, labels, nx, ny, usable, replaceable, low, high, iterations,
+                inlier, outlier, min_ratio, min_support, stop):  # fmt: skip
+    """One pass: fit each segment's plane, give its value where the plane is trusted."""
+    planes, support = fit_planes(disparity, usable, labels, nx, ny, iterations, inlier, stop)
+    used, inliers, size = support[:, 0], support[:, 1], support[:, 2]
+    trusted = (used >= 3) & (used >= min_support * size) & (inliers >= min_ratio * np.maximum(used, 1))
+    out = np.empty_like(disparity)
+    _kernels.apply_planes(
+        disparity, np.ascontiguousarray(replaceable), labels, planes, trusted, float(outlier),
+        float(low), float(high), out,
+    )  # fmt: skip
+    return out
 
 
 def segment_planes(
@@ -118,15 +156,9 @@ def segment_planes(
     usable = finite if usable is None else (usable & finite)
     replaceable = np.ones_like(finite) if replaceable is None else replaceable
     labels = superpixels(colour, step, compactness, slic_iterations)
-    planes, support = fit_planes(disparity, usable, labels, step, iterations, inlier, stop)
-    used, inliers, size = support[:, 0], support[:, 1], support[:, 2]
-    trusted = (used >= 3) & (used >= min_support * size) & (inliers >= min_ratio * np.maximum(used, 1))
-    out = np.empty_like(disparity)
-    _kernels.apply_planes(
-        disparity, np.ascontiguousarray(replaceable), labels, planes, trusted, float(outlier),
-        float(low), float(high), out,
-    )  # fmt: skip
-    return out
+    ny, nx = _kernels.grid_shape(disparity.shape[0], disparity.shape[1], int(step))
+    return _plane_pass(disparity, labels, nx, ny, usable, replaceable, low, high, iterations,
+                       inlier, outlier, min_ratio, min_support, stop)  # fmt: skip
 
 
 def refine_planes(
@@ -146,15 +178,21 @@ def refine_planes(
     reason flag and gains :data:`~dcstereo.result.FLAG_FILLED`.
     """
     d = result.disparity
-    occluded = (result.flags & (FLAG_OCCLUDED | FLAG_BORDER)) != 0
-    replaceable = ~occluded & (np.isnan(d) | (margin < params.replace_margin))
-    out = segment_planes(
-        d, colour, usable=margin >= params.fit_margin, replaceable=replaceable,
-        low=result.params.min_disparity, high=result.params.max_disparity, step=params.step,
-        compactness=params.compactness, slic_iterations=params.slic_iterations,
-        iterations=params.iterations, inlier=params.inlier, outlier=params.outlier,
-        min_ratio=params.min_ratio, min_support=params.min_support, stop=params.stop,
-    ).astype(np.float32)  # fmt: skip
+    height, width = d.shape
+    kept = (result.flags & (FLAG_OCCLUDED | FLAG_BORDER)) != 0
+    unsure = margin < params.replace_margin
+    sure = margin >= params.fit_margin
+    labels = superpixels(colour, params.step, params.compactness, params.slic_iterations)
+    ny, nx = _kernels.grid_shape(height, width, params.step)
+    out = d
+    for factor in params.factors:
+        merged, mx, my = merge_segments(labels, nx, ny, factor)
+        holes = np.isnan(out)
+        out = _plane_pass(
+            out, merged, mx, my, sure & ~holes, ~kept & (holes | unsure),
+            result.params.min_disparity, result.params.max_disparity, params.iterations,
+            params.inlier, params.outlier, params.min_ratio, params.min_support, params.stop,
+        ).astype(np.float32)  # fmt: skip
     filled = np.isnan(d) & np.isfinite(out)
     flags = result.flags | (filled.view(np.uint8) * np.uint8(FLAG_FILLED))
     return replace(result, disparity=out, flags=flags)
