@@ -22,10 +22,10 @@ class PlaneParams:
     """Parameters of :func:`refine_planes` (defaults measured on the development scenes,
     ``scripts/eval_refine.py``).
 
-    ``step``, ``compactness``, ``slic_iterations``: the superpixels (:func:`superpixels`);
-    ``factors``: one pass of planes each, over segments merged ``factor x factor`` grid
-    cells at a time (:func:`merge_segments`), coarse to fine: each pass fits its planes to
-    the map the pass before left (the holes it filled among the estimates);
+    ``steps``: one pass of planes each, over superpixels of about that many pixels a side
+    (:func:`superpixels`, with ``compactness`` and ``slic_iterations``), coarse to fine:
+    each pass fits its planes to the map the pass before left (the holes it filled among
+    the estimates);
     ``iterations``, ``inlier``, ``stop``: the RANSAC of each segment (:func:`fit_planes`);
     ``min_support``, ``min_ratio``: when a plane is trusted; ``outlier``: how far from it
     an estimate is replaced; ``fit_margin``: the least confidence margin of an estimate
@@ -33,8 +33,7 @@ class PlaneParams:
     be replaced (those above are kept whatever the plane says).
     """
 
-    step: int = 16
-    factors: tuple[int, ...] = (3, 2, 1)
+    steps: tuple[int, ...] = (48, 32, 16)
     compactness: float = 10.0
     slic_iterations: int = 3
     iterations: int = 200
@@ -47,15 +46,15 @@ class PlaneParams:
     replace_margin: float = 0.2
 
     def __post_init__(self):
-        for name in ("step", "slic_iterations", "iterations"):
+        for name in ("slic_iterations", "iterations"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
-        factors = self.factors
-        if not isinstance(factors, tuple) or not factors or not all(
-            isinstance(f, int) and not isinstance(f, bool) and f >= 1 for f in factors
+        steps = self.steps
+        if not isinstance(steps, tuple) or not steps or not all(
+            isinstance(f, int) and not isinstance(f, bool) and f >= 2 for f in steps
         ):
-            raise ValueError(f"factors must be a non-empty tuple of positive integers, got {factors!r}")
+            raise ValueError(f"steps must be a non-empty tuple of integers from 2, got {steps!r}")
         for name in ("compactness", "inlier", "outlier"):
             value = getattr(self, name)
             if not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
@@ -76,20 +75,6 @@ def superpixels(colour: np.ndarray, step: int = 16, compactness: float = 20.0,
     labels = np.empty(colour.shape[1:], dtype=np.int32)
     _kernels.slic(colour, int(step), float(compactness), int(iterations), labels)
     return labels
-
-
-def merge_segments(labels: np.ndarray, nx: int, ny: int, factor: int):
-    """Merge the grid's segments ``factor x factor`` cells at a time: ``(labels, nx, ny)``.
-
-    ``labels`` from :func:`superpixels` (``gy * nx + gx``); the merged segment of cell
-    ``(gy, gx)`` is ``(gy // factor, gx // factor)``: coarser segments whose edges still
-    follow the image's.
-    """
-    if factor == 1:
-        return labels, nx, ny
-    mx, my = -(-nx // factor), -(-ny // factor)
-    merged = (labels // nx // factor) * mx + (labels % nx) // factor
-    return merged.astype(np.int32), mx, my
 
 
 def fit_planes(disparity: np.ndarray, usable: np.ndarray, labels: np.ndarray, nx: int,
@@ -182,14 +167,13 @@ def refine_planes(
     kept = (result.flags & (FLAG_OCCLUDED | FLAG_BORDER)) != 0
     unsure = margin < params.replace_margin
     sure = margin >= params.fit_margin
-    labels = superpixels(colour, params.step, params.compactness, params.slic_iterations)
-    ny, nx = _kernels.grid_shape(height, width, params.step)
     out = d
-    for factor in params.factors:
-        merged, mx, my = merge_segments(labels, nx, ny, factor)
+    for step in params.steps:
+        labels = superpixels(colour, step, params.compactness, params.slic_iterations)
+        ny, nx = _kernels.grid_shape(height, width, step)
         holes = np.isnan(out)
         out = _plane_pass(
-            out, merged, mx, my, sure & ~holes, ~kept & (holes | unsure),
+            out, labels, nx, ny, sure & ~holes, ~kept & (holes | unsure),
             result.params.min_disparity, result.params.max_disparity, params.iterations,
             params.inlier, params.outlier, params.min_ratio, params.min_support, params.stop,
         ).astype(np.float32)  # fmt: skip
