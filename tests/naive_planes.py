@@ -122,3 +122,25 @@ def apply_planes(disparity, replaceable, labels, planes, trusted, outlier, low, 
             if np.isnan(d) or abs(d - value) > outlier:
                 out[y, x] = min(high, max(low, value))
     return out
+
+
+def refine(disparity, kept, colour, margin, steps, *, compactness, slic_iterations, iterations,
+           inlier, stop, min_support, min_ratio, outlier, fit_margin, replace_margin, low, high):
+    """``dcstereo.planes.refine_planes``'s passes from the functions above: the new map."""
+    out = disparity.astype(np.float32)
+    height, width = out.shape
+    for step in steps:
+        labels = slic(colour, step, compactness, slic_iterations)
+        ny, nx = grid_shape(height, width, step)
+        holes = np.isnan(out)
+        usable = (margin >= fit_margin) & ~holes
+        replaceable = ~kept & (holes | (margin < replace_margin))
+        fits = fit_planes(out, usable, labels, ny * nx, iterations, inlier, stop)
+        planes = [p if p is not None else (0.0, 0.0, 0.0) for p, *_ in fits]
+        trusted = [
+            p is not None and used >= 3 and used >= min_support * size
+            and count >= min_ratio * max(used, 1)
+            for p, used, count, size in fits
+        ]
+        out = apply_planes(out, replaceable, labels, planes, trusted, outlier, low, high)
+    return out

@@ -33,8 +33,8 @@ def test_fit_planes_equals_naive(seed):
     disparity[wrong] = rng.uniform(0, 20, wrong.sum())
     disparity[rng.random((height, width)) < 0.1] = np.nan
     usable = np.isfinite(disparity) & (rng.random((height, width)) < 0.9)
-    got_planes, support = planes.fit_planes(disparity, usable, labels, step, 50, 1.0, 0.8)
     ny, nx = kernels.grid_shape(height, width, step)
+    got_planes, support = planes.fit_planes(disparity, usable, labels, nx, ny, 50, 1.0, 0.8)
     expected = naive_planes.fit_planes(disparity, usable, labels, ny * nx, 50, 1.0, 0.8)
     for k, (plane, used, inliers, size) in enumerate(expected):
         assert tuple(support[k]) == (used, inliers, size)
@@ -112,15 +112,17 @@ def test_refine_planes_keeps_occlusions_and_flags_its_fill():
     result = DisparityResult(disparity, flags, params, np.full(6, np.nan))
     margin = np.ones((6, 10), np.float32)
     out = planes.refine_planes(result, np.zeros((1, 6, 10), np.int16), margin,
-                               planes.PlaneParams(step=32))  # fmt: skip
+                               planes.PlaneParams(steps=(32, 8)))  # fmt: skip
     assert out.disparity[2, 3] == pytest.approx(4.0)
     assert out.flags[2, 3] == FLAG_MISMATCH | FLAG_FILLED
     assert np.isnan(out.disparity[4, 6]) and out.flags[4, 6] == FLAG_OCCLUDED
 
 
 def test_plane_params_validated():
-    with pytest.raises(ValueError, match="step"):
-        planes.PlaneParams(step=0)
+    with pytest.raises(ValueError, match="steps"):
+        planes.PlaneParams(steps=(16, 0))
+    with pytest.raises(ValueError, match="steps"):
+        planes.PlaneParams(steps=())
     with pytest.raises(ValueError, match="min_ratio"):
         planes.PlaneParams(min_ratio=1.5)
     with pytest.raises(TypeError, match="planes"):
@@ -146,3 +148,32 @@ def test_sgm_planes_on_a_slanted_plane():
     assert bad_refined < 0.05
     again = dcstereo.match(left, right, max_disparity=20, planes=False)
     np.testing.assert_array_equal(again.disparity, plain.disparity)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_refine_planes_equals_its_naive_passes(seed):
+    rng = np.random.default_rng(20 + seed)
+    height, width = 16, 21
+    params = MatchParams(max_disparity=12, method="sgm", fill=False)
+    yy, xx = np.mgrid[0:height, 0:width]
+    disparity = (0.15 * xx + 0.1 * yy + 2 + rng.normal(0, 0.4, (height, width))).astype(np.float32)
+    disparity[rng.random((height, width)) < 0.2] = rng.uniform(0, 12)
+    flags = np.zeros((height, width), np.uint8)
+    holes = rng.random((height, width)) < 0.15
+    disparity[holes] = np.nan
+    flags[holes] = np.where(rng.random(holes.sum()) < 0.5, FLAG_MISMATCH, FLAG_OCCLUDED)
+    margin = rng.random((height, width)).astype(np.float32) * 0.4
+    colour = rng.integers(0, 256, (3, height, width)).astype(np.int16)
+    plane_params = planes.PlaneParams(steps=(9, 5), iterations=40, slic_iterations=2)
+    result = DisparityResult(disparity, flags, params, np.full(height, np.nan))
+    got = planes.refine_planes(result, colour, margin, plane_params)
+    expected = naive_planes.refine(
+        disparity, (flags & FLAG_OCCLUDED) != 0, colour, margin, (9, 5),
+        compactness=plane_params.compactness, slic_iterations=2, iterations=40,
+        inlier=plane_params.inlier, stop=plane_params.stop, min_support=plane_params.min_support,
+        min_ratio=plane_params.min_ratio, outlier=plane_params.outlier,
+        fit_margin=plane_params.fit_margin, replace_margin=plane_params.replace_margin,
+        low=0, high=12,
+    )  # fmt: skip
+    np.testing.assert_allclose(got.disparity, expected, rtol=1e-5, equal_nan=True)
+    assert not np.array_equal(got.disparity, disparity, equal_nan=True)  # the passes did act
