@@ -119,34 +119,8 @@ register("planes-m10-c05-in15")(_planes2(border=False, compactness=10.0, inlier=
 register("planes-m10-c05-in07")(_planes2(border=False, compactness=10.0, inlier=0.7))
 
 
-from dcstereo.voting import region_vote  # noqa: E402
-
-
-def _vote(conf=0.2, passes=5, planes=False, **kw):
-    """Holes (mismatches) and estimates under ``conf`` of margin refined by region voting."""
-    def cand(pair, raw, margin, colour, params):
-        d = raw.disparity
-        if planes:
-            replaceable = ((raw.flags & FLAG_OCCLUDED) == 0) & (np.isnan(d) | (margin < 0.2))
-            d = segment_planes(d, colour, usable=margin >= 0.05, replaceable=replaceable,
-                               low=pair.min_disparity, high=pair.max_disparity,
-                               compactness=10.0).astype(np.float32)
-        hole_ok = (raw.flags & (FLAG_OCCLUDED | FLAG_BORDER)) == 0
-        trusted = np.isfinite(d) & (margin >= conf) & np.isfinite(raw.disparity)
-        todo = hole_ok & ~trusted
-        out, voted = region_vote(d, colour, trusted=trusted, todo=todo, low=pair.min_disparity,
-                                 high=pair.max_disparity, passes=passes, **kw)
-        flags = raw.flags.copy()
-        flags[np.isnan(raw.disparity) & np.isfinite(out)] = 0
-        return finish(replace(raw, disparity=out, flags=flags), colour, params).disparity
-    return cand
-
-
-register("vote")(_vote())
-register("vote-c1")(_vote(conf=0.1))
-register("vote-p2")(_vote(passes=2))
-register("vote-l17")(_vote(l1=17, l2=8))
-register("vote-planes")(_vote(planes=True))
+# region voting over cross-based regions (ADCensus): kernels at commit 68036a5 of branch
+# acc-refine (src/dcstereo/voting.py), measured v2 3.05, new 7.88, KITTI D1 10.30; removed.
 register("p15-s02")(_planes2(border=False, compactness=10.0, inlier=1.5, min_support=0.2))
 register("p15-s05")(_planes2(border=False, compactness=10.0, inlier=1.5, min_support=0.5))
 register("p15-r5")(_planes2(border=False, compactness=10.0, inlier=1.5, min_ratio=0.5))
@@ -246,3 +220,7 @@ register("s3-r7")(_one(min_ratio=0.7))
 register("s3-in1")(_one(inlier=1.0))
 register("s3-o3")(_one(outlier=3.0))
 register("s3-sup5")(_one(min_support=0.5))
+register("s3-rm15")(_one(replace_margin=0.15))
+register("s3-rm1-in125")(_one(replace_margin=0.1, inlier=1.25))
+register("s3-rm15-in125")(_one(replace_margin=0.15, inlier=1.25))
+register("s3-rm1-it2")(_one(replace_margin=0.1, slic_iterations=2))

@@ -43,7 +43,7 @@ class PlaneParams:
     min_ratio: float = 0.6
     outlier: float = 2.0
     fit_margin: float = 0.05
-    replace_margin: float = 0.2
+    replace_margin: float = 0.15
 
     def __post_init__(self):
         for name in ("slic_iterations", "iterations"):
