@@ -26,7 +26,13 @@ from pathlib import Path
 import numpy as np
 
 from dcstereo.consistency import fill_with_colour
-from dcstereo.datasets import default_data_dir, find_scenes, load_motorcycle, load_scene, middlebury_dir
+from dcstereo.datasets import (
+    default_data_dir,
+    find_scenes,
+    load_motorcycle,
+    load_scene,
+    middlebury_dir,
+)
 from dcstereo.io import read_image
 from dcstereo.metrics import bad_pixel_rate
 from dcstereo.params import MatchParams
@@ -62,8 +68,8 @@ def kitti_pairs():
         meta = json.loads((folder / "meta.json").read_text())
         truth = read_image(folder / "disp_gt.png").astype(np.float32) / 256.0
         mask = truth > 0
-        out.append(Pair(folder.name, read_image(folder / "left.png"), read_image(folder / "right.png"),
-                        truth, mask, 0, int(meta["ndisp"]) - 1, "kitti"))  # fmt: skip
+        left, right = read_image(folder / "left.png"), read_image(folder / "right.png")
+        out.append(Pair(folder.name, left, right, truth, mask, 0, int(meta["ndisp"]) - 1, "kitti"))
     return out
 
 

@@ -3,10 +3,9 @@
 from dataclasses import replace
 
 import numpy as np
+from eval_refine import finish
 
 from dcstereo.result import FLAG_BORDER, FLAG_MISMATCH, FLAG_OCCLUDED
-
-from eval_refine import finish
 
 REGISTRY = {}
 
@@ -43,6 +42,7 @@ def _lowconf(t):
         d[low] = np.nan
         flags[low] |= np.uint8(FLAG_MISMATCH)
         return finish(replace(raw, disparity=d, flags=flags), colour, params).disparity
+
     return cand
 
 
@@ -63,13 +63,22 @@ def _planes(holes="mismatch", conf=None, replace_below=None, **kw):
             replaceable = np.ones(d.shape, dtype=bool)
         if replace_below is not None:  # estimates replaced only where not confident
             replaceable = replaceable & (np.isnan(d) | (margin < replace_below))
-        out = segment_planes(d, colour, usable=usable, replaceable=replaceable,
-                             low=pair.min_disparity, high=pair.max_disparity, **kw)
+        out = segment_planes(
+            d,
+            colour,
+            usable=usable,
+            replaceable=replaceable,
+            low=pair.min_disparity,
+            high=pair.max_disparity,
+            **kw,
+        )
         flags = raw.flags.copy()
         new = np.isnan(d) & np.isfinite(out)
         flags[new] = 0
-        return finish(replace(raw, disparity=out.astype(np.float32), flags=flags), colour,
-                      params).disparity
+        return finish(
+            replace(raw, disparity=out.astype(np.float32), flags=flags), colour, params
+        ).disparity
+
     return cand
 
 
@@ -99,16 +108,26 @@ register("planes-rb2-m40")(_planes(replace_below=0.2, compactness=40.0))
 
 def _planes2(border=True, **kw):
     """planes-rb2-c05 with the left border's pixels (FLAG_BORDER) replaceable too."""
+
     def cand(pair, raw, margin, colour, params):
         d = raw.disparity
         excluded = FLAG_OCCLUDED if border else (FLAG_OCCLUDED | FLAG_BORDER)
         replaceable = ((raw.flags & excluded) == 0) & (np.isnan(d) | (margin < 0.2))
-        out = segment_planes(d, colour, usable=margin >= 0.05, replaceable=replaceable,
-                             low=pair.min_disparity, high=pair.max_disparity, **kw)
+        out = segment_planes(
+            d,
+            colour,
+            usable=margin >= 0.05,
+            replaceable=replaceable,
+            low=pair.min_disparity,
+            high=pair.max_disparity,
+            **kw,
+        )
         flags = raw.flags.copy()
         flags[np.isnan(d) & np.isfinite(out)] = 0
-        return finish(replace(raw, disparity=out.astype(np.float32), flags=flags), colour,
-                      params).disparity
+        return finish(
+            replace(raw, disparity=out.astype(np.float32), flags=flags), colour, params
+        ).disparity
+
     return cand
 
 
@@ -144,8 +163,13 @@ def cand_sgm_planes(pair, raw, margin, colour, params):
     """The whole pipeline, uncached: dcstereo.match(..., planes=True)."""
     import dcstereo
 
-    return dcstereo.match(pair.left, pair.right, max_disparity=pair.max_disparity,
-                          min_disparity=pair.min_disparity, planes=True).disparity
+    return dcstereo.match(
+        pair.left,
+        pair.right,
+        max_disparity=pair.max_disparity,
+        min_disparity=pair.min_disparity,
+        planes=True,
+    ).disparity
 
 
 @register("sgm")
@@ -153,8 +177,9 @@ def cand_sgm(pair, raw, margin, colour, params):
     """The whole pipeline, uncached: dcstereo.match(...)."""
     import dcstereo
 
-    return dcstereo.match(pair.left, pair.right, max_disparity=pair.max_disparity,
-                          min_disparity=pair.min_disparity).disparity
+    return dcstereo.match(
+        pair.left, pair.right, max_disparity=pair.max_disparity, min_disparity=pair.min_disparity
+    ).disparity
 
 
 from dcstereo.planes import PlaneParams  # noqa: E402
@@ -168,12 +193,16 @@ def _two(first, second, second_holes_only=True):
             m2 = np.where(np.isnan(r.disparity), margin, 1.0).astype(np.float32)
         r = refine_planes(r, colour, m2, PlaneParams(**second))
         return finish(r, colour, params).disparity
+
     return cand
 
 
 def _one(**kw):
     def cand(pair, raw, margin, colour, params):
-        return finish(refine_planes(raw, colour, margin, PlaneParams(**kw)), colour, params).disparity
+        return finish(
+            refine_planes(raw, colour, margin, PlaneParams(**kw)), colour, params
+        ).disparity
+
     return cand
 
 
@@ -193,6 +222,7 @@ def _multi(*steps, **kw):
         for s in steps:
             r = refine_planes(r, colour, margin, PlaneParams(step=s, **kw))
         return finish(r, colour, params).disparity
+
     return cand
 
 

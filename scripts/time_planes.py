@@ -9,9 +9,9 @@ import sys
 import time
 
 import numpy as np
+from eval_refine import kitti_pairs, middlebury_pairs
 
 import dcstereo
-from eval_refine import kitti_pairs, middlebury_pairs
 
 
 def main():
@@ -20,9 +20,11 @@ def main():
     for pair in pairs:
         row = []
         for planes in (False, True):
-            def run():
+
+            def run(pair=pair, planes=planes):
                 return dcstereo.match(pair.left, pair.right, max_disparity=pair.max_disparity,
                                       min_disparity=pair.min_disparity, planes=planes)  # fmt: skip
+
             run()
             times = []
             for _ in range(3):
@@ -30,9 +32,12 @@ def main():
                 run()
                 times.append(1000 * (time.perf_counter() - start))
             row.append(float(np.median(times)))
-        print(f"{pair.name:22s} {pair.left.shape[1]}x{pair.left.shape[0]}x"
-              f"{pair.max_disparity - pair.min_disparity + 1}  sgm {row[0]:6.0f} ms  "
-              f"planes {row[1]:6.0f} ms  (+{100 * (row[1] / row[0] - 1):.0f} %)", flush=True)
+        print(
+            f"{pair.name:22s} {pair.left.shape[1]}x{pair.left.shape[0]}x"
+            f"{pair.max_disparity - pair.min_disparity + 1}  sgm {row[0]:6.0f} ms  "
+            f"planes {row[1]:6.0f} ms  (+{100 * (row[1] / row[0] - 1):.0f} %)",
+            flush=True,
+        )
     return 0
 
 

@@ -46,7 +46,8 @@ def slic(colour, step, compactness, iterations):
         for k in range(ny * nx):
             ys, xs = np.nonzero(labels == k)
             if len(ys):
-                centres[k] = [ys.mean(), xs.mean()] + [colour[ch][ys, xs].mean() for ch in range(channels)]
+                means = [colour[ch][ys, xs].mean() for ch in range(channels)]
+                centres[k] = [ys.mean(), xs.mean()] + means
     return labels
 
 
@@ -73,26 +74,33 @@ def fit_segment(xs, ys, ds, iterations, inlier, stop, seed):
         a = (d1 * y2 - d2 * y1) / det
         b = (x1 * d2 - x2 * d1) / det
         plane = (a, b, ds[i] - a * xs[i] - b * ys[i])
-        count = sum(abs(plane[0] * x + plane[1] * y + plane[2] - d) <= inlier
-                    for x, y, d in zip(xs, ys, ds))
+        count = sum(
+            abs(plane[0] * x + plane[1] * y + plane[2] - d) <= inlier
+            for x, y, d in zip(xs, ys, ds, strict=True)
+        )
         if count > best_count:
             best, best_count = plane, count
             if count >= stop * n:
                 break
     if best_count < 3:
         return None, 0
-    near = [abs(best[0] * x + best[1] * y + best[2] - d) <= inlier for x, y, d in zip(xs, ys, ds)]
-    px = np.array([x for x, m in zip(xs, near) if m])
-    py = np.array([y for y, m in zip(ys, near) if m])
-    pd = np.array([d for d, m in zip(ds, near) if m])
+    near = [
+        abs(best[0] * x + best[1] * y + best[2] - d) <= inlier
+        for x, y, d in zip(xs, ys, ds, strict=True)
+    ]
+    px = np.array([x for x, m in zip(xs, near, strict=True) if m])
+    py = np.array([y for y, m in zip(ys, near, strict=True) if m])
+    pd = np.array([d for d, m in zip(ds, near, strict=True) if m])
     refined = best
     if len(px) >= 3:
         a_matrix = np.column_stack([px - px.mean(), py - py.mean()])
         if np.linalg.matrix_rank(a_matrix) == 2:
             (a, b), *_ = np.linalg.lstsq(a_matrix, pd - pd.mean(), rcond=None)
             refined = (a, b, pd.mean() - a * px.mean() - b * py.mean())
-    count = sum(abs(refined[0] * x + refined[1] * y + refined[2] - d) <= inlier
-                for x, y, d in zip(xs, ys, ds))
+    count = sum(
+        abs(refined[0] * x + refined[1] * y + refined[2] - d) <= inlier
+        for x, y, d in zip(xs, ys, ds, strict=True)
+    )
     return refined, count
 
 
@@ -124,8 +132,26 @@ def apply_planes(disparity, replaceable, labels, planes, trusted, outlier, low, 
     return out
 
 
-def refine(disparity, kept, colour, margin, steps, *, compactness, slic_iterations, iterations,
-           inlier, stop, min_support, min_ratio, outlier, fit_margin, replace_margin, low, high):
+def refine(
+    disparity,
+    kept,
+    colour,
+    margin,
+    steps,
+    *,
+    compactness,
+    slic_iterations,
+    iterations,
+    inlier,
+    stop,
+    min_support,
+    min_ratio,
+    outlier,
+    fit_margin,
+    replace_margin,
+    low,
+    high,
+):
     """``dcstereo.planes.refine_planes``'s passes from the functions above: the new map."""
     out = disparity.astype(np.float32)
     height, width = out.shape
@@ -138,7 +164,9 @@ def refine(disparity, kept, colour, margin, steps, *, compactness, slic_iteratio
         fits = fit_planes(out, usable, labels, ny * nx, iterations, inlier, stop)
         planes = [p if p is not None else (0.0, 0.0, 0.0) for p, *_ in fits]
         trusted = [
-            p is not None and used >= 3 and used >= min_support * size
+            p is not None
+            and used >= 3
+            and used >= min_support * size
             and count >= min_ratio * max(used, 1)
             for p, used, count, size in fits
         ]

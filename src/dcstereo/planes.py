@@ -19,8 +19,9 @@ from .result import FLAG_BORDER, FLAG_FILLED, FLAG_OCCLUDED, DisparityResult
 
 @dataclass(frozen=True)
 class PlaneParams:
-    """Parameters of :func:`refine_planes` (defaults measured on the development scenes,
-    ``scripts/eval_refine.py``).
+    """Parameters of :func:`refine_planes`.
+
+    Defaults measured on the development scenes (``scripts/eval_refine.py``).
 
     ``steps``: one pass of planes each, over superpixels of about that many pixels a side
     (:func:`superpixels`, with ``compactness`` and ``slic_iterations``), coarse to fine:
@@ -51,8 +52,10 @@ class PlaneParams:
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
         steps = self.steps
-        if not isinstance(steps, tuple) or not steps or not all(
-            isinstance(f, int) and not isinstance(f, bool) and f >= 2 for f in steps
+        if (
+            not isinstance(steps, tuple)
+            or not steps
+            or not all(isinstance(f, int) and not isinstance(f, bool) and f >= 2 for f in steps)
         ):
             raise ValueError(f"steps must be a non-empty tuple of integers from 2, got {steps!r}")
         for name in ("compactness", "inlier", "outlier"):
@@ -102,7 +105,8 @@ def _plane_pass(disparity, labels, nx, ny, usable, replaceable, low, high, itera
     """One pass: fit each segment's plane, give its value where the plane is trusted."""
     planes, support = fit_planes(disparity, usable, labels, nx, ny, iterations, inlier, stop)
     used, inliers, size = support[:, 0], support[:, 1], support[:, 2]
-    trusted = (used >= 3) & (used >= min_support * size) & (inliers >= min_ratio * np.maximum(used, 1))
+    trusted = (used >= 3) & (used >= min_support * size)
+    trusted &= inliers >= min_ratio * np.maximum(used, 1)
     out = np.empty_like(disparity)
     _kernels.apply_planes(
         disparity, np.ascontiguousarray(replaceable), labels, planes, trusted, float(outlier),

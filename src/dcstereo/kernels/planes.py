@@ -24,7 +24,7 @@ LCG_M = 2147483648
 
 @nb.njit(cache=True)
 def lcg_next(state):
-    """The generator's next state (all values below 2**31, so no overflow in int64)."""
+    """Return the generator's next state (all below 2**31: no overflow in int64)."""
     return (state * LCG_A + LCG_C) % LCG_M
 
 
@@ -107,7 +107,7 @@ def slic(colour, step, compactness, iterations, labels):
 
 @nb.njit(cache=True)
 def _plane_through(xs, ys, ds, i, j, k, out):
-    """The plane through points ``i, j, k`` into ``out`` (a, b, c); False if degenerate."""
+    """Write the plane through points ``i, j, k`` into ``out``; False if degenerate."""
     x1, y1, d1 = xs[j] - xs[i], ys[j] - ys[i], ds[j] - ds[i]
     x2, y2, d2 = xs[k] - xs[i], ys[k] - ys[i], ds[k] - ds[i]
     det = x1 * y2 - x2 * y1
