@@ -177,3 +177,47 @@ def test_refine_planes_equals_its_naive_passes(seed):
     )  # fmt: skip
     np.testing.assert_allclose(got.disparity, expected, rtol=1e-5, equal_nan=True)
     assert not np.array_equal(got.disparity, disparity, equal_nan=True)  # the passes did act
+
+
+#: bad-1.0 nonocc (%) of ``sgm`` with ``planes=True``, measured (scripts/eval_refine.py);
+#: sgm alone: teddy 5.803, Art 6.697, Midd1 21.692.
+PINNED_PLANES = {"teddy": 4.956, "Art": 6.209, "Midd1": 18.683}
+
+#: D1 (%) of kitti2012_000000_10 with ``planes=True`` (sgm alone: 5.31), dense.
+PINNED_KITTI_D1 = 3.968
+
+
+@pytest.mark.slow
+@pytest.mark.dataset
+@pytest.mark.parametrize("name", sorted(PINNED_PLANES))
+def test_sgm_planes_keeps_its_measured_accuracy(middlebury_root, name):
+    from dcstereo.datasets import load_scene
+    from dcstereo.evaluation import run_scene
+    from dcstereo.metrics import bad_pixel_rate
+
+    scene = load_scene(middlebury_root / name)
+    result = run_scene("sgm", scene, planes=True).filled()
+    bad = bad_pixel_rate(
+        result.disparity, scene.disparity, threshold=1.0, mask=scene.masks["nonocc"]
+    )
+    assert bad <= PINNED_PLANES[name] + 0.01, f"{name}: bad-1.0 {bad:.3f} % > {PINNED_PLANES[name]}"
+
+
+@pytest.mark.slow
+@pytest.mark.dataset
+def test_sgm_planes_keeps_its_measured_accuracy_outdoors(middlebury_root):
+    import json
+
+    from dcstereo.io import read_image
+
+    folder = middlebury_root.parent / "outdoor" / "kitti2012_000000_10"
+    if not folder.exists():
+        pytest.skip(f"outdoor data not found at {folder}")
+    meta = json.loads((folder / "meta.json").read_text())
+    truth = read_image(folder / "disp_gt.png").astype(np.float64) / 256.0
+    left, right = read_image(folder / "left.png"), read_image(folder / "right.png")
+    result = dcstereo.match(left, right, max_disparity=int(meta["ndisp"]) - 1, planes=True)
+    has = truth > 0
+    error = np.abs(result.filled().disparity[has] - truth[has])
+    d1 = 100 * np.mean((error > 3) & (error > 0.05 * truth[has]))
+    assert d1 <= PINNED_KITTI_D1 + 0.01, f"D1 {d1:.3f} % > {PINNED_KITTI_D1}"
