@@ -51,11 +51,13 @@ def slic(colour, step, compactness, iterations):
     return labels
 
 
-def fit_segment(xs, ys, ds, iterations, inlier, stop, seed):
+def fit_segment(xs, ys, ds, iterations, inlier, stop, seed, max_scored=2**30):
     """(plane (a, b, c), inlier count) as the kernel's: RANSAC, then least squares."""
     n = len(xs)
     if n < 3:
         return None, 0
+    stride = max(1, n // max_scored)
+    scored = list(range(0, n, stride))
     state = (seed * 7919 + 1) % LCG_M
     best, best_count = None, -1
     for _ in range(iterations):
@@ -75,12 +77,11 @@ def fit_segment(xs, ys, ds, iterations, inlier, stop, seed):
         b = (x1 * d2 - x2 * d1) / det
         plane = (a, b, ds[i] - a * xs[i] - b * ys[i])
         count = sum(
-            abs(plane[0] * x + plane[1] * y + plane[2] - d) <= inlier
-            for x, y, d in zip(xs, ys, ds, strict=True)
+            abs(plane[0] * xs[p] + plane[1] * ys[p] + plane[2] - ds[p]) <= inlier for p in scored
         )
         if count > best_count:
             best, best_count = plane, count
-            if count >= stop * n:
+            if count >= stop * len(scored):
                 break
     if best_count < 3:
         return None, 0
@@ -104,7 +105,7 @@ def fit_segment(xs, ys, ds, iterations, inlier, stop, seed):
     return refined, count
 
 
-def fit_planes(disparity, usable, labels, n, iterations, inlier, stop):
+def fit_planes(disparity, usable, labels, n, iterations, inlier, stop, max_scored=2**30):
     """Per label: (plane or None, used, inliers, size); pixels taken in raster order."""
     out = []
     for k in range(n):
@@ -112,7 +113,9 @@ def fit_planes(disparity, usable, labels, n, iterations, inlier, stop):
         keep = usable[ys, xs]
         sx, sy = xs[keep].astype(float), ys[keep].astype(float)
         sd = disparity[ys[keep], xs[keep]].astype(float)
-        plane, count = fit_segment(list(sx), list(sy), list(sd), iterations, inlier, stop, k)
+        plane, count = fit_segment(
+            list(sx), list(sy), list(sd), iterations, inlier, stop, k, max_scored
+        )
         out.append((plane, len(sx), count, len(ys)))
     return out
 
@@ -151,6 +154,7 @@ def refine(
     replace_margin,
     low,
     high,
+    max_scored=2**30,
 ):
     """``dcstereo.planes.refine_planes``'s passes from the functions above: the new map."""
     out = disparity.astype(np.float32)
@@ -161,7 +165,7 @@ def refine(
         holes = np.isnan(out)
         usable = (margin >= fit_margin) & ~holes
         replaceable = ~kept & (holes | (margin < replace_margin))
-        fits = fit_planes(out, usable, labels, ny * nx, iterations, inlier, stop)
+        fits = fit_planes(out, usable, labels, ny * nx, iterations, inlier, stop, max_scored)
         planes = [p if p is not None else (0.0, 0.0, 0.0) for p, *_ in fits]
         trusted = [
             p is not None

@@ -22,8 +22,8 @@ def test_slic_equals_naive(seed):
     np.testing.assert_array_equal(got, expected)
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2, 3])
-def test_fit_planes_equals_naive(seed):
+@pytest.mark.parametrize(("seed", "max_scored"), [(0, 2**30), (1, 2**30), (2, 7), (3, 12)])
+def test_fit_planes_equals_naive(seed, max_scored):
     rng = np.random.default_rng(10 + seed)
     height, width, step = 14, 19, 6
     labels = planes.superpixels(rng.integers(0, 256, (1, height, width)).astype(np.int16), step)
@@ -34,8 +34,10 @@ def test_fit_planes_equals_naive(seed):
     disparity[rng.random((height, width)) < 0.1] = np.nan
     usable = np.isfinite(disparity) & (rng.random((height, width)) < 0.9)
     ny, nx = kernels.grid_shape(height, width, step)
-    got_planes, support = planes.fit_planes(disparity, usable, labels, nx, ny, 50, 1.0, 0.8)
-    expected = naive_planes.fit_planes(disparity, usable, labels, ny * nx, 50, 1.0, 0.8)
+    got_planes, support = planes.fit_planes(
+        disparity, usable, labels, nx, ny, 50, 1.0, 0.8, max_scored
+    )
+    expected = naive_planes.fit_planes(disparity, usable, labels, ny * nx, 50, 1.0, 0.8, max_scored)
     for k, (plane, used, inliers, size) in enumerate(expected):
         assert tuple(support[k]) == (used, inliers, size)
         if plane is not None:
@@ -65,7 +67,7 @@ def test_fit_segment_by_hand():
     ds = 0.5 * xs - ys + 3.0
     ds[6] = 9.0  # the plane says 2.5
     plane = np.zeros(3)
-    count = kernels.fit_segment(xs, ys, ds, 100, 0.5, 1.0, 0, plane)
+    count = kernels.fit_segment(xs, ys, ds, 100, 0.5, 1.0, 2**30, 0, plane)
     assert count == 6
     np.testing.assert_allclose(plane, [0.5, -1.0, 3.0], atol=1e-12)
 
@@ -164,7 +166,9 @@ def test_refine_planes_equals_its_naive_passes(seed):
     flags[holes] = np.where(rng.random(holes.sum()) < 0.5, FLAG_MISMATCH, FLAG_OCCLUDED)
     margin = rng.random((height, width)).astype(np.float32) * 0.4
     colour = rng.integers(0, 256, (3, height, width)).astype(np.int16)
-    plane_params = planes.PlaneParams(steps=(9, 5), iterations=40, slic_iterations=2)
+    plane_params = planes.PlaneParams(
+        steps=(9, 5), iterations=40, slic_iterations=2, slic_scale=1, max_scored=10
+    )
     result = DisparityResult(disparity, flags, params, np.full(height, np.nan))
     got = planes.refine_planes(result, colour, margin, plane_params)
     expected = naive_planes.refine(
@@ -172,7 +176,8 @@ def test_refine_planes_equals_its_naive_passes(seed):
         compactness=plane_params.compactness, slic_iterations=2, iterations=40,
         inlier=plane_params.inlier, stop=plane_params.stop, min_support=plane_params.min_support,
         min_ratio=plane_params.min_ratio, outlier=plane_params.outlier,
-        fit_margin=plane_params.fit_margin, replace_margin=plane_params.replace_margin,
+        fit_margin=plane_params.fit_margin, max_scored=10,
+        replace_margin=plane_params.replace_margin,
         low=0, high=12,
     )  # fmt: skip
     np.testing.assert_allclose(got.disparity, expected, rtol=1e-5, equal_nan=True)

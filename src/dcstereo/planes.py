@@ -28,7 +28,8 @@ class PlaneParams:
     each pass fits its planes to the map the pass before left (the holes it filled among
     the estimates); ``slic_scale``: the superpixels cut on the image shrunk that many
     times (:func:`coarse_superpixels`, for speed);
-    ``iterations``, ``inlier``, ``stop``: the RANSAC of each segment (:func:`fit_planes`);
+    ``iterations``, ``inlier``, ``stop``, ``max_scored``: the RANSAC of each segment
+    (:func:`fit_planes`);
     ``min_support``, ``min_ratio``: when a plane is trusted; ``outlier``: how far from it
     an estimate is replaced; ``fit_margin``: the least confidence margin of an estimate
     the planes are fitted to; ``replace_margin``: estimates whose margin is below it may
@@ -38,8 +39,9 @@ class PlaneParams:
     steps: tuple[int, ...] = (48, 32, 16)
     compactness: float = 10.0
     slic_iterations: int = 3
-    slic_scale: int = 1
-    iterations: int = 200
+    slic_scale: int = 2
+    iterations: int = 100
+    max_scored: int = 64
     inlier: float = 1.5
     stop: float = 0.9
     min_support: float = 0.3
@@ -49,6 +51,14 @@ class PlaneParams:
     replace_margin: float = 0.15
 
     def __post_init__(self):
+        if (
+            isinstance(self.max_scored, bool)
+            or not isinstance(self.max_scored, int)
+            or self.max_scored < 3
+        ):
+            raise ValueError(
+                f"max_scored must be an integer of at least 3, got {self.max_scored!r}"
+            )
         for name in ("slic_iterations", "slic_scale", "iterations"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
@@ -111,8 +121,11 @@ def coarse_superpixels(colour: np.ndarray, step: int, compactness: float, iterat
 
 def fit_planes(disparity: np.ndarray, usable: np.ndarray, labels: np.ndarray, nx: int,
                ny: int, iterations: int = 200, inlier: float = 1.0,
-               stop: float = 0.9):  # fmt: skip
+               stop: float = 0.9, max_scored: int = 2**30):  # fmt: skip
     """Fit a plane to each segment's ``usable`` estimates; return ``(planes, support)``.
+
+    Each RANSAC draw is scored on about ``max_scored`` of a segment's estimates (every
+    ``n // max_scored``-th), the refit on all of them.
 
     ``labels``: ``gy * nx + gx`` on a grid of ``ny x nx`` segments. ``planes``: ``(n, 3)``
     float64, ``(a, b, c)`` of ``d = a x + b y + c``; ``support``: ``(n, 3)`` int64,
@@ -124,15 +137,17 @@ def fit_planes(disparity: np.ndarray, usable: np.ndarray, labels: np.ndarray, nx
     _kernels.fit_planes(
         np.ascontiguousarray(disparity, dtype=np.float64), np.ascontiguousarray(usable),
         np.ascontiguousarray(labels), n, nx, int(iterations), float(inlier), float(stop),
-        planes, support,
+        int(max_scored), planes, support,
     )  # fmt: skip
     return planes, support
 
 
 def _plane_pass(disparity, labels, nx, ny, usable, replaceable, low, high, iterations,
-                inlier, outlier, min_ratio, min_support, stop):  # fmt: skip
+                inlier, outlier, min_ratio, min_support, stop, max_scored=2**30):  # fmt: skip
     """One pass: fit each segment's plane, give its value where the plane is trusted."""
-    planes, support = fit_planes(disparity, usable, labels, nx, ny, iterations, inlier, stop)
+    planes, support = fit_planes(
+        disparity, usable, labels, nx, ny, iterations, inlier, stop, max_scored
+    )
     used, inliers, size = support[:, 0], support[:, 1], support[:, 2]
     trusted = (used >= 3) & (used >= min_support * size)
     trusted &= inliers >= min_ratio * np.maximum(used, 1)
@@ -210,6 +225,7 @@ def refine_planes(
             out, labels, nx, ny, sure & ~holes, ~kept & (holes | unsure),
             result.params.min_disparity, result.params.max_disparity, params.iterations,
             params.inlier, params.outlier, params.min_ratio, params.min_support, params.stop,
+            params.max_scored,
         ).astype(np.float32)  # fmt: skip
     filled = np.isnan(d) & np.isfinite(out)
     flags = result.flags | (filled.view(np.uint8) * np.uint8(FLAG_FILLED))

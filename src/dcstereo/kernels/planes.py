@@ -164,16 +164,20 @@ def _least_squares(xs, ys, ds, plane, inlier, out):
 
 
 @nb.njit(cache=True)
-def fit_segment(xs, ys, ds, iterations, inlier, stop, seed, out):
+def fit_segment(xs, ys, ds, iterations, inlier, stop, max_scored, seed, out):
     """RANSAC then least squares over the points; returns the final inlier count.
 
-    The draws stop early at a plane with ``stop`` (a fraction) of the points as inliers.
+    Each drawn plane is scored on every ``stride``-th point, ``stride = n // max_scored``
+    (at least 1), for speed; the draws stop early at a plane with ``stop`` (a fraction) of
+    the scored points as inliers. The refit and the count returned use every point.
 
     ``out``: (a, b, c) of ``d = a x + b y + c``. Fewer than three points: no plane, 0.
     """
     n = xs.shape[0]
     if n < 3:
         return 0
+    stride = max(1, n // max_scored)
+    scored = (n + stride - 1) // stride
     state = (seed * 7919 + 1) % LCG_M
     trial = np.empty(3)
     best = np.empty(3)
@@ -190,13 +194,13 @@ def fit_segment(xs, ys, ds, iterations, inlier, stop, seed, out):
         if not _plane_through(xs, ys, ds, i, j, k, trial):
             continue
         count = 0
-        for p in range(n):
+        for p in range(0, n, stride):  # scored on every stride-th point
             if abs(trial[0] * xs[p] + trial[1] * ys[p] + trial[2] - ds[p]) <= inlier:
                 count += 1
         if count > best_count:
             best_count = count
             best[:] = trial
-            if count >= stop * n:  # enough of the points agree: no better plane to find
+            if count >= stop * scored:  # enough of the points agree: no better plane to find
                 break
     if best_count < 3:
         return 0
@@ -229,7 +233,9 @@ def segment_order(labels, n):
 
 
 @nb.njit(cache=True, parallel=True)
-def fit_planes(disparity, usable, labels, n, nx, iterations, inlier, stop, planes, support):
+def fit_planes(
+    disparity, usable, labels, n, nx, iterations, inlier, stop, max_scored, planes, support
+):
     """Fit a plane to each segment's ``usable`` estimates.
 
     ``planes[k]``: (a, b, c); ``support[k]``: (estimates used, inliers, pixels). Segments
@@ -259,7 +265,7 @@ def fit_planes(disparity, usable, labels, n, nx, iterations, inlier, stop, plane
                     ds[m] = disparity[y, x]
                     m += 1
             plane = np.zeros(3)
-            count = fit_segment(xs, ys, ds, iterations, inlier, stop, k, plane)
+            count = fit_segment(xs, ys, ds, iterations, inlier, stop, max_scored, k, plane)
             planes[k, :] = plane
             support[k, 0] = m
             support[k, 1] = count
