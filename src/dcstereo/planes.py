@@ -41,7 +41,7 @@ class PlaneParams:
     slic_iterations: int = 3
     slic_scale: int = 2
     iterations: int = 100
-    max_scored: int = 64
+    max_scored: int = 128
     inlier: float = 1.5
     stop: float = 0.9
     min_support: float = 0.3
