@@ -226,3 +226,19 @@ def test_sgm_planes_keeps_its_measured_accuracy_outdoors(middlebury_root):
     error = np.abs(result.filled().disparity[has] - truth[has])
     d1 = 100 * np.mean((error > 3) & (error > 0.05 * truth[has]))
     assert d1 <= PINNED_KITTI_D1 + 0.01, f"D1 {d1:.3f} % > {PINNED_KITTI_D1}"
+
+
+def test_coarse_superpixels_shrink_and_expand_by_hand():
+    colour = np.arange(2 * 5 * 7, dtype=np.int16).reshape(2, 5, 7)
+    small = np.empty((2, 3, 4))
+    kernels.shrink(colour, 2, small)
+    assert small[0, 0, 0] == np.mean([0, 1, 7, 8])
+    assert small[1, 2, 3] == colour[1, 4, 6]  # a corner block of one pixel
+    assert small[0, 2, 1] == np.mean([30, 31])  # the last row's blocks: one row each
+    labels = np.arange(12, dtype=np.int32).reshape(3, 4)
+    full = np.empty((5, 7), dtype=np.int32)
+    kernels.expand(labels, 2, full)
+    np.testing.assert_array_equal(full, np.repeat(np.repeat(labels, 2, 0), 2, 1)[:5, :7])
+    got, nx, ny = planes.coarse_superpixels(colour, 4, 10.0, 2, 2)
+    np.testing.assert_array_equal(got[::2, ::2], planes.superpixels(small, 2, 10.0, 2))
+    assert (ny, nx) == kernels.grid_shape(3, 4, 2)

@@ -96,7 +96,7 @@ def coarse_superpixels(colour: np.ndarray, step: int, compactness: float, iterat
                        scale: int):  # fmt: skip
     """:func:`superpixels` of ``colour`` shrunk ``scale`` times: ``(labels, nx, ny)``.
 
-    Each ``scale x scale`` block of pixels averaged (the edges repeated to whole blocks),
+    Each ``scale x scale`` block of pixels averaged (a block cut by the edge: its pixels),
     cut into superpixels of about ``step / scale`` blocks a side, each pixel labelled as its
     block: ``scale**2`` times less work, for edges a block coarse. ``scale`` 1: the image
     itself. ``nx, ny``: the labels' grid.
@@ -106,17 +106,14 @@ def coarse_superpixels(colour: np.ndarray, step: int, compactness: float, iterat
         ny, nx = _kernels.grid_shape(height, width, step)
         return superpixels(colour, step, compactness, iterations), nx, ny
     rows, cols = -(-height // scale), -(-width // scale)
-    padded = np.pad(
-        colour.astype(np.float64),
-        ((0, 0), (0, rows * scale - height), (0, cols * scale - width)),
-        mode="edge",
-    )
-    small = padded.reshape(colour.shape[0], rows, scale, cols, scale).mean(axis=(2, 4))
+    small = np.empty((colour.shape[0], rows, cols), dtype=np.float64)
+    _kernels.shrink(np.ascontiguousarray(colour), scale, small)
     coarse_step = max(2, round(step / scale))
     labels = superpixels(small, coarse_step, compactness, iterations)
     ny, nx = _kernels.grid_shape(rows, cols, coarse_step)
-    full = np.repeat(np.repeat(labels, scale, axis=0), scale, axis=1)[:height, :width]
-    return np.ascontiguousarray(full), nx, ny
+    full = np.empty((height, width), dtype=np.int32)
+    _kernels.expand(labels, scale, full)
+    return full, nx, ny
 
 
 def fit_planes(disparity: np.ndarray, usable: np.ndarray, labels: np.ndarray, nx: int,

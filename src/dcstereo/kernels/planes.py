@@ -292,3 +292,35 @@ def apply_planes(disparity, replaceable, labels, planes, trusted, outlier, low, 
             if not (np.isnan(d) or abs(d - value) > outlier):
                 continue
             out[y, x] = min(high, max(low, value))
+
+
+@nb.njit(cache=True, parallel=True)
+def shrink(colour, scale, out):
+    """Mean of each ``scale x scale`` block of ``colour`` (``(C, H, W)``) into ``out``.
+
+    ``out``: ``(C, ceil(H / scale), ceil(W / scale))`` float64; a block cut by the image's
+    edge is the mean of the pixels it has.
+    """
+    channels, height, width = colour.shape
+    rows, cols = out.shape[1], out.shape[2]
+    for r in nb.prange(rows):
+        y0, y1 = r * scale, min(height, (r + 1) * scale)
+        for q in range(cols):
+            x0, x1 = q * scale, min(width, (q + 1) * scale)
+            count = (y1 - y0) * (x1 - x0)
+            for c in range(channels):
+                total = 0.0
+                for y in range(y0, y1):
+                    for x in range(x0, x1):
+                        total += colour[c, y, x]
+                out[c, r, q] = total / count
+
+
+@nb.njit(cache=True, parallel=True)
+def expand(labels, scale, out):
+    """Label each pixel of ``out`` (``(H, W)``) as its ``scale x scale`` block in ``labels``."""
+    height, width = out.shape
+    for y in nb.prange(height):
+        r = y // scale
+        for x in range(width):
+            out[y, x] = labels[r, x // scale]
