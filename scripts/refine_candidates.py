@@ -198,6 +198,9 @@ def _two(first, second, second_holes_only=True):
 
 
 def _one(**kw):
+    """refine_planes with PlaneParams(**kw) (the candidates measured before a default
+    changed ran with the defaults of their commit)."""
+
     def cand(pair, raw, margin, colour, params):
         return finish(
             refine_planes(raw, colour, margin, PlaneParams(**kw)), colour, params
@@ -206,21 +209,21 @@ def _one(**kw):
     return cand
 
 
-register("two-16-32")(_two({}, {"step": 32}))
-register("two-16-32-all")(_two({}, {"step": 32}, False))
-register("two-32-16")(_two({"step": 32}, {}, False))
-register("two-16-24")(_two({}, {"step": 24}, False))
+register("two-16-32")(_two({"steps": (16,)}, {"steps": (32,)}))
+register("two-16-32-all")(_two({"steps": (16,)}, {"steps": (32,)}, False))
+register("two-32-16")(_two({"steps": (32,)}, {"steps": (16,)}, False))
+register("two-16-24")(_two({"steps": (16,)}, {"steps": (24,)}, False))
 register("one-rm3")(_one(replace_margin=0.3))
 register("one-fm1")(_one(fit_margin=0.1))
 register("one-fm0")(_one(fit_margin=0.0))
-register("one-s20")(_one(step=20))
+register("one-s20")(_one(steps=(20,)))
 
 
 def _multi(*steps, **kw):
     def cand(pair, raw, margin, colour, params):
         r = raw
         for s in steps:
-            r = refine_planes(r, colour, margin, PlaneParams(step=s, **kw))
+            r = refine_planes(r, colour, margin, PlaneParams(steps=(s,), **kw))
         return finish(r, colour, params).disparity
 
     return cand
@@ -233,12 +236,7 @@ register("m-24-16")(_multi(24, 16))
 register("m-32-16-it1")(_multi(32, 16, slic_iterations=1))
 register("m-32-16-i100")(_multi(32, 16, iterations=100))
 register("m-32-16-rm3")(_multi(32, 16, replace_margin=0.3))
-register("f321")(_one())
-register("f21")(_one(factors=(2, 1)))
 register("f321-it2")(_one(slic_iterations=2))
-register("f4321")(_one(factors=(4, 3, 2, 1)))
-register("f421-s12")(_one(step=12, factors=(4, 2, 1)))
-register("f3221")(_one(factors=(3, 2, 2, 1)))
 register("s48-32-16")(_one())
 register("s48-32-16-it1")(_one(slic_iterations=1))
 register("s48-32-16-it2")(_one(slic_iterations=2))
