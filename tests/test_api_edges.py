@@ -102,6 +102,7 @@ OTHER_VALUES = {
     "p2_gradient": 4.0,
     "paths": 4,
     "lr_tolerance": 2,
+    "planes": True,
 }
 
 

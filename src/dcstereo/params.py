@@ -119,6 +119,7 @@ METHOD_OPTIONS = {
     "p2_gradient": ("sgm",),
     "paths": ("sgm",),
     "lr_tolerance": ("sgm",),
+    "planes": ("sgm",),
 }
 
 
@@ -327,6 +328,10 @@ class MatchParams:
         ``occlusion_discount`` (0 to :data:`MAX_OCCLUSION_DISCOUNT_PIXELS`; 0: none).
         Default :data:`DEFAULT_OCCLUSION_DISCOUNT_PIXELS`: a run of ``n`` pixels costs
         ``occlusion_cost * (n - occlusion_discount * min(n - 1, 5))``.
+    planes : bool
+        ``sgm`` only, off by default: after the left-right check, a robust plane per
+        superpixel of the left image gives its value to the mismatched pixels and to the
+        unsure estimates far from it (:func:`dcstereo.refine.planes.refine_planes`).
     """
 
     max_disparity: int
@@ -360,6 +365,7 @@ class MatchParams:
     p2_gradient: float = DEFAULT_P2_GRADIENT
     paths: int = DEFAULT_PATHS
     lr_tolerance: int | None = DEFAULT_LR_TOLERANCE
+    planes: bool = False
 
     def __post_init__(self):
         for field in fields(self):  # numpy scalars (np.int64(4), np.True_): the Python value
@@ -375,7 +381,7 @@ class MatchParams:
                 object.__setattr__(self, name, value)
         if off:
             object.__setattr__(self, "subpixel", None)
-        for name in ("fill", "vs_relative", "lr_check"):
+        for name in ("fill", "vs_relative", "lr_check", "planes"):
             value = getattr(self, name)
             if not isinstance(value, bool):
                 raise TypeError(f"{name} must be True or False, got {value!r}")

@@ -29,7 +29,11 @@ FEATURE_METHODS = ("dc", "dc-linear", "dsi3-gcp")
 MATCH_OPTIONS = ("method", "window", "cost", "fill", "subpixel", "median")
 
 #: The two flags of the on/off options of :data:`METHOD_OPTIONS`.
-_SWITCHES = {"vs_relative": "--vs-relative/--vs-absolute", "lr_check": "--lr-check/--no-lr-check"}
+_SWITCHES = {
+    "vs_relative": "--vs-relative/--vs-absolute",
+    "lr_check": "--lr-check/--no-lr-check",
+    "planes": "--planes/--no-planes",
+}
 
 
 def _flag(name: str) -> str:
@@ -171,6 +175,11 @@ _METHOD_OPTION_TABLE = {
         "Left-right check: the largest difference, in pixels, between a pixel's disparity "
         f"and its right pixel's (default {_params.DEFAULT_LR_TOLERANCE}; -1: no check).",
         {"type": int, "callback": lambda c, p, v: v if v is None or v >= 0 else "off"},
+    ),
+    "planes": (
+        "After the left-right check, a robust plane per superpixel of the left image for "
+        "the mismatches and the unsure estimates (default: off).",
+        {},
     ),
     "orientations": (
         "Comma-separated surface slopes (px of disparity per px), each of 0, +-0.0625, "

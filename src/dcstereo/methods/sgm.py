@@ -22,6 +22,9 @@ function of arrays with its parameters in :class:`~dcstereo.params.MatchParams`:
    (:mod:`dcstereo.refine.consistency`);
 6. the median post-filter (``median``, by :func:`dcstereo.match`).
 
+With ``planes`` (off by default), between 4 and 5: a robust plane per superpixel of the left
+image for the mismatches and the unsure estimates (:func:`dcstereo.refine.planes.refine_planes`).
+
 Memory of a call on a ``W x H`` pair searching ``D`` disparities (``Dp``: ``D`` rounded up to
 a multiple of 16): the volumes (the costs and two sums of paths, int16) of one tile,
 ``6 * tile pixels * Dp`` bytes, at most :data:`VOLUME_BYTES` (768 MiB): the whole image when
@@ -58,6 +61,7 @@ from dcstereo.costs import census as census_kernels
 from dcstereo.methods._pipeline import FILL, MEDIAN, Method, MethodParams, core, option
 from dcstereo.params import MatchParams
 from dcstereo.refine.consistency import fill_with_colour
+from dcstereo.refine.planes import refine_planes
 from dcstereo.result import DisparityResult
 from dcstereo.signal import SIGNAL_STEPS, colour_channels, padded_signal
 
@@ -384,7 +388,8 @@ def _run_threads(left, right, params, want_confidence):
     best = np.empty((height, width), dtype=np.int16)
     value = np.empty((height, width), dtype=np.int16)
     candidate = np.empty((height, width), dtype=np.float32)
-    margin = np.empty((height, width if want_confidence else 0), dtype=np.float32)
+    keep_margin = want_confidence or params.planes  # the planes read the margins
+    margin = np.empty((height, width if keep_margin else 0), dtype=np.float32)
     threads = numba.get_num_threads()
     plan = tiles(height, width, lanes)
     largest_tile = max((r[3] - r[0]) * (c[3] - c[0]) for r, c in plan)
@@ -416,9 +421,11 @@ def _run_threads(left, right, params, want_confidence):
     tolerance = -1 if params.lr_tolerance is None else params.lr_tolerance
     sgm_kernels.left_right_check(best, value, candidate, dmin, tolerance, disparity, flags, threads)
     result = DisparityResult(disparity, flags, params, np.full(height, np.nan))
+    if (params.fill or params.planes) and colour_l.shape[1:] != (height, width):
+        colour_l, _ = colour_channels(left, left)  # cost="census" keeps no colours
+    if params.planes:
+        result = refine_planes(result, colour_l, margin)
     if params.fill:
-        if colour_l.shape[1:] != (height, width):  # cost="census" keeps no colours
-            colour_l, _ = colour_channels(left, left)
         result = fill_with_colour(result, colour_l)
     return result, margin
 
@@ -438,6 +445,7 @@ class SGMParams(MethodParams):
     p2_gradient: float = option("p2_gradient")
     paths: int = option("paths")
     lr_tolerance: int | None = option("lr_tolerance")
+    planes: bool = option("planes")
 
 
 METHOD = Method(

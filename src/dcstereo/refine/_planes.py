@@ -1,0 +1,326 @@
+"""Kernels of :mod:`dcstereo.refine.planes`: superpixels of the left image, a plane per segment.
+
+* :func:`slic`: SLIC superpixels (Achanta et al. 2012) on a regular grid of seeds, each
+  pixel assigned to the nearest of the seeds of its own grid cell and the eight around it
+  (colour distance plus ``compactness``-weighted distance in the image), the seeds moved to
+  their pixels' means, ``iterations`` times. Labels are grid cells: ``gy * nx + gx``.
+* :func:`fit_planes`: per segment, RANSAC over the segment's estimates (a plane
+  ``d = a x + b y + c`` through three of them, the one with most estimates within
+  ``inlier`` pixels of it), then a least-squares fit to those inliers. The random draws
+  come from a 31-bit linear congruential generator seeded by the segment's label, so the
+  result does not depend on threads or on a global state.
+* :func:`apply_planes`: the pixels of a segment with a trusted plane that have no
+  estimate, or one farther than ``outlier`` from the plane, take the plane's value.
+"""
+
+import numba as nb
+import numpy as np
+
+#: The generator's multiplier, increment and modulus (glibc's ``rand``).
+LCG_A = 1103515245
+LCG_C = 12345
+LCG_M = 2147483648
+
+
+@nb.njit(cache=True)
+def lcg_next(state):
+    """Return the generator's next state (all below 2**31: no overflow in int64)."""
+    return (state * LCG_A + LCG_C) % LCG_M
+
+
+@nb.njit(cache=True)
+def grid_shape(height, width, step):
+    """Rows and columns of the seed grid: about one seed per ``step x step`` pixels."""
+    ny = max(1, int(round(height / step)))
+    nx = max(1, int(round(width / step)))
+    return ny, nx
+
+
+@nb.njit(cache=True)
+def _assign_row(colour, y, centres, ny, nx, weight, labels):
+    """Label row ``y``: the nearest seed of the 3 x 3 grid cells around the pixel's own."""
+    channels, height, width = colour.shape
+    gy = min(ny - 1, (y * ny) // height)
+    for x in range(width):
+        gx = min(nx - 1, (x * nx) // width)
+        best = np.inf
+        best_label = gy * nx + gx
+        for j in range(max(0, gy - 1), min(ny, gy + 2)):
+            for i in range(max(0, gx - 1), min(nx, gx + 2)):
+                k = j * nx + i
+                dy = y - centres[k, 0]
+                dx = x - centres[k, 1]
+                dist = weight * (dy * dy + dx * dx)
+                for c in range(channels):
+                    dc = colour[c, y, x] - centres[k, 2 + c]
+                    dist += dc * dc
+                if dist < best:
+                    best = dist
+                    best_label = k
+        labels[y, x] = best_label
+
+
+@nb.njit(cache=True, parallel=True)
+def slic(colour, step, compactness, iterations, labels):
+    """SLIC superpixels of ``colour`` (``(C, H, W)``) into ``labels`` (``(H, W)`` int32).
+
+    Seeds on a grid of about ``step`` pixels (:func:`grid_shape`) at their cells' centres;
+    ``compactness``: the colour distance (gray levels) worth ``step`` pixels of distance.
+    Returns the number of labels (``ny * nx``); a seed left without pixels keeps its place.
+    """
+    channels, height, width = colour.shape
+    ny, nx = grid_shape(height, width, step)
+    n = ny * nx
+    centres = np.empty((n, 2 + channels), dtype=np.float64)
+    for j in range(ny):
+        for i in range(nx):
+            k = j * nx + i
+            y = min(height - 1, int((j + 0.5) * height / ny))
+            x = min(width - 1, int((i + 0.5) * width / nx))
+            centres[k, 0] = y
+            centres[k, 1] = x
+            for c in range(channels):
+                centres[k, 2 + c] = colour[c, y, x]
+    weight = (compactness / step) ** 2
+    sums = np.empty((n, 3 + channels), dtype=np.float64)
+    for it in range(iterations + 1):
+        for y in nb.prange(height):
+            _assign_row(colour, y, centres, ny, nx, weight, labels)
+        if it == iterations:
+            break
+        sums[:] = 0.0
+        for y in range(height):
+            for x in range(width):
+                k = labels[y, x]
+                sums[k, 0] += y
+                sums[k, 1] += x
+                for c in range(channels):
+                    sums[k, 2 + c] += colour[c, y, x]
+                sums[k, 2 + channels] += 1.0
+        for k in range(n):
+            count = sums[k, 2 + channels]
+            if count > 0:
+                for f in range(2 + channels):
+                    centres[k, f] = sums[k, f] / count
+    return n
+
+
+@nb.njit(cache=True)
+def _plane_through(xs, ys, ds, i, j, k, out):
+    """Write the plane through points ``i, j, k`` into ``out``; False if degenerate."""
+    x1, y1, d1 = xs[j] - xs[i], ys[j] - ys[i], ds[j] - ds[i]
+    x2, y2, d2 = xs[k] - xs[i], ys[k] - ys[i], ds[k] - ds[i]
+    det = x1 * y2 - x2 * y1
+    if abs(det) < 0.5:  # (nearly) collinear: twice the triangle's area under half a pixel
+        return False
+    a = (d1 * y2 - d2 * y1) / det
+    b = (x1 * d2 - x2 * d1) / det
+    out[0] = a
+    out[1] = b
+    out[2] = ds[i] - a * xs[i] - b * ys[i]
+    return True
+
+
+@nb.njit(cache=True)
+def _least_squares(xs, ys, ds, plane, inlier, out):
+    """Least-squares plane of the points within ``inlier`` of ``plane``; returns their count.
+
+    Coordinates centred on the inliers' mean; ``out`` keeps ``plane`` if the system is
+    singular (fewer than three non-collinear inliers).
+    """
+    n = xs.shape[0]
+    count = 0
+    mx = my = md = 0.0
+    for p in range(n):
+        if abs(plane[0] * xs[p] + plane[1] * ys[p] + plane[2] - ds[p]) <= inlier:
+            count += 1
+            mx += xs[p]
+            my += ys[p]
+            md += ds[p]
+    out[:] = plane
+    if count < 3:
+        return count
+    mx /= count
+    my /= count
+    md /= count
+    sxx = sxy = syy = sxd = syd = 0.0
+    for p in range(n):
+        if abs(plane[0] * xs[p] + plane[1] * ys[p] + plane[2] - ds[p]) <= inlier:
+            x, y, d = xs[p] - mx, ys[p] - my, ds[p] - md
+            sxx += x * x
+            sxy += x * y
+            syy += y * y
+            sxd += x * d
+            syd += y * d
+    det = sxx * syy - sxy * sxy
+    if det <= 1e-9 * max(1.0, sxx * syy):
+        return count
+    a = (sxd * syy - syd * sxy) / det
+    b = (sxx * syd - sxy * sxd) / det
+    out[0] = a
+    out[1] = b
+    out[2] = md - a * mx - b * my
+    return count
+
+
+@nb.njit(cache=True)
+def fit_segment(xs, ys, ds, iterations, inlier, stop, max_scored, seed, out):
+    """RANSAC then least squares over the points; returns the final inlier count.
+
+    Each drawn plane is scored on every ``stride``-th point, ``stride = n // max_scored``
+    (at least 1), for speed; the draws stop early at a plane with ``stop`` (a fraction) of
+    the scored points as inliers. The refit and the count returned use every point.
+
+    ``out``: (a, b, c) of ``d = a x + b y + c``. Fewer than three points: no plane, 0.
+    """
+    n = xs.shape[0]
+    if n < 3:
+        return 0
+    stride = max(1, n // max_scored)
+    scored = (n + stride - 1) // stride
+    state = (seed * 7919 + 1) % LCG_M
+    trial = np.empty(3)
+    best = np.empty(3)
+    best_count = -1
+    for _ in range(iterations):
+        state = lcg_next(state)
+        i = (state >> 8) % n
+        state = lcg_next(state)
+        j = (state >> 8) % n
+        state = lcg_next(state)
+        k = (state >> 8) % n
+        if i == j or j == k or i == k:
+            continue
+        if not _plane_through(xs, ys, ds, i, j, k, trial):
+            continue
+        count = 0
+        for p in range(0, n, stride):  # scored on every stride-th point
+            if abs(trial[0] * xs[p] + trial[1] * ys[p] + trial[2] - ds[p]) <= inlier:
+                count += 1
+        if count > best_count:
+            best_count = count
+            best[:] = trial
+            if count >= stop * scored:  # enough of the points agree: no better plane to find
+                break
+    if best_count < 3:
+        return 0
+    refined = np.empty(3)
+    _least_squares(xs, ys, ds, best, inlier, refined)
+    count = 0
+    for p in range(n):
+        if abs(refined[0] * xs[p] + refined[1] * ys[p] + refined[2] - ds[p]) <= inlier:
+            count += 1
+    out[:] = refined
+    return count
+
+
+@nb.njit(cache=True)
+def segment_order(labels, n):
+    """Pixels (flat indices) sorted by label, stably, and each label's start: a counting sort."""
+    flat = labels.reshape(-1)
+    starts = np.zeros(n + 1, dtype=np.int64)
+    for p in range(flat.shape[0]):
+        starts[flat[p] + 1] += 1
+    for k in range(n):
+        starts[k + 1] += starts[k]
+    fill = starts[:n].copy()
+    order = np.empty(flat.shape[0], dtype=np.int64)
+    for p in range(flat.shape[0]):
+        k = flat[p]
+        order[fill[k]] = p
+        fill[k] += 1
+    return order, starts
+
+
+@nb.njit(cache=True, parallel=True)
+def fit_planes(
+    disparity, usable, labels, n, nx, iterations, inlier, stop, max_scored, planes, support
+):
+    """Fit a plane to each segment's ``usable`` estimates.
+
+    ``planes[k]``: (a, b, c); ``support[k]``: (estimates used, inliers, pixels). Segments
+    are fitted a grid row at a time (labels ``gy * nx ..``), rows in parallel.
+    """
+    height, width = disparity.shape
+    order, starts = segment_order(labels, n)
+    ny = n // nx
+    for gy in nb.prange(ny):
+        for k in range(gy * nx, (gy + 1) * nx):
+            size = starts[k + 1] - starts[k]
+            m = 0
+            for q in range(starts[k], starts[k + 1]):
+                p = order[q]
+                if usable[p // width, p % width]:
+                    m += 1
+            xs = np.empty(m)
+            ys = np.empty(m)
+            ds = np.empty(m)
+            m = 0
+            for q in range(starts[k], starts[k + 1]):
+                p = order[q]
+                y, x = p // width, p % width
+                if usable[y, x]:
+                    xs[m] = x
+                    ys[m] = y
+                    ds[m] = disparity[y, x]
+                    m += 1
+            plane = np.zeros(3)
+            count = fit_segment(xs, ys, ds, iterations, inlier, stop, max_scored, k, plane)
+            planes[k, :] = plane
+            support[k, 0] = m
+            support[k, 1] = count
+            support[k, 2] = size
+
+
+@nb.njit(cache=True, parallel=True)
+def apply_planes(disparity, replaceable, labels, planes, trusted, outlier, low, high, out):
+    """Write the refined map into ``out``.
+
+    A pixel of a ``trusted`` segment takes the plane's value (limited to ``low..high``)
+    when it is ``replaceable`` and either has no estimate or one farther than ``outlier``
+    from the plane; every other pixel keeps its value. Returns nothing.
+    """
+    height, width = disparity.shape
+    for y in nb.prange(height):
+        for x in range(width):
+            d = disparity[y, x]
+            out[y, x] = d
+            k = labels[y, x]
+            if not trusted[k] or not replaceable[y, x]:
+                continue
+            value = planes[k, 0] * x + planes[k, 1] * y + planes[k, 2]
+            if not (np.isnan(d) or abs(d - value) > outlier):
+                continue
+            out[y, x] = min(high, max(low, value))
+
+
+@nb.njit(cache=True, parallel=True)
+def shrink(colour, scale, out):
+    """Mean of each ``scale x scale`` block of ``colour`` (``(C, H, W)``) into ``out``.
+
+    ``out``: ``(C, ceil(H / scale), ceil(W / scale))`` float64; a block cut by the image's
+    edge is the mean of the pixels it has.
+    """
+    channels, height, width = colour.shape
+    rows, cols = out.shape[1], out.shape[2]
+    for r in nb.prange(rows):
+        y0, y1 = r * scale, min(height, (r + 1) * scale)
+        for q in range(cols):
+            x0, x1 = q * scale, min(width, (q + 1) * scale)
+            count = (y1 - y0) * (x1 - x0)
+            for c in range(channels):
+                total = 0.0
+                for y in range(y0, y1):
+                    for x in range(x0, x1):
+                        total += colour[c, y, x]
+                out[c, r, q] = total / count
+
+
+@nb.njit(cache=True, parallel=True)
+def expand(labels, scale, out):
+    """Label each pixel of ``out`` (``(H, W)``) as its ``scale x scale`` block in ``labels``."""
+    height, width = out.shape
+    for y in nb.prange(height):
+        r = y // scale
+        for x in range(width):
+            out[y, x] = labels[r, x // scale]

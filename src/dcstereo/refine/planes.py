@@ -1,0 +1,229 @@
+"""Robust planes per segment of the left image: a refinement of ``sgm``'s map.
+
+Large weakly textured or slanted surfaces (a wall, a table, a floor) are where a
+semi-global matcher leaves streaks and holes, but there the true disparity is close to a
+plane over any small patch of one colour. :func:`segment_planes` cuts the left image into
+superpixels (SLIC, :func:`superpixels`), fits a plane ``d = a x + b y + c`` to each
+segment's trusted estimates by RANSAC and least squares (:func:`fit_planes`), and where a
+segment's plane explains most of its estimates, gives the plane's value to its pixels
+without an estimate and to those whose estimate is far from it.
+"""
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from dcstereo.refine import _planes as _kernels
+from dcstereo.result import FLAG_BORDER, FLAG_FILLED, FLAG_OCCLUDED, DisparityResult
+
+
+@dataclass(frozen=True)
+class PlaneParams:
+    """Parameters of :func:`refine_planes`.
+
+    Defaults measured on the development scenes (``scripts/eval_refine.py``).
+
+    ``steps``: one pass of planes each, over superpixels of about that many pixels a side
+    (:func:`superpixels`, with ``compactness`` and ``slic_iterations``), coarse to fine:
+    each pass fits its planes to the map the pass before left (the holes it filled among
+    the estimates); ``slic_scale``: the superpixels cut on the image shrunk that many
+    times (:func:`coarse_superpixels`, for speed);
+    ``iterations``, ``inlier``, ``stop``, ``max_scored``: the RANSAC of each segment
+    (:func:`fit_planes`);
+    ``min_support``, ``min_ratio``: when a plane is trusted; ``outlier``: how far from it
+    an estimate is replaced; ``fit_margin``: the least confidence margin of an estimate
+    the planes are fitted to; ``replace_margin``: estimates whose margin is below it may
+    be replaced (those above are kept whatever the plane says).
+    """
+
+    steps: tuple[int, ...] = (48, 32, 16)
+    compactness: float = 10.0
+    slic_iterations: int = 3
+    slic_scale: int = 2
+    iterations: int = 100
+    max_scored: int = 128
+    inlier: float = 1.5
+    stop: float = 0.9
+    min_support: float = 0.3
+    min_ratio: float = 0.6
+    outlier: float = 2.0
+    fit_margin: float = 0.05
+    replace_margin: float = 0.15
+
+    def __post_init__(self):
+        if (
+            isinstance(self.max_scored, bool)
+            or not isinstance(self.max_scored, int)
+            or self.max_scored < 3
+        ):
+            raise ValueError(
+                f"max_scored must be an integer of at least 3, got {self.max_scored!r}"
+            )
+        for name in ("slic_iterations", "slic_scale", "iterations"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        steps = self.steps
+        if (
+            not isinstance(steps, tuple)
+            or not steps
+            or not all(isinstance(f, int) and not isinstance(f, bool) and f >= 2 for f in steps)
+        ):
+            raise ValueError(f"steps must be a non-empty tuple of integers from 2, got {steps!r}")
+        for name in ("compactness", "inlier", "outlier"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
+                raise ValueError(f"{name} must be a positive number, got {value!r}")
+        for name in ("stop", "min_support", "min_ratio", "fit_margin", "replace_margin"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, float)) or not 0 <= value <= 1:
+                raise ValueError(f"{name} must be a number from 0 to 1, got {value!r}")
+
+
+def superpixels(colour: np.ndarray, step: int = 16, compactness: float = 20.0,
+                iterations: int = 5) -> np.ndarray:  # fmt: skip
+    """SLIC superpixels of ``colour`` (``(C, H, W)``, gray levels): ``(H, W)`` int32 labels.
+
+    Labels are the cells of a grid of about ``step`` pixels (``gy * nx + gx``).
+    """
+    colour = np.ascontiguousarray(colour, dtype=np.float64)
+    labels = np.empty(colour.shape[1:], dtype=np.int32)
+    _kernels.slic(colour, int(step), float(compactness), int(iterations), labels)
+    return labels
+
+
+def coarse_superpixels(colour: np.ndarray, step: int, compactness: float, iterations: int,
+                       scale: int):  # fmt: skip
+    """:func:`superpixels` of ``colour`` shrunk ``scale`` times: ``(labels, nx, ny)``.
+
+    Each ``scale x scale`` block of pixels averaged (a block cut by the edge: its pixels),
+    cut into superpixels of about ``step / scale`` blocks a side, each pixel labelled as its
+    block: ``scale**2`` times less work, for edges a block coarse. ``scale`` 1: the image
+    itself. ``nx, ny``: the labels' grid.
+    """
+    height, width = colour.shape[1:]
+    if scale == 1:
+        ny, nx = _kernels.grid_shape(height, width, step)
+        return superpixels(colour, step, compactness, iterations), nx, ny
+    rows, cols = -(-height // scale), -(-width // scale)
+    small = np.empty((colour.shape[0], rows, cols), dtype=np.float64)
+    _kernels.shrink(np.ascontiguousarray(colour), scale, small)
+    coarse_step = max(2, round(step / scale))
+    labels = superpixels(small, coarse_step, compactness, iterations)
+    ny, nx = _kernels.grid_shape(rows, cols, coarse_step)
+    full = np.empty((height, width), dtype=np.int32)
+    _kernels.expand(labels, scale, full)
+    return full, nx, ny
+
+
+def fit_planes(disparity: np.ndarray, usable: np.ndarray, labels: np.ndarray, nx: int,
+               ny: int, iterations: int = 200, inlier: float = 1.0,
+               stop: float = 0.9, max_scored: int = 2**30):  # fmt: skip
+    """Fit a plane to each segment's ``usable`` estimates; return ``(planes, support)``.
+
+    Each RANSAC draw is scored on about ``max_scored`` of a segment's estimates (every
+    ``n // max_scored``-th), the refit on all of them.
+
+    ``labels``: ``gy * nx + gx`` on a grid of ``ny x nx`` segments. ``planes``: ``(n, 3)``
+    float64, ``(a, b, c)`` of ``d = a x + b y + c``; ``support``: ``(n, 3)`` int64,
+    (estimates used, inliers within ``inlier`` px, pixels of the segment).
+    """
+    n = ny * nx
+    planes = np.zeros((n, 3), dtype=np.float64)
+    support = np.zeros((n, 3), dtype=np.int64)
+    _kernels.fit_planes(
+        np.ascontiguousarray(disparity, dtype=np.float64), np.ascontiguousarray(usable),
+        np.ascontiguousarray(labels), n, nx, int(iterations), float(inlier), float(stop),
+        int(max_scored), planes, support,
+    )  # fmt: skip
+    return planes, support
+
+
+def _plane_pass(disparity, labels, nx, ny, usable, replaceable, low, high, iterations,
+                inlier, outlier, min_ratio, min_support, stop, max_scored=2**30):  # fmt: skip
+    """One pass: fit each segment's plane, give its value where the plane is trusted."""
+    planes, support = fit_planes(
+        disparity, usable, labels, nx, ny, iterations, inlier, stop, max_scored
+    )
+    used, inliers, size = support[:, 0], support[:, 1], support[:, 2]
+    trusted = (used >= 3) & (used >= min_support * size)
+    trusted &= inliers >= min_ratio * np.maximum(used, 1)
+    out = np.empty_like(disparity)
+    _kernels.apply_planes(
+        disparity, np.ascontiguousarray(replaceable), labels, planes, trusted, float(outlier),
+        float(low), float(high), out,
+    )  # fmt: skip
+    return out
+
+
+def segment_planes(
+    disparity: np.ndarray,
+    colour: np.ndarray,
+    *,
+    usable: np.ndarray | None = None,
+    replaceable: np.ndarray | None = None,
+    low: float = -np.inf,
+    high: float = np.inf,
+    step: int = 16,
+    compactness: float = 20.0,
+    slic_iterations: int = 5,
+    iterations: int = 200,
+    inlier: float = 1.0,
+    outlier: float = 2.0,
+    min_ratio: float = 0.6,
+    min_support: float = 0.3,
+    stop: float = 0.9,
+) -> np.ndarray:
+    """Refine ``disparity`` (float32, NaN where no estimate) by a plane per segment.
+
+    A segment's plane is trusted when its estimates cover at least ``min_support`` of its
+    pixels and at least ``min_ratio`` of them lie within ``inlier`` of the plane. Its
+    ``replaceable`` pixels (all by default) without an estimate, or with one more than
+    ``outlier`` from the plane, take the plane's value limited to ``low..high``.
+    ``usable``: the estimates the planes are fitted to (every finite one by default).
+    """
+    finite = np.isfinite(disparity)
+    usable = finite if usable is None else (usable & finite)
+    replaceable = np.ones_like(finite) if replaceable is None else replaceable
+    labels = superpixels(colour, step, compactness, slic_iterations)
+    ny, nx = _kernels.grid_shape(disparity.shape[0], disparity.shape[1], int(step))
+    return _plane_pass(disparity, labels, nx, ny, usable, replaceable, low, high, iterations,
+                       inlier, outlier, min_ratio, min_support, stop)  # fmt: skip
+
+
+def refine_planes(
+    result: DisparityResult,
+    colour: np.ndarray,
+    margin: np.ndarray,
+    params: PlaneParams = PlaneParams(),
+) -> DisparityResult:
+    """``sgm``'s stage: a plane per segment for its holes and its unsure estimates.
+
+    ``result``: ``sgm``'s map after the left-right check, not filled; ``colour``: the left
+    image's channels ``(C, H, W)``; ``margin``: ``sgm``'s confidence margin per pixel.
+    The planes are fitted to the estimates with a margin of at least ``fit_margin``; the
+    mismatched pixels (not the occluded or border ones: the background fill's) and
+    the estimates with a margin under ``replace_margin`` may take their plane's value
+    (:func:`segment_planes`), limited to the searched range. A hole filled so keeps its
+    reason flag and gains :data:`~dcstereo.result.FLAG_FILLED`.
+    """
+    d = result.disparity
+    height, width = d.shape
+    kept = (result.flags & (FLAG_OCCLUDED | FLAG_BORDER)) != 0
+    unsure = margin < params.replace_margin
+    sure = margin >= params.fit_margin
+    out = d
+    for step in params.steps:
+        labels, nx, ny = coarse_superpixels(
+            colour, step, params.compactness, params.slic_iterations, params.slic_scale
+        )
+        holes = np.isnan(out)
+        out = _plane_pass(
+            out, labels, nx, ny, sure & ~holes, ~kept & (holes | unsure),
+            result.params.min_disparity, result.params.max_disparity, params.iterations,
+            params.inlier, params.outlier, params.min_ratio, params.min_support, params.stop,
+            params.max_scored,
+        ).astype(np.float32)  # fmt: skip
+    filled = np.isnan(d) & np.isfinite(out)
+    flags = result.flags | (filled.view(np.uint8) * np.uint8(FLAG_FILLED))
+    return replace(result, disparity=out, flags=flags)
