@@ -96,7 +96,7 @@ class Method:
     name: str
     stages: tuple[Stage, ...]
     summary: str = ""
-    #: The method's parameter record (a :class:`MethodParams`).
+    #: The method's parameter record (a ``MethodParams``: :class:`dcstereo.SGMParams`, ...).
     params: type | None = None
 
     def run(self, left: np.ndarray, right: np.ndarray, params: MatchParams) -> DisparityResult:
