@@ -80,6 +80,12 @@ DEFAULT_P2_GRADIENT = 6.0
 DEFAULT_PATHS = 8
 DEFAULT_LR_TOLERANCE = 1
 
+#: ``sgm``: aggregations of the cost volume before the semi-global one (None: none).
+AGGREGATIONS = ("cross",)
+DEFAULT_CROSS_LIMIT = 34
+DEFAULT_CROSS_TAU = 20
+DEFAULT_CROSS_ITERATIONS = 2
+
 #: ``sgm``: the largest census window (its bits, one per pixel but the centre, fill 64).
 MAX_CENSUS_BITS = 64
 
@@ -119,6 +125,10 @@ METHOD_OPTIONS = {
     "p2_gradient": ("sgm",),
     "paths": ("sgm",),
     "lr_tolerance": ("sgm",),
+    "aggregation": ("sgm",),
+    "cross_limit": ("sgm",),
+    "cross_tau": ("sgm",),
+    "cross_iterations": ("sgm",),
 }
 
 
@@ -360,6 +370,10 @@ class MatchParams:
     p2_gradient: float = DEFAULT_P2_GRADIENT
     paths: int = DEFAULT_PATHS
     lr_tolerance: int | None = DEFAULT_LR_TOLERANCE
+    aggregation: str | None = None
+    cross_limit: int = DEFAULT_CROSS_LIMIT
+    cross_tau: int = DEFAULT_CROSS_TAU
+    cross_iterations: int = DEFAULT_CROSS_ITERATIONS
 
     def __post_init__(self):
         for field in fields(self):  # numpy scalars (np.int64(4), np.True_): the Python value
@@ -500,6 +514,20 @@ class MatchParams:
         gradient = self.p2_gradient
         if not is_number(gradient) or not math.isfinite(gradient) or gradient < 0:
             raise ValueError(f"p2_gradient must be a non-negative number, got {gradient!r}")
+        if self.aggregation is not None and self.aggregation not in AGGREGATIONS:
+            raise ValueError(
+                f"aggregation must be None or one of {', '.join(AGGREGATIONS)}, "
+                f"got {self.aggregation!r}"
+            )
+        for name, lowest, highest in (
+            ("cross_limit", 1, 1024), ("cross_tau", 1, 256), ("cross_iterations", 1, 8)
+        ):
+            value = getattr(self, name)
+            if not is_integer(value) or not lowest <= value <= highest:
+                raise ValueError(
+                    f"{name} must be an integer from {lowest} to {highest}, got {value!r}"
+                )
+            object.__setattr__(self, name, int(value))
         tolerance = self.lr_tolerance
         if tolerance is not None:
             if isinstance(tolerance, float) and tolerance.is_integer():

@@ -37,6 +37,7 @@ import threading
 import numpy as np
 
 from .consistency import fill_with_colour
+from .cross_support import cross_aggregate
 from .kernels import census as census_kernels
 from .kernels import sgm as sgm_kernels
 from .kernels.sgm_simd import HIGH, LANES
@@ -210,6 +211,7 @@ def _run(left, right, params, want_confidence):
     _census(luma_l, rows, cols, codes_l)
     _census(padded_signal(right, 0), rows, cols, codes_r)
     colour_l, colour_r = colour_channels(left, right)
+    guide = colour_l if params.aggregation is not None else None
     if params.cost == "census":
         colour_l = colour_l[:1, :1, :1]  # unread (ad_max 0); one unit a cost unit
         colour_r = colour_r[:1, :1, :1]
@@ -246,6 +248,11 @@ def _run(left, right, params, want_confidence):
             codes_l, codes_r, colour_l, colour_r, dmin, ndisp, bit_cost, ad_max, params.window,
             reciprocal, pad_cost, m0, volume,
         )  # fmt: skip
+        if params.aggregation == "cross":
+            cross_aggregate(
+                volume, guide[:, m0:m1], ndisp, limit=params.cross_limit, tau=params.cross_tau,
+                iterations=params.cross_iterations,
+            )  # fmt: skip
         cost = volume.reshape(-1)
         luma = np.ascontiguousarray(luma_l[m0:m1])
         sgm_kernels.vertical_passes(cost, luma, p1, table, diagonals, down, up)
