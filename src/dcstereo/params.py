@@ -81,10 +81,15 @@ DEFAULT_PATHS = 8
 DEFAULT_LR_TOLERANCE = 1
 
 #: ``sgm``: aggregations of the cost volume before the semi-global one (None: none).
-AGGREGATIONS = ("cross",)
+AGGREGATIONS = ("cross", "guided")
 DEFAULT_CROSS_LIMIT = 34
 DEFAULT_CROSS_TAU = 20
 DEFAULT_CROSS_ITERATIONS = 2
+DEFAULT_GUIDED_RADIUS = 4
+DEFAULT_GUIDED_EPS = 0.0001
+
+#: ``sgm``: the spacing of the census window's samples (1: every pixel).
+DEFAULT_CENSUS_STEP = 1
 
 #: ``sgm``: the largest census window (its bits, one per pixel but the centre, fill 64).
 MAX_CENSUS_BITS = 64
@@ -129,6 +134,9 @@ METHOD_OPTIONS = {
     "cross_limit": ("sgm",),
     "cross_tau": ("sgm",),
     "cross_iterations": ("sgm",),
+    "guided_radius": ("sgm",),
+    "guided_eps": ("sgm",),
+    "census_step": ("sgm",),
 }
 
 
@@ -374,6 +382,9 @@ class MatchParams:
     cross_limit: int = DEFAULT_CROSS_LIMIT
     cross_tau: int = DEFAULT_CROSS_TAU
     cross_iterations: int = DEFAULT_CROSS_ITERATIONS
+    guided_radius: int = DEFAULT_GUIDED_RADIUS
+    guided_eps: float = DEFAULT_GUIDED_EPS
+    census_step: int = DEFAULT_CENSUS_STEP
 
     def __post_init__(self):
         for field in fields(self):  # numpy scalars (np.int64(4), np.True_): the Python value
@@ -520,7 +531,8 @@ class MatchParams:
                 f"got {self.aggregation!r}"
             )
         for name, lowest, highest in (
-            ("cross_limit", 1, 1024), ("cross_tau", 1, 256), ("cross_iterations", 1, 8)
+            ("cross_limit", 1, 1024), ("cross_tau", 1, 256), ("cross_iterations", 1, 8),
+            ("guided_radius", 1, 64), ("census_step", 1, 4),
         ):
             value = getattr(self, name)
             if not is_integer(value) or not lowest <= value <= highest:
@@ -528,6 +540,9 @@ class MatchParams:
                     f"{name} must be an integer from {lowest} to {highest}, got {value!r}"
                 )
             object.__setattr__(self, name, int(value))
+        eps = self.guided_eps
+        if not is_number(eps) or not math.isfinite(eps) or eps <= 0:
+            raise ValueError(f"guided_eps must be a positive number, got {eps!r}")
         tolerance = self.lr_tolerance
         if tolerance is not None:
             if isinstance(tolerance, float) and tolerance.is_integer():

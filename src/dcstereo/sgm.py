@@ -39,6 +39,8 @@ import numpy as np
 from .consistency import fill_with_colour
 from .cross_support import cross_aggregate
 from .kernels import census as census_kernels
+from .kernels import guided as guided_kernels
+from .kernels.census_sparse import census_sparse
 from .kernels import sgm as sgm_kernels
 from .kernels.sgm_simd import HIGH, LANES
 from .params import MatchParams
@@ -177,10 +179,17 @@ def release_workspace() -> None:
     _WORKSPACE.volumes = None
 
 
-def _census(signal: np.ndarray, rows: int, cols: int, out: np.ndarray) -> None:
-    """Write the census codes of ``signal`` (``padded_signal(image, 0)``) into ``out``."""
-    padded = np.pad(signal, ((rows // 2, rows // 2), (cols // 2, cols // 2)), mode="edge")
-    census_kernels.census_transform(padded, rows, cols, out)
+def _census(signal: np.ndarray, rows: int, cols: int, out: np.ndarray, step: int = 1) -> None:
+    """Write the census codes of ``signal`` (``padded_signal(image, 0)``) into ``out``.
+
+    ``step`` > 1: the sparse census, its samples ``step`` pixels apart.
+    """
+    ry, rx = step * (rows // 2), step * (cols // 2)
+    padded = np.pad(signal, ((ry, ry), (rx, rx)), mode="edge")
+    if step == 1:
+        census_kernels.census_transform(padded, rows, cols, out)
+    else:
+        census_sparse(padded, rows, cols, step, out)
 
 
 def match_sgm(left: np.ndarray, right: np.ndarray, params: MatchParams) -> DisparityResult:
@@ -208,8 +217,8 @@ def _run(left, right, params, want_confidence):
     codes_l = np.empty((height, width), dtype=kind)
     codes_r = np.empty((height, width), dtype=kind)
     luma_l = padded_signal(left, 0)
-    _census(luma_l, rows, cols, codes_l)
-    _census(padded_signal(right, 0), rows, cols, codes_r)
+    _census(luma_l, rows, cols, codes_l, params.census_step)
+    _census(padded_signal(right, 0), rows, cols, codes_r, params.census_step)
     colour_l, colour_r = colour_channels(left, right)
     guide = colour_l if params.aggregation is not None else None
     if params.cost == "census":
@@ -253,6 +262,11 @@ def _run(left, right, params, want_confidence):
                 volume, guide[:, m0:m1], ndisp, limit=params.cross_limit, tau=params.cross_tau,
                 iterations=params.cross_iterations,
             )  # fmt: skip
+        elif params.aggregation == "guided":
+            intensity = luma_l[m0:m1] / float(SIGNAL_STEPS * 255)
+            guided_kernels.guided_filter(
+                volume, intensity, ndisp, params.guided_radius, float(params.guided_eps)
+            )
         cost = volume.reshape(-1)
         luma = np.ascontiguousarray(luma_l[m0:m1])
         sgm_kernels.vertical_passes(cost, luma, p1, table, diagonals, down, up)
