@@ -137,6 +137,7 @@ METHOD_OPTIONS = {
     "guided_radius": ("sgm",),
     "guided_eps": ("sgm",),
     "census_step": ("sgm",),
+    "census_multiscale": ("sgm",),
 }
 
 
@@ -385,6 +386,7 @@ class MatchParams:
     guided_radius: int = DEFAULT_GUIDED_RADIUS
     guided_eps: float = DEFAULT_GUIDED_EPS
     census_step: int = DEFAULT_CENSUS_STEP
+    census_multiscale: bool = False
 
     def __post_init__(self):
         for field in fields(self):  # numpy scalars (np.int64(4), np.True_): the Python value
@@ -540,6 +542,14 @@ class MatchParams:
                     f"{name} must be an integer from {lowest} to {highest}, got {value!r}"
                 )
             object.__setattr__(self, name, int(value))
+        if not isinstance(self.census_multiscale, bool):
+            raise TypeError(f"census_multiscale must be True or False, got {self.census_multiscale!r}")
+        if self.census_multiscale and (self.census_step == 1 or 2 * (rows * cols - 1) > MAX_CENSUS_BITS):
+            raise ValueError(
+                "census_multiscale needs census_step > 1 and a census_window of at most "
+                f"{MAX_CENSUS_BITS // 2} bits (two codes of it in 64 bits), got "
+                f"census_step={self.census_step}, census_window={window!r}"
+            )
         eps = self.guided_eps
         if not is_number(eps) or not math.isfinite(eps) or eps <= 0:
             raise ValueError(f"guided_eps must be a positive number, got {eps!r}")
