@@ -68,8 +68,19 @@ def middlebury_scenes():
     return scenes
 
 
-def run(method, options, groups, names=None, warm=True):
-    """Score every scene of ``groups``; return ``{name: {metric: value, "s": seconds}}``."""
+def relit(image, gain=1.0, offset=0.0, gamma=1.0):
+    """``image`` (uint8) with its values ``255 * (gain * v / 255) ** gamma + offset``, clipped."""
+    if gain == 1.0 and offset == 0.0 and gamma == 1.0:
+        return image
+    values = 255.0 * (gain * np.asarray(image, dtype=np.float64) / 255.0) ** gamma + offset
+    return np.clip(np.rint(values), 0, 255).astype(np.uint8)
+
+
+def run(method, options, groups, names=None, warm=True, light=(1.0, 0.0, 1.0)):
+    """Score every scene of ``groups``; return ``{name: {metric: value, "s": seconds}}``.
+
+    ``light``: the right view's ``(gain, offset, gamma)`` change (:func:`relit`).
+    """
     out = {}
     if "mb" in groups:
         for scene in middlebury_scenes():
@@ -81,7 +92,7 @@ def run(method, options, groups, names=None, warm=True):
                            min_disparity=scene.min_disparity, **options)  # fmt: skip
                 warm = False
             start = time.perf_counter()
-            result = run_method(method, scene.left, scene.right,
+            result = run_method(method, scene.left, relit(scene.right, *light),
                                 max_disparity=scene.max_disparity,
                                 min_disparity=scene.min_disparity, **options)  # fmt: skip
             seconds = time.perf_counter() - start
@@ -97,7 +108,7 @@ def run(method, options, groups, names=None, warm=True):
                 run_method(method, left[:12], right[:12], max_disparity=top, **options)
                 warm = False
             start = time.perf_counter()
-            result = run_method(method, left, right, max_disparity=top, **options)
+            result = run_method(method, left, relit(right, *light), max_disparity=top, **options)
             seconds = time.perf_counter() - start
             scores = kitti_scores(result.filled().disparity, truth)
             scores["s"] = seconds
@@ -146,12 +157,16 @@ def main(argv=None):
     parser.add_argument("--groups", default="mb,kitti", help="mb, kitti or both")
     parser.add_argument("--scenes", help="comma-separated scene names (default: all)")
     parser.add_argument("--json", help="write the scores to this file")
+    parser.add_argument(
+        "--light", default="1,0,1", help="the right view's gain,offset,gamma (a lighting change)"
+    )
     parser.add_argument("--reference", help="a --json file to count wins against")
     args = parser.parse_args(argv)
     options = ast.literal_eval(args.options)
     names = set(args.scenes.split(",")) if args.scenes else None
     print(f"# {args.method} {options}", flush=True)
-    scores = run(args.method, options, args.groups.split(","), names)
+    light = tuple(float(v) for v in args.light.split(","))
+    scores = run(args.method, options, args.groups.split(","), names, light=light)
     reference = json.loads(Path(args.reference).read_text())["scores"] if args.reference else None
     print(group_summary(scores, reference))
     if args.json:

@@ -81,7 +81,7 @@ DEFAULT_PATHS = 8
 DEFAULT_LR_TOLERANCE = 1
 
 #: ``sgm``: aggregations of the cost volume before the semi-global one (None: none).
-AGGREGATIONS = ("cross", "guided")
+AGGREGATIONS = ("cross", "guided", "mgm")
 DEFAULT_CROSS_LIMIT = 34
 DEFAULT_CROSS_TAU = 20
 DEFAULT_CROSS_ITERATIONS = 2
