@@ -32,7 +32,9 @@ from dcstereo.evaluation import run_method
 from dcstereo.metrics import bad_pixel_rate
 
 V2 = ("tsukuba", "venus", "teddy", "cones")
-OUTDOOR = Path(os.environ.get("DCSTEREO_OUTDOOR", Path(__file__).resolve().parents[2] / "shared/data/outdoor"))
+OUTDOOR = Path(
+    os.environ.get("DCSTEREO_OUTDOOR", Path(__file__).resolve().parents[2] / "shared/data/outdoor")
+)
 
 
 def kitti_scores(estimate: np.ndarray, truth: np.ndarray) -> dict:
@@ -170,7 +172,11 @@ def main(argv=None):
     reference = json.loads(Path(args.reference).read_text())["scores"] if args.reference else None
     print(group_summary(scores, reference))
     if args.json:
-        Path(args.json).write_text(json.dumps({"method": args.method, "options": repr(options), "scores": scores}, indent=1))
+        Path(args.json).write_text(
+            json.dumps(
+                {"method": args.method, "options": repr(options), "scores": scores}, indent=1
+            )
+        )
     return 0
 
 

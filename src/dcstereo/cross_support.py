@@ -12,7 +12,7 @@ from .kernels import cross_support as kernels
 
 
 def tight_colour(tau: int) -> int:
-    """The colour bound of long arms (ADCensus's ``tau2``: 6 for ``tau1`` 20)."""
+    """Return the colour bound of long arms (ADCensus's ``tau2``: 6 for ``tau1`` 20)."""
     return max(1, round(0.3 * tau))
 
 

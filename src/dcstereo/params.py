@@ -346,6 +346,19 @@ class MatchParams:
         ``occlusion_discount`` (0 to :data:`MAX_OCCLUSION_DISCOUNT_PIXELS`; 0: none).
         Default :data:`DEFAULT_OCCLUSION_DISCOUNT_PIXELS`: a run of ``n`` pixels costs
         ``occlusion_cost * (n - occlusion_discount * min(n - 1, 5))``.
+    aggregation : str or None
+        ``sgm`` only, off (None) by default: a stage between the costs and the semi-global
+        aggregation. ``"cross"``: the costs averaged over cross-based support regions of the
+        left view (ADCensus; ``cross_limit``, ``cross_tau``, ``cross_iterations``, see
+        :mod:`dcstereo.cross_support`); ``"guided"``: each disparity's slice guided-filtered
+        by the left intensity (CostFilter; ``guided_radius``, ``guided_eps``);
+        ``"mgm"``: MGM's paths (two predecessors each) in place of SGM's.
+    census_step : int
+        ``sgm`` only: the spacing of the census window's samples (1, the default: every
+        pixel; 2: a sparse census twice as wide for the same bits).
+    census_multiscale : bool
+        ``sgm`` only: with ``census_step`` > 1, the dense code and the sparse one side by
+        side in one code of twice the bits.
     """
 
     max_disparity: int
@@ -533,8 +546,11 @@ class MatchParams:
                 f"got {self.aggregation!r}"
             )
         for name, lowest, highest in (
-            ("cross_limit", 1, 1024), ("cross_tau", 1, 256), ("cross_iterations", 1, 8),
-            ("guided_radius", 1, 64), ("census_step", 1, 4),
+            ("cross_limit", 1, 1024),
+            ("cross_tau", 1, 256),
+            ("cross_iterations", 1, 8),
+            ("guided_radius", 1, 64),
+            ("census_step", 1, 4),
         ):
             value = getattr(self, name)
             if not is_integer(value) or not lowest <= value <= highest:
@@ -543,8 +559,12 @@ class MatchParams:
                 )
             object.__setattr__(self, name, int(value))
         if not isinstance(self.census_multiscale, bool):
-            raise TypeError(f"census_multiscale must be True or False, got {self.census_multiscale!r}")
-        if self.census_multiscale and (self.census_step == 1 or 2 * (rows * cols - 1) > MAX_CENSUS_BITS):
+            raise TypeError(
+                f"census_multiscale must be True or False, got {self.census_multiscale!r}"
+            )
+        if self.census_multiscale and (
+            self.census_step == 1 or 2 * (rows * cols - 1) > MAX_CENSUS_BITS
+        ):
             raise ValueError(
                 "census_multiscale needs census_step > 1 and a census_window of at most "
                 f"{MAX_CENSUS_BITS // 2} bits (two codes of it in 64 bits), got "

@@ -41,8 +41,8 @@ from .cross_support import cross_aggregate
 from .kernels import census as census_kernels
 from .kernels import guided as guided_kernels
 from .kernels import mgm as mgm_kernels
-from .kernels.census_sparse import census_sparse
 from .kernels import sgm as sgm_kernels
+from .kernels.census_sparse import census_sparse
 from .kernels.sgm_simd import HIGH, LANES
 from .params import MatchParams
 from .result import FLAG_MISMATCH, DisparityResult

@@ -36,7 +36,7 @@ ARM_DOWN = 3
 
 @nb.njit(cache=True)
 def _colour_distance(colour, y0, x0, y1, x1):
-    """The largest absolute difference of the channels of two pixels of ``(C, H, W)``."""
+    """Return the largest absolute difference of the channels of two pixels of ``(C, H, W)``."""
     most = 0
     for c in range(colour.shape[0]):
         d = abs(np.int32(colour[c, y0, x0]) - np.int32(colour[c, y1, x1]))

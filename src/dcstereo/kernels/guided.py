@@ -62,7 +62,7 @@ def _box_columns(src, radius, out):
 
 @nb.njit(cache=True)
 def box_mean(src, radius, count, scratch, out):
-    """The mean over the ``(2r + 1)^2`` square of each ``(y, x)``: ``(H, W, K)`` float64.
+    """Write the mean over the ``(2r + 1)^2`` square of each ``(y, x)``: ``(H, W, K)`` float64.
 
     ``count`` ``(H, W)`` holds the number of pixels of each clipped square.
     """
@@ -91,7 +91,7 @@ def _products(volume, guide, ndisp, p, ip):
 
 @nb.njit(cache=True, parallel=True)
 def _coefficients(mean_p, mean_ip, mean_i, var_i, eps, a, b):
-    """``a`` and ``b`` of the filter (``a`` into ``mean_ip``'s place is allowed)."""
+    """Write ``a`` and ``b`` of the filter (``a`` into ``mean_ip``'s place is allowed)."""
     height, width, depth = mean_p.shape
     for y in nb.prange(height):
         for x in range(width):

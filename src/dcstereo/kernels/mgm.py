@@ -98,7 +98,7 @@ def _pass(cost, luma, sy, kind, p1, p2_table, ndisp, high, sums):
 
 @nb.njit(cache=True, parallel=True)
 def mgm_passes(cost, luma, p1, p2_table, diagonals, ndisp, high, pad, down, up):
-    """The paths from above into ``down`` and those from below into ``up``, side by side.
+    """Sum the paths from above into ``down`` and those from below into ``up``, side by side.
 
     ``cost``, ``down`` and ``up`` are ``(H, W, Dp)`` int16; ``luma`` ``(H, W)`` int32.
     """
