@@ -10,11 +10,11 @@ from dcstereo.kernels import cross_support as kernels
 
 
 def test_arms_by_hand():
-    # One row, one channel: 10 10 12 40 41 41 41 90; tau1 = 5, limit1 = 4, no tight rule.
-    # Pixel 0: right arm 10, 12 join (2 < 5), 40 stops it -> 2. Pixel 4 (41): left arm stops
-    # at 40 -> 1? |40 - 41| = 1 joins, then 12: |12 - 41| stops -> 1; right arm 41, 41 join,
-    # 90 stops -> 2. Pixel 5: right arm 41 joins, 90 stops -> 1; left 41, 40 join, then the
-    # limit (3 pixels past it would be the 4th: t < limit1 = 4 allows t = 3) 12 stops -> 2.
+    # One row, one channel: 10 10 12 40 41 41 41 90; tau1 = 5, limit1 = 4 (arms of at most
+    # 3), limit2 = 2 and tau2 = round(0.3 * 5) = 2 past it. Pixel 0's right arm: 10, 12
+    # join (within 5 of it and of the previous pixel), 40 stops it -> 2. Pixel 3 (40):
+    # 41, 41 join, and 41 at t = 3 (> limit2) is within tau2 -> 3. Pixel 4 (41): left 40
+    # joins, 12 stops -> 1; right 41, 41, then 90 stops -> 2.
     colour = np.array([[[10, 10, 12, 40, 41, 41, 41, 90]]], dtype=np.int16)
     arms = support_arms(colour, 4, 5)  # tight bound 2 beyond limit // 2 = 2 pixels
     np.testing.assert_array_equal(arms[0, 0], [0, 1, 2, 0, 1, 2, 3, 0])

@@ -81,12 +81,10 @@ DEFAULT_PATHS = 8
 DEFAULT_LR_TOLERANCE = 1
 
 #: ``sgm``: aggregations of the cost volume before the semi-global one (None: none).
-AGGREGATIONS = ("cross", "guided", "mgm")
+AGGREGATIONS = ("cross",)
 DEFAULT_CROSS_LIMIT = 34
 DEFAULT_CROSS_TAU = 20
 DEFAULT_CROSS_ITERATIONS = 2
-DEFAULT_GUIDED_RADIUS = 4
-DEFAULT_GUIDED_EPS = 0.0001
 
 #: ``sgm``: the spacing of the census window's samples (1: every pixel).
 DEFAULT_CENSUS_STEP = 1
@@ -134,8 +132,6 @@ METHOD_OPTIONS = {
     "cross_limit": ("sgm",),
     "cross_tau": ("sgm",),
     "cross_iterations": ("sgm",),
-    "guided_radius": ("sgm",),
-    "guided_eps": ("sgm",),
     "census_step": ("sgm",),
     "census_multiscale": ("sgm",),
 }
@@ -350,9 +346,8 @@ class MatchParams:
         ``sgm`` only, off (None) by default: a stage between the costs and the semi-global
         aggregation. ``"cross"``: the costs averaged over cross-based support regions of the
         left view (ADCensus; ``cross_limit``, ``cross_tau``, ``cross_iterations``, see
-        :mod:`dcstereo.cross_support`); ``"guided"``: each disparity's slice guided-filtered
-        by the left intensity (CostFilter; ``guided_radius``, ``guided_eps``);
-        ``"mgm"``: MGM's paths (two predecessors each) in place of SGM's.
+        :mod:`dcstereo.cross_support`). The guided filter of the slices (CostFilter) and
+        MGM's paths were tried and lost (commit 08d52ae holds them).
     census_step : int
         ``sgm`` only: the spacing of the census window's samples (1, the default: every
         pixel; 2: a sparse census twice as wide for the same bits).
@@ -396,8 +391,6 @@ class MatchParams:
     cross_limit: int = DEFAULT_CROSS_LIMIT
     cross_tau: int = DEFAULT_CROSS_TAU
     cross_iterations: int = DEFAULT_CROSS_ITERATIONS
-    guided_radius: int = DEFAULT_GUIDED_RADIUS
-    guided_eps: float = DEFAULT_GUIDED_EPS
     census_step: int = DEFAULT_CENSUS_STEP
     census_multiscale: bool = False
 
@@ -549,7 +542,6 @@ class MatchParams:
             ("cross_limit", 1, 1024),
             ("cross_tau", 1, 256),
             ("cross_iterations", 1, 8),
-            ("guided_radius", 1, 64),
             ("census_step", 1, 4),
         ):
             value = getattr(self, name)
@@ -570,9 +562,6 @@ class MatchParams:
                 f"{MAX_CENSUS_BITS // 2} bits (two codes of it in 64 bits), got "
                 f"census_step={self.census_step}, census_window={window!r}"
             )
-        eps = self.guided_eps
-        if not is_number(eps) or not math.isfinite(eps) or eps <= 0:
-            raise ValueError(f"guided_eps must be a positive number, got {eps!r}")
         tolerance = self.lr_tolerance
         if tolerance is not None:
             if isinstance(tolerance, float) and tolerance.is_integer():

@@ -39,8 +39,6 @@ import numpy as np
 from .consistency import fill_with_colour
 from .cross_support import cross_aggregate
 from .kernels import census as census_kernels
-from .kernels import guided as guided_kernels
-from .kernels import mgm as mgm_kernels
 from .kernels import sgm as sgm_kernels
 from .kernels.census_sparse import census_sparse
 from .kernels.sgm_simd import HIGH, LANES
@@ -278,22 +276,9 @@ def _run(left, right, params, want_confidence):
                 volume, guide[:, m0:m1], ndisp, limit=params.cross_limit, tau=params.cross_tau,
                 iterations=params.cross_iterations,
             )  # fmt: skip
-        elif params.aggregation == "guided":
-            intensity = luma_l[m0:m1] / float(SIGNAL_STEPS * 255)
-            guided_kernels.guided_filter(
-                volume, intensity, ndisp, params.guided_radius, float(params.guided_eps)
-            )
         cost = volume.reshape(-1)
         luma = np.ascontiguousarray(luma_l[m0:m1])
-        if params.aggregation == "mgm":  # its sums as down and up; zero costs: no more paths
-            shape = volume.shape
-            mgm_kernels.mgm_passes(
-                volume, luma, p1, table, diagonals, ndisp, HIGH, HIGH // 2 + 1,
-                down.reshape(shape), up.reshape(shape),
-            )  # fmt: skip
-            volume[...] = 0
-        else:
-            sgm_kernels.vertical_passes(cost, luma, p1, table, diagonals, down, up)
+        sgm_kernels.vertical_passes(cost, luma, p1, table, diagonals, down, up)
         sgm_kernels.final_pass(
             cost, luma, down, up, s0 - m0, s1 - m0, dmin, ndisp, p1, table,
             _SUBPIXEL[params.subpixel], -1 if params.lr_tolerance is None else params.lr_tolerance,
