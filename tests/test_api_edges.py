@@ -101,6 +101,11 @@ OTHER_VALUES = {
     "p2_gradient": 4.0,
     "paths": 4,
     "lr_tolerance": 2,
+    "census_step": 2,
+    "aggregation": "cross",
+    "cross_limit": 9,
+    "cross_tau": 10,
+    "cross_iterations": 2,
 }
 
 

@@ -1,4 +1,4 @@
-"""The sparse census (``census_step``) and its two-scale code against the twin."""
+"""The sparse census (``census_step``) against its twin (tests/naive_census_sparse.py)."""
 
 import numpy as np
 import pytest
@@ -38,26 +38,22 @@ def test_sparse_census_by_hand():
     assert out[0, 1] == 3
 
 
-def test_multiscale_bits_and_costs():
-    params = MatchParams(max_disparity=4, census_step=2, census_multiscale=True)
-    assert sgm.census_bits(params) == 48
-    assert sgm._bit_cost(params) == 2  # 96 / 48: the same span as the 24-bit census
-    assert sgm.largest_pixel_cost(params) == 2 * 48 + 20
+def test_sparse_census_bits_and_costs():
+    params = MatchParams(max_disparity=4, census_window=(5, 7), census_step=2)
+    assert sgm.census_bit_cost(params.census_window) == 3  # round(96 / 34 bits)
+    assert sgm.largest_pixel_cost(params) == 3 * 34 + 20  # the sparse code has as many bits
     default = MatchParams(max_disparity=4)
     assert sgm.largest_pixel_cost(default) == sgm.census_bit_cost((5, 5)) * 24 + 20
-    with pytest.raises(ValueError, match="census_multiscale"):
-        MatchParams(max_disparity=4, census_multiscale=True)  # step 1
-    with pytest.raises(ValueError, match="census_multiscale"):
-        MatchParams(max_disparity=4, census_window=(7, 7), census_step=2, census_multiscale=True)
+    with pytest.raises(ValueError, match="census_step"):
+        MatchParams(max_disparity=4, census_step=5)
 
 
-def test_sparse_and_multiscale_run_in_sgm():
+def test_sparse_census_runs_in_sgm():
     rng = np.random.default_rng(9)
     left = rng.integers(0, 256, (24, 48)).astype(np.uint8)
     right = np.roll(left, -3, axis=1)
     for options in (
         {"census_step": 2},
-        {"census_step": 2, "census_multiscale": True},
         {"census_window": (5, 7), "census_step": 2, "cost": "census", "p1": 80, "p2": 500},
     ):
         result = dcstereo.match(left, right, max_disparity=8, **options)

@@ -75,21 +75,11 @@ def census_bit_cost(window: tuple[int, int]) -> int:
     return max(1, round(CENSUS_SPAN / bits))
 
 
-def census_bits(params: MatchParams) -> int:
-    """Bits of a census code: the window's, twice with ``census_multiscale``."""
-    rows, cols = params.census_window
-    return (rows * cols - 1) * (2 if params.census_multiscale else 1)
-
-
-def _bit_cost(params: MatchParams) -> int:
-    """:func:`census_bit_cost` for ``params``' code (its bits spread over the same span)."""
-    return max(1, round(CENSUS_SPAN / census_bits(params)))
-
-
 def largest_pixel_cost(params: MatchParams) -> int:
     """Return the largest per-pixel cost of ``params``' cost (before the box average)."""
+    rows, cols = params.census_window
     ad = params.ad_truncation if params.cost == "census-ad" else 0
-    return _bit_cost(params) * census_bits(params) + int(ad)
+    return census_bit_cost(params.census_window) * (rows * cols - 1) + int(ad)
 
 
 def check_sgm_bounds(params: MatchParams) -> np.float32:
@@ -222,17 +212,12 @@ def _run(left, right, params, want_confidence):
     dmin, ndisp = params.min_disparity, params.num_disparities
     lanes = -(-ndisp // LANES) * LANES
     rows, cols = params.census_window
-    kind = np.uint32 if census_bits(params) <= 32 else np.uint64
+    kind = np.uint32 if rows * cols - 1 <= 32 else np.uint64
     codes_l = np.empty((height, width), dtype=kind)
     codes_r = np.empty((height, width), dtype=kind)
     luma_l = padded_signal(left, 0)
     _census(luma_l, rows, cols, codes_l, params.census_step)
     _census(padded_signal(right, 0), rows, cols, codes_r, params.census_step)
-    if params.census_multiscale:  # the dense code's bits above the sparse one's
-        dense = np.empty((height, width), dtype=kind)
-        for codes, signal in ((codes_l, luma_l), (codes_r, padded_signal(right, 0))):
-            _census(signal, rows, cols, dense)
-            codes |= dense << kind(rows * cols - 1)
     colour_l, colour_r = colour_channels(left, right)
     guide = colour_l if params.aggregation is not None else None
     if params.cost == "census":
@@ -249,7 +234,7 @@ def _run(left, right, params, want_confidence):
     table = UNITS * p2_table(params)
     p1 = UNITS * params.p1
     ad_max = params.ad_truncation if params.cost == "census-ad" else 0
-    bit_cost = _bit_cost(params)
+    bit_cost = census_bit_cost(params.census_window)
     diagonals = params.paths == 8
 
     disparity = np.empty((height, width), dtype=np.float32)
