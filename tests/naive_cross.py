@@ -79,3 +79,49 @@ def cross_aggregate(volume, colour, ndisp, limit, tau, iterations):
         else:
             volume = horizontal(vertical(volume, arm, ndisp), arm, ndisp)
     return volume
+
+
+def horizontal_both(volume, arm, arm_r, dmin, ndisp):
+    """``horizontal`` over the arms both views share: the shorter of left pixel ``x``'s and
+    right pixel ``x - d``'s (clamped to the image) on each side, at each disparity."""
+    out = volume.copy()
+    height, width, _ = volume.shape
+    for y in range(height):
+        for x in range(width):
+            for k in range(ndisp):
+                xr = min(max(x - dmin - k, 0), width - 1)
+                lo = x - min(arm[0, y, x], arm_r[0, y, xr])
+                hi = x + min(arm[1, y, x], arm_r[1, y, xr])
+                total = int(volume[y, lo : hi + 1, k].astype(np.int64).sum())
+                out[y, x, k] = rounded_mean(total, hi - lo + 1)
+    return out
+
+
+def vertical_both(volume, arm, arm_r, dmin, ndisp):
+    """``vertical`` over the arms both views share (as ``horizontal_both``)."""
+    out = volume.copy()
+    height, width, _ = volume.shape
+    for y in range(height):
+        for x in range(width):
+            for k in range(ndisp):
+                xr = min(max(x - dmin - k, 0), width - 1)
+                lo = y - min(arm[2, y, x], arm_r[2, y, xr])
+                hi = y + min(arm[3, y, x], arm_r[3, y, xr])
+                total = int(volume[lo : hi + 1, x, k].astype(np.int64).sum())
+                out[y, x, k] = rounded_mean(total, hi - lo + 1)
+    return out
+
+
+def cross_aggregate_both(volume, colour, colour_r, dmin, ndisp, limit, tau, iterations):
+    """``cross_aggregate`` with the arms both views share (``aggregation="cross-both"``)."""
+    tight = max(1, round(0.3 * tau))
+    arm = arms(colour, limit, limit // 2, tau, tight)
+    arm_r = arms(colour_r, limit, limit // 2, tau, tight)
+    for i in range(iterations):
+        if i % 2 == 0:
+            volume = horizontal_both(volume, arm, arm_r, dmin, ndisp)
+            volume = vertical_both(volume, arm, arm_r, dmin, ndisp)
+        else:
+            volume = vertical_both(volume, arm, arm_r, dmin, ndisp)
+            volume = horizontal_both(volume, arm, arm_r, dmin, ndisp)
+    return volume

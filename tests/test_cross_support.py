@@ -72,6 +72,42 @@ def test_aggregation_equals_naive(seed):
     np.testing.assert_array_equal(got, want)
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_both_views_aggregation_equals_naive(seed):
+    rng = np.random.default_rng(400 + seed)
+    height, width, lanes, ndisp = 6, 12, 8, (5, 8, 3, 6)[seed]
+    dmin = (0, 0, -2, 3)[seed]
+    colour = rng.integers(0, 3, (3, height, width)).cumsum(axis=2).astype(np.int16) * 4
+    colour_r = np.roll(colour, -2, axis=2)
+    colour_r[:, :, -2:] = rng.integers(0, 60, (3, height, 2))
+    volume = rng.integers(0, 350, (height, width, lanes)).astype(np.int16)
+    limit, tau, iterations = (4, 6, 9, 5)[seed], (10, 15, 20, 30)[seed], (1, 2, 3, 1)[seed]
+    want = naive_cross.cross_aggregate_both(
+        volume.copy(), colour, colour_r, dmin, ndisp, limit, tau, iterations
+    )
+    got = volume.copy()
+    cross_aggregate(
+        got, colour, ndisp, limit=limit, tau=tau, iterations=iterations, colour_r=colour_r,
+        dmin=dmin,
+    )  # fmt: skip
+    np.testing.assert_array_equal(got, want)
+
+
+def test_both_views_by_hand():
+    # One row of 4, disparities 0 and 1. Left: all alike (arms to the row's ends); right:
+    # 0 0 | 90 90, arms (left, right) (0, 1), (1, 0), (0, 1), (1, 0). A pair's arm is the
+    # shorter of the two on each side. d = 0: x = 0 and 1 average x = 0..1 (3), x = 2 and 3
+    # x = 2..3 (7). d = 1 (right pixel x - 1, clamped): x = 0 with right 0: 0..1 (3);
+    # x = 1 with right 0: 1..2 (5); x = 2 with right 1: 1..2 (5); x = 3 with right 2: its
+    # left arm min(3, 0) = 0 and right min(0, 1) = 0: alone (8).
+    colour = np.zeros((1, 1, 4), np.int16)
+    colour_r = np.array([[[0, 0, 90, 90]]], np.int16)
+    volume = np.array([[[2, 2], [4, 4], [6, 6], [8, 8]]], np.int16)
+    cross_aggregate(volume, colour, 2, limit=10, tau=20, iterations=1, colour_r=colour_r)
+    np.testing.assert_array_equal(volume[0, :, 0], [3, 3, 7, 7])
+    np.testing.assert_array_equal(volume[0, :, 1], [3, 5, 5, 8])
+
+
 def test_default_sgm_unchanged_and_cross_runs():
     rng = np.random.default_rng(7)
     left = rng.integers(0, 256, (20, 40)).astype(np.uint8)

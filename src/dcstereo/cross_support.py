@@ -30,17 +30,45 @@ def support_arms(colour: np.ndarray, limit: int, tau: int) -> np.ndarray:
 
 
 def cross_aggregate(
-    volume: np.ndarray, colour: np.ndarray, ndisp: int, *, limit: int, tau: int, iterations: int
+    volume: np.ndarray,
+    colour: np.ndarray,
+    ndisp: int,
+    *,
+    limit: int,
+    tau: int,
+    iterations: int,
+    colour_r: np.ndarray | None = None,
+    dmin: int = 0,
 ) -> None:
     """Average ``volume`` (``(H, W, Dp)`` int16) in place over the cross regions of ``colour``.
 
     ``iterations`` rounds of a horizontal and a vertical pass, the odd rounds horizontal
     first and the even ones vertical first (as ADCensus alternates them). Only the lanes
     ``k < ndisp`` change. Memory: an int32 scratch of ``(H, W, ndisp)`` for the vertical
-    passes.
+    passes. With ``colour_r`` (the right view's ``(C, H, W)``): the regions both views
+    share at each disparity ``dmin + k`` (``aggregation="cross-both"``; ADCensus combines
+    the two views' arms so), the shorter of left pixel ``x``'s and right pixel ``x - d``'s
+    arms on each side.
     """
     arms = support_arms(colour, limit, tau)
     prefix = np.empty(volume.shape[:2] + (ndisp,), dtype=np.int32)
+    if colour_r is not None:  # the arms both views share at each disparity
+        arms_r = support_arms(colour_r, limit, tau)
+        counts = np.arange(2 * limit + 1, dtype=np.float32)
+        counts[0] = 1
+        reciprocals = np.float32(1.0) / counts
+        for i in range(iterations):
+            if i % 2 == 0:
+                kernels.aggregate_horizontal_both(volume, arms, arms_r, dmin, ndisp, reciprocals)
+                kernels.aggregate_vertical_both(
+                    volume, arms, arms_r, dmin, ndisp, reciprocals, prefix
+                )
+            else:
+                kernels.aggregate_vertical_both(
+                    volume, arms, arms_r, dmin, ndisp, reciprocals, prefix
+                )
+                kernels.aggregate_horizontal_both(volume, arms, arms_r, dmin, ndisp, reciprocals)
+        return
     for i in range(iterations):
         if i % 2 == 0:
             kernels.aggregate_horizontal(volume, arms, ndisp)

@@ -81,7 +81,7 @@ DEFAULT_PATHS = 8
 DEFAULT_LR_TOLERANCE = 1
 
 #: ``sgm``: aggregations of the cost volume before the semi-global one (None: none).
-AGGREGATIONS = ("cross",)
+AGGREGATIONS = ("cross", "cross-both")
 #: ``aggregation="cross"``: the best of those measured on the development scenes
 #: (``scripts/eval_stages.py``; ADCensus's 34, 20 and 4 rounds lose more on the 2014 scenes).
 DEFAULT_CROSS_LIMIT = 7
@@ -347,7 +347,9 @@ class MatchParams:
         ``sgm`` only, off (None) by default: a stage between the costs and the semi-global
         aggregation. ``"cross"``: the costs averaged over cross-based support regions of the
         left view (ADCensus; ``cross_limit``, ``cross_tau``, ``cross_iterations``, see
-        :mod:`dcstereo.cross_support`). The guided filter of the slices (CostFilter) and
+        :mod:`dcstereo.cross_support`); ``"cross-both"``: over the regions the two views
+        share at each disparity (the shorter of the left and the right pixel's arms, as
+        ADCensus combines them). The guided filter of the slices (CostFilter) and
         MGM's paths were tried and lost (commit 08d52ae holds them).
     census_step : int
         ``sgm`` only: the spacing of the census window's samples (1, the default: every

@@ -220,6 +220,7 @@ def _run(left, right, params, want_confidence):
     _census(padded_signal(right, 0), rows, cols, codes_r, params.census_step)
     colour_l, colour_r = colour_channels(left, right)
     guide = colour_l if params.aggregation is not None else None
+    guide_r = colour_r if params.aggregation == "cross-both" else None
     if params.cost == "census":
         colour_l = colour_l[:1, :1, :1]  # unread (ad_max 0); one unit a cost unit
         colour_r = colour_r[:1, :1, :1]
@@ -256,10 +257,11 @@ def _run(left, right, params, want_confidence):
             codes_l, codes_r, colour_l, colour_r, dmin, ndisp, bit_cost, ad_max, params.window,
             reciprocal, pad_cost, m0, volume,
         )  # fmt: skip
-        if params.aggregation == "cross":
+        if params.aggregation in ("cross", "cross-both"):
             cross_aggregate(
                 volume, guide[:, m0:m1], ndisp, limit=params.cross_limit, tau=params.cross_tau,
                 iterations=params.cross_iterations,
+                colour_r=None if guide_r is None else guide_r[:, m0:m1], dmin=dmin,
             )  # fmt: skip
         cost = volume.reshape(-1)
         luma = np.ascontiguousarray(luma_l[m0:m1])

@@ -179,8 +179,9 @@ _METHOD_OPTION_TABLE = {
     ),
     "aggregation": (
         "A stage between the costs and the semi-global paths: cross (the costs averaged "
-        "over cross-based support regions of the left view, ADCensus). Default: none.",
-        {"type": click.Choice(["cross"])},
+        "over cross-based support regions of the left view, ADCensus) or cross-both (over "
+        "the regions both views share at each disparity). Default: none.",
+        {"type": click.Choice(["cross", "cross-both"])},
     ),
     "cross_limit": (
         "--aggregation cross: the arms are shorter than this many pixels "

@@ -160,3 +160,52 @@ def aggregate_vertical(volume, arms, ndisp, prefix):
             else:
                 for k in range(ndisp):
                     dst[k] = np.int16(np.float32(bottom[k]) * scale + half)
+
+
+@nb.njit(cache=True, parallel=True)
+def aggregate_horizontal_both(volume, arms, arms_r, dmin, ndisp, reciprocals):
+    """:func:`aggregate_horizontal` over the arms both views share at each disparity.
+
+    At disparity ``d = dmin + k`` the arm of left pixel ``x`` is the shorter of its own and
+    that of right pixel ``x - d`` (clamped to the image, as the costs are), each side
+    (Mei et al.'s combined support). ``reciprocals[n]`` is ``float32(1) / float32(n)``.
+    """
+    height, width = volume.shape[0], volume.shape[1]
+    half = np.float32(0.5)
+    for y in nb.prange(height):
+        prefix = np.empty((width + 1) * ndisp, dtype=np.int32)
+        row = volume[y]
+        for k in range(ndisp):
+            prefix[k] = 0
+        for x in range(width):
+            src = row[x]
+            base = x * ndisp
+            for k in range(ndisp):
+                prefix[base + ndisp + k] = prefix[base + k] + np.int32(src[k])
+        for x in range(width):
+            dst = row[x]
+            for k in range(ndisp):
+                xr = min(max(x - dmin - k, 0), width - 1)
+                before = min(arms[0, y, x], arms_r[0, y, xr])
+                after = min(arms[1, y, x], arms_r[1, y, xr])
+                total = prefix[(x + after + 1) * ndisp + k] - prefix[(x - before) * ndisp + k]
+                dst[k] = np.int16(np.float32(total) * reciprocals[before + after + 1] + half)
+
+
+@nb.njit(cache=True, parallel=True)
+def aggregate_vertical_both(volume, arms, arms_r, dmin, ndisp, reciprocals, prefix):
+    """:func:`aggregate_vertical` over the arms both views share (as the horizontal pass)."""
+    height, width = volume.shape[0], volume.shape[1]
+    _prefix_rows(volume, ndisp, prefix)
+    half = np.float32(0.5)
+    for y in nb.prange(height):
+        for x in range(width):
+            dst = volume[y, x]
+            for k in range(ndisp):
+                xr = min(max(x - dmin - k, 0), width - 1)
+                up = min(arms[2, y, x], arms_r[2, y, xr])
+                down = min(arms[3, y, x], arms_r[3, y, xr])
+                total = prefix[y + down, x, k]
+                if y - up > 0:
+                    total -= prefix[y - up - 1, x, k]
+                dst[k] = np.int16(np.float32(total) * reciprocals[up + down + 1] + half)
