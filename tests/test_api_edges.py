@@ -104,7 +104,7 @@ OTHER_VALUES = {
     "census_step": 2,
     "aggregation": "cross",
     "cross_limit": 9,
-    "cross_tau": 10,
+    "cross_tau": 12,
     "cross_iterations": 2,
 }
 

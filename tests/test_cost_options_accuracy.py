@@ -60,3 +60,15 @@ def test_cross_support_keeps_its_measured_accuracy_on_midd1(middlebury_root):
         result.disparity, scene.disparity, threshold=1.0, mask=scene.masks["nonocc"]
     )
     assert bad <= 14.547 + 0.01, f"Midd1: bad-1.0 {bad:.3f} % > 14.547"
+
+
+@pytest.mark.slow
+@pytest.mark.dataset
+@pytest.mark.parametrize(("name", "pinned"), [("Midd1", 14.562), ("teddy", 5.661)])
+def test_cross_both_keeps_its_measured_accuracy(middlebury_root, name, pinned):
+    # aggregation="cross-both" with its defaults (limit 5, tau 10, one round)
+    scene = load_scene(middlebury_root / name)
+    result = run_scene("sgm", scene, aggregation="cross-both").filled()
+    mask = scene.masks["nonocc"]
+    bad = bad_pixel_rate(result.disparity, scene.disparity, threshold=1.0, mask=mask)
+    assert bad <= pinned + 0.01, f"{name}: bad-1.0 {bad:.3f} % > {pinned}"

@@ -82,10 +82,11 @@ DEFAULT_LR_TOLERANCE = 1
 
 #: ``sgm``: aggregations of the cost volume before the semi-global one (None: none).
 AGGREGATIONS = ("cross", "cross-both")
-#: ``aggregation="cross"``: the best of those measured on the development scenes
-#: (``scripts/eval_stages.py``; ADCensus's 34, 20 and 4 rounds lose more on the 2014 scenes).
-DEFAULT_CROSS_LIMIT = 7
-DEFAULT_CROSS_TAU = 15
+#: The cross regions: the best measured for ``"cross-both"`` on the development scenes
+#: (``scripts/eval_stages.py``; ADCensus's 34, 20 and 4 rounds lose on the 2014 scenes;
+#: ``"cross"``, the left view's regions alone, did best at 7 and 15).
+DEFAULT_CROSS_LIMIT = 5
+DEFAULT_CROSS_TAU = 10
 DEFAULT_CROSS_ITERATIONS = 1
 
 #: ``sgm``: the spacing of the census window's samples (1: every pixel).
