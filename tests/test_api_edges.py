@@ -103,6 +103,11 @@ OTHER_VALUES = {
     "paths": 4,
     "lr_tolerance": 2,
     "planes": True,
+    "census_step": 2,
+    "aggregation": "cross",
+    "cross_limit": 9,
+    "cross_tau": 12,
+    "cross_iterations": 2,
 }
 
 

@@ -80,6 +80,18 @@ DEFAULT_P2_GRADIENT = 6.0
 DEFAULT_PATHS = 8
 DEFAULT_LR_TOLERANCE = 1
 
+#: ``sgm``: aggregations of the cost volume before the semi-global one (None: none).
+AGGREGATIONS = ("cross", "cross-both")
+#: The cross regions: the best measured for ``"cross-both"`` on the development scenes
+#: (``scripts/eval_stages.py``; ADCensus's 34, 20 and 4 rounds lose on the 2014 scenes;
+#: ``"cross"``, the left view's regions alone, did best at 7 and 15).
+DEFAULT_CROSS_LIMIT = 5
+DEFAULT_CROSS_TAU = 10
+DEFAULT_CROSS_ITERATIONS = 1
+
+#: ``sgm``: the spacing of the census window's samples (1: every pixel).
+DEFAULT_CENSUS_STEP = 1
+
 #: ``sgm``: the largest census window (its bits, one per pixel but the centre, fill 64).
 MAX_CENSUS_BITS = 64
 
@@ -120,6 +132,11 @@ METHOD_OPTIONS = {
     "paths": ("sgm",),
     "lr_tolerance": ("sgm",),
     "planes": ("sgm",),
+    "aggregation": ("sgm",),
+    "cross_limit": ("sgm",),
+    "cross_tau": ("sgm",),
+    "cross_iterations": ("sgm",),
+    "census_step": ("sgm",),
 }
 
 
@@ -332,6 +349,17 @@ class MatchParams:
         ``sgm`` only, off by default: after the left-right check, a robust plane per
         superpixel of the left image gives its value to the mismatched pixels and to the
         unsure estimates far from it (:func:`dcstereo.refine.planes.refine_planes`).
+    aggregation : str or None
+        ``sgm`` only, off (None) by default: a stage between the costs and the semi-global
+        aggregation. ``"cross"``: the costs averaged over cross-based support regions of the
+        left view (ADCensus; ``cross_limit``, ``cross_tau``, ``cross_iterations``, see
+        :mod:`dcstereo.aggregate.cross`); ``"cross-both"``: over the regions the two views
+        share at each disparity (the shorter of the left and the right pixel's arms, as
+        ADCensus combines them). The guided filter of the slices (CostFilter) and
+        MGM's paths were tried and lost (commit 08d52ae holds them).
+    census_step : int
+        ``sgm`` only: the spacing of the census window's samples (1, the default: every
+        pixel; 2: a sparse census twice as wide for the same bits).
     """
 
     max_disparity: int
@@ -366,6 +394,11 @@ class MatchParams:
     paths: int = DEFAULT_PATHS
     lr_tolerance: int | None = DEFAULT_LR_TOLERANCE
     planes: bool = False
+    aggregation: str | None = None
+    cross_limit: int = DEFAULT_CROSS_LIMIT
+    cross_tau: int = DEFAULT_CROSS_TAU
+    cross_iterations: int = DEFAULT_CROSS_ITERATIONS
+    census_step: int = DEFAULT_CENSUS_STEP
 
     def __post_init__(self):
         for field in fields(self):  # numpy scalars (np.int64(4), np.True_): the Python value
@@ -506,6 +539,23 @@ class MatchParams:
         gradient = self.p2_gradient
         if not is_number(gradient) or not math.isfinite(gradient) or gradient < 0:
             raise ValueError(f"p2_gradient must be a non-negative number, got {gradient!r}")
+        if self.aggregation is not None and self.aggregation not in AGGREGATIONS:
+            raise ValueError(
+                f"aggregation must be None or one of {', '.join(AGGREGATIONS)}, "
+                f"got {self.aggregation!r}"
+            )
+        for name, lowest, highest in (
+            ("cross_limit", 1, 1024),
+            ("cross_tau", 1, 256),
+            ("cross_iterations", 1, 8),
+            ("census_step", 1, 4),
+        ):
+            value = getattr(self, name)
+            if not is_integer(value) or not lowest <= value <= highest:
+                raise ValueError(
+                    f"{name} must be an integer from {lowest} to {highest}, got {value!r}"
+                )
+            object.__setattr__(self, name, int(value))
         tolerance = self.lr_tolerance
         if tolerance is not None:
             if isinstance(tolerance, float) and tolerance.is_integer():

@@ -181,6 +181,32 @@ _METHOD_OPTION_TABLE = {
         "the mismatches and the unsure estimates (default: off).",
         {},
     ),
+    "census_step": (
+        "Spacing of the census window's samples: 1 (the default) every pixel, 2 a sparse "
+        "census twice as wide for the same bits.",
+        {"type": int},
+    ),
+    "aggregation": (
+        "A stage between the costs and the semi-global paths: cross (the costs averaged "
+        "over cross-based support regions of the left view, ADCensus) or cross-both (over "
+        "the regions both views share at each disparity). Default: none.",
+        {"type": click.Choice(["cross", "cross-both"])},
+    ),
+    "cross_limit": (
+        "--aggregation cross: the arms are shorter than this many pixels "
+        f"(default {_params.DEFAULT_CROSS_LIMIT}).",
+        {"type": int},
+    ),
+    "cross_tau": (
+        "--aggregation cross: an arm stops at a channel difference of this many gray "
+        f"levels (default {_params.DEFAULT_CROSS_TAU}).",
+        {"type": int},
+    ),
+    "cross_iterations": (
+        "--aggregation cross: rounds of a horizontal and a vertical pass "
+        f"(default {_params.DEFAULT_CROSS_ITERATIONS}).",
+        {"type": int},
+    ),
     "orientations": (
         "Comma-separated surface slopes (px of disparity per px), each of 0, +-0.0625, "
         f"+-0.125, +-0.25, +-0.5, +-1 (default {_DEFAULT_SLOPES}).",

@@ -57,7 +57,9 @@ import numpy as np
 from dcstereo._threads import free_threads, threads_with_cores  # noqa: F401 (free_threads: its docs)
 from dcstereo._vector.sgm import HIGH, LANES
 from dcstereo.aggregate import sgm as sgm_kernels
+from dcstereo.aggregate.cross import cross_aggregate
 from dcstereo.costs import census as census_kernels
+from dcstereo.costs.census_sparse import census_sparse
 from dcstereo.methods._pipeline import FILL, MEDIAN, Method, MethodParams, core, option
 from dcstereo.params import MatchParams
 from dcstereo.refine.consistency import fill_with_colour
@@ -324,10 +326,17 @@ def tile_columns(codes_l, codes_r, colour_l, colour_r, c0, c1, colour):
     return tile_l, tile_r, colour_l, colour_r
 
 
-def _census(signal: np.ndarray, rows: int, cols: int, out: np.ndarray) -> None:
-    """Write the census codes of ``signal`` (``padded_signal(image, 0)``) into ``out``."""
-    padded = np.pad(signal, ((rows // 2, rows // 2), (cols // 2, cols // 2)), mode="edge")
-    census_kernels.census_transform(padded, rows, cols, out)
+def _census(signal: np.ndarray, rows: int, cols: int, out: np.ndarray, step: int = 1) -> None:
+    """Write the census codes of ``signal`` (``padded_signal(image, 0)``) into ``out``.
+
+    ``step`` > 1: the sparse census, its samples ``step`` pixels apart.
+    """
+    ry, rx = step * (rows // 2), step * (cols // 2)
+    padded = np.pad(signal, ((ry, ry), (rx, rx)), mode="edge")
+    if step == 1:
+        census_kernels.census_transform(padded, rows, cols, out)
+    else:
+        census_sparse(padded, rows, cols, step, out)
 
 
 def match_sgm(left: np.ndarray, right: np.ndarray, params: MatchParams) -> DisparityResult:
@@ -365,9 +374,11 @@ def _run_threads(left, right, params, want_confidence):
     codes_l = np.empty((height, width), dtype=kind)
     codes_r = np.empty((height, width), dtype=kind)
     luma_l = padded_signal(left, 0)
-    _census(luma_l, rows, cols, codes_l)
-    _census(padded_signal(right, 0), rows, cols, codes_r)
+    _census(luma_l, rows, cols, codes_l, params.census_step)
+    _census(padded_signal(right, 0), rows, cols, codes_r, params.census_step)
     colour_l, colour_r = colour_channels(left, right)
+    guide = colour_l if params.aggregation is not None else None
+    guide_r = colour_r if params.aggregation == "cross-both" else None
     if params.cost == "census":
         colour_l = colour_l[:1, :1, :1]  # unread (ad_max 0); one unit a cost unit
         colour_r = colour_r[:1, :1, :1]
@@ -406,6 +417,18 @@ def _run_threads(left, right, params, want_confidence):
                 tile_l, tile_r, ad_l, ad_r, dmin, ndisp, bit_cost, ad_max, params.window,
                 reciprocal, pad_cost, m0, volume, threads,
             )  # fmt: skip
+            if params.aggregation in ("cross", "cross-both"):
+                # a tile's own columns (near a cut, the right view's beyond it count as
+                # outside, as the paths start there)
+                cross_aggregate(
+                    volume, np.ascontiguousarray(guide[:, m0:m1, c0:c1]), ndisp,
+                    limit=params.cross_limit, tau=params.cross_tau,
+                    iterations=params.cross_iterations,
+                    colour_r=None if guide_r is None else np.ascontiguousarray(
+                        guide_r[:, m0:m1, c0:c1]
+                    ),
+                    dmin=dmin,
+                )  # fmt: skip
             cost = volume.reshape(-1)
             luma = np.ascontiguousarray(luma_l[m0:m1, c0:c1])
             sgm_kernels.vertical_passes(cost, luma, p1, table, diagonals, down, up, threads)
@@ -446,6 +469,11 @@ class SGMParams(MethodParams):
     paths: int = option("paths")
     lr_tolerance: int | None = option("lr_tolerance")
     planes: bool = option("planes")
+    aggregation: str | None = option("aggregation")
+    cross_limit: int = option("cross_limit")
+    cross_tau: float = option("cross_tau")
+    cross_iterations: int = option("cross_iterations")
+    census_step: int = option("census_step")
 
 
 METHOD = Method(
