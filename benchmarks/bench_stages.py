@@ -10,7 +10,8 @@ second compiled version of the same code; its stage totals are the sums over the
 For each scene (and with ``--synthetic``, ``bench_speed.py``'s synthetic pair, on which
 ``dc`` runs without the band's cost array when it is wide) and method: one warm-up call,
 then ``--repeat`` timed calls through the private entry points ``dcstereo.match`` uses
-(``api._match_dc``, ``api._match_dsi``, default parameters); each stage's figure is its
+(``methods.dc._match_dc``, ``methods.dsi._match_dsi``, default parameters); each stage's
+figure is its
 least over the calls (so the stages may add up to less than the best call). Counts are
 turned into milliseconds with the counter's rate, measured against ``time.perf_counter``
 for 0.2 s. One thread unless ``--threads``; the per-stage sums then count every thread's
@@ -59,15 +60,15 @@ def counter_rate(seconds=0.2):
 
 def stage_times(left, right, min_disparity, max_disparity, method, repeat):
     """``(best call ms, least counts per stage)`` of ``method`` on a pair."""
-    from dcstereo import api
     from dcstereo.divide import bands
+    from dcstereo.methods import _bands, dc, dsi
     from dcstereo.params import MatchParams
     from dcstereo.signal import check_image
 
     left, right = check_image(left, "left"), check_image(right, "right")
     params = MatchParams(max_disparity=max_disparity, min_disparity=min_disparity, method=method)
-    run = api._match_dc if method == "dc" else api._match_dsi
-    shape = (api._band_chunks(left.shape[0]), len(bands.CLOCK_STAGES))
+    run = dc._match_dc if method == "dc" else dsi._match_dsi
+    shape = (_bands._band_chunks(left.shape[0]), len(bands.CLOCK_STAGES))
     best_call = np.inf
     least = np.full(shape[1], np.iinfo(np.int64).max)
     for i in range(repeat + 1):

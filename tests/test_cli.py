@@ -565,11 +565,11 @@ def test_a_second_process_compiles_nothing(pair):
 def test_batch_and_video_announce_compiling_before_their_bar(command, pair, tmp_path, monkeypatch):
     import shutil
 
-    import dcstereo.batch
+    import dcstereo.batch.folders
     import dcstereo.batch.video
     from dcstereo.cli._common import COMPILE_NOTICE
 
-    module = dcstereo.batch if command == "batch" else dcstereo.batch.video
+    module = dcstereo.batch.folders if command == "batch" else dcstereo.batch.video
     monkeypatch.setattr(module, "match", compiling_first(module.match))
     folder, _ = pair
     source, out = tmp_path / "source", tmp_path / "out"

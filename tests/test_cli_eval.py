@@ -10,7 +10,7 @@ from PIL import Image
 import synthetic
 from dcstereo import io
 from dcstereo.cli import main
-from dcstereo.evaluation import datasets as ds
+from dcstereo.evaluation import downloads
 from test_datasets import http_server, zipped_scene  # noqa: F401  (fixture)
 
 HEIGHT, WIDTH = 24, 64
@@ -402,18 +402,18 @@ def test_datasets_list_and_fetch(tmp_path, http_server, monkeypatch):  # noqa: F
     assert "art-2005-third" in result.output and "unverified" in result.output
     www, base = http_server
     digest = zipped_scene(tmp_path, www)
-    entry = ds.RegistryEntry(
-        "toy", "2014", (ds.RemoteFile(f"{base}/Toy.zip", digest),), "Toy", "", ""
+    entry = downloads.RegistryEntry(
+        "toy", "2014", (downloads.RemoteFile(f"{base}/Toy.zip", digest),), "Toy", "", ""
     )
-    monkeypatch.setitem(ds.REGISTRY, "toy", entry)
+    monkeypatch.setitem(downloads.REGISTRY, "toy", entry)
     result = invoke("datasets", "fetch", "toy", "--cache", tmp_path / "cache")
     assert result.exit_code == 0, result.output
     assert result.output.strip().endswith(str(tmp_path / "cache" / "toy" / "Toy"))
     assert digest in result.output
-    bad = ds.RegistryEntry(
-        "bad", "2014", (ds.RemoteFile(f"{base}/Toy.zip", "1" * 64),), "Toy", "", ""
+    bad = downloads.RegistryEntry(
+        "bad", "2014", (downloads.RemoteFile(f"{base}/Toy.zip", "1" * 64),), "Toy", "", ""
     )
-    monkeypatch.setitem(ds.REGISTRY, "bad", bad)
+    monkeypatch.setitem(downloads.REGISTRY, "bad", bad)
     result = invoke("datasets", "fetch", "bad", "--cache", tmp_path / "c2")
     assert result.exit_code == 1
     assert (

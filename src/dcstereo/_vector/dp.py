@@ -80,6 +80,7 @@ def _cell_step(steps, o, r):
     return STEP_B
 
 
+@nb.njit(cache=True)  # the plain forms call it, compiled too with DCSTEREO_VECTOR=0
 def _set_cell_steps(steps, o, r, c, d, e, a):
     """Record which of the steps c, d, e, a reach lane ``r``'s cell of block word ``steps[o]``."""
     word = 0

@@ -38,10 +38,13 @@ _I64 = ir.IntType(64)
 _VEC = ir.VectorType(_I16, LANES)
 
 
+# compiled too: numba compiles the plain forms (DCSTEREO_VECTOR=0), which call these
+@nb.njit(cache=True)
 def _saturate(value):
     return min(max(value, LOW), HIGH)
 
 
+@nb.njit(cache=True)
 def _wrap(value):
     return (value - LOW) % 65536 + LOW
 
