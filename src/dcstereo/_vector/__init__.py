@@ -14,5 +14,7 @@ import os
 #: Whether compiled code runs the hand-written vector forms (the default) or numba's
 #: compilation of their plain forms: set ``DCSTEREO_VECTOR=0`` in the environment before
 #: importing dcstereo for the plain forms (to compare, or where the vector code is suspect).
-#: The kernel cache keeps the two apart.
+#: The kernel cache keeps the two apart. Every operation has a plain form but the DP's cell
+#: chains of the band methods (``dp._cells5_chain``, ``dp._cells3_chain``), whose plain
+#: forms take optional arrays numba cannot compile: they stay vector code either way.
 VECTOR = os.environ.get("DCSTEREO_VECTOR", "1").strip() != "0"

@@ -15,7 +15,6 @@ from llvmlite import ir
 from numba.core import cgutils, types
 from numba.extending import intrinsic, overload
 
-from dcstereo._vector import VECTOR
 from dcstereo._vector.simd import (
     _I64,
     _VEC_F64,
@@ -80,7 +79,6 @@ def _cell_step(steps, o, r):
     return STEP_B
 
 
-@nb.njit(cache=True)  # the plain forms call it, compiled too with DCSTEREO_VECTOR=0
 def _set_cell_steps(steps, o, r, c, d, e, a):
     """Record which of the steps c, d, e, a reach lane ``r``'s cell of block word ``steps[o]``."""
     word = 0
@@ -377,8 +375,6 @@ def _cells3_vector(typingctx, cur, prev, cost, o_here, steps, o_steps, k_lo, k_h
 def _cells5_compiled(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2,
                      slant2, e_off=None, pin_k=None, pin_total=None, pin_steps=None,
                      o_pin=0):  # fmt: skip
-    if not VECTOR:  # DCSTEREO_VECTOR=0: numba compiles the plain form
-        return _cells5_chain
 
     def run(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_lo, k_hi, occ2, slant2,
             e_off=None, pin_k=None, pin_total=None, pin_steps=None, o_pin=0):  # fmt: skip
@@ -392,8 +388,6 @@ def _cells5_compiled(cur, prev, prev2, cost, o_here, o_left, steps, o_steps, k_l
 
 @overload(_cells3_chain)
 def _cells3_compiled(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2):
-    if not VECTOR:  # DCSTEREO_VECTOR=0: numba compiles the plain form
-        return _cells3_chain
 
     def run(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2):
         _cells3_vector(cur, prev, cost, o_here, steps, o_steps, k_lo, k_hi, occ2)
