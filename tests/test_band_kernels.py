@@ -1073,6 +1073,10 @@ def assert_same_dc(expected, got):
     assert got.disparity.tobytes() == expected.disparity.tobytes()
     np.testing.assert_array_equal(got.flags, expected.flags)
     np.testing.assert_array_equal(got.features, expected.features)
+    # the cost of the whole path through the pairs on both paths (the row kernel counts
+    # the intervals with no left pixel inside: the end pair's match, the right pixels
+    # skipped), summed in another order
+    np.testing.assert_allclose(got.path_cost, expected.path_cost, rtol=1e-12, atol=0)
 
 
 DC_OPTIONS = [

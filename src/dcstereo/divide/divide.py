@@ -307,13 +307,17 @@ def fill_interval(cost, dmin, step_costs, a, c, b, e, width, linear, path, disp_
     ``linear`` and two real anchors the disparities are interpolated linearly; otherwise
     the DP runs inside the rectangle with its path forced through the anchors
     (``dp.scanline_dp`` with ``step_costs`` and its scratch ``path``). Returns the doubled
-    cost of the DP path (0 for interpolation).
+    cost of the DP path (0 for interpolation): from the start anchor, which costs nothing
+    here (its interval on the left counted it), to the end anchor, its match included. An
+    interval with no left pixel inside still has that cost (the end anchor's match, and
+    the right pixels skipped before it), so that the sum over a row's intervals is the
+    cost of the whole path through its pairs, as the band DP counts it.
     """
-    if c - a <= 1:
-        return 0.0
     anchor_start = a >= 0
     anchor_end = c < width
     if linear and anchor_start and anchor_end:
+        if c - a <= 1:
+            return 0.0
         d_a = a - b
         d_c = c - e
         for x in range(a + 1, c):

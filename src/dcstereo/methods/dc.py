@@ -25,9 +25,11 @@ def _match_dc(left, right, params: MatchParams, clock=None) -> DisparityResult:
     up to ``BAND_ARRAY_BYTES``). The other settings, and images whose band array would
     pass that, run row by row
     (``divide.match_dc_rows``), which fills each interval between pairs separately.
-    Both give the same pairs and maps; the band path's ``path_cost`` is that of the whole
-    path through the pairs (the row-by-row one leaves
-    out intervals with no left pixel inside). ``clock``: as ``_match_dsi``'s.
+    Both give the same pairs, maps and ``path_cost`` (the cost of the whole path through
+    the pairs, summed in another order: equal to about 1e-15). The two stay because each
+    wins where it runs: the band kernels are 1.5-3.5x faster while the band's array fits
+    its bound, and only the row kernel runs the settings that retry pairs per interval
+    (``uniqueness=0``, ``max_candidates``). ``clock``: as ``_match_dsi``'s.
     """
     left_p, right_p = _bands._padded_signals(left, right, params.window // 2)
     height, width = left.shape[:2]
