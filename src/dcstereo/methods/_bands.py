@@ -62,8 +62,9 @@ def _band_rows(
 
     ``out``: the call's ``records.Outputs`` (the arrays a mode does not write empty).
     ``tests`` None (``mode`` ``bands.FREE``): the free-mode version compiles without the
-    search; the SAD cost passes ``bt`` None, so its version compiles without the BT code,
-    and the search of ``dc`` passes ``gcp`` None (``gcp``: ``dsi3-gcp``'s points instead).
+    search; the SAD cost passes ``bands.SAD_COST``, so its version compiles without the BT
+    code (``bands.BT_COST`` with it), and ``dc``'s search passes ``bands.FEATURE_SEARCH``
+    (``gcp``: ``bands.GCP_POINTS``, ``dsi3-gcp``'s points instead).
     """
     # the BT cost and the modes that keep the band's cost array make it first
     keeps_array = params.cost == "bt" or mode in (bands.PINS_GIVEN, bands.SEARCH)
