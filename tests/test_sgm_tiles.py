@@ -18,6 +18,7 @@ import numba
 import numpy as np
 import pytest
 
+from dcstereo import _threads
 from dcstereo._vector import sgm as sgm_simd
 from dcstereo.costs import census as census_kernels
 from dcstereo.methods import sgm
@@ -271,7 +272,27 @@ def test_free_threads_leaves_the_cores_other_work_takes():
     assert sgm.free_threads(1, "0.0 0.0 0.0 1/90 7") == 1
     assert sgm.free_threads(4, "0.0 0.0 0.0 1/90 7") == min(4, cores)  # the caller alone
     assert sgm.free_threads(4, f"5.0 5.0 5.0 {cores + 3}/90 7") == 1  # every core taken
-    assert sgm.free_threads(4, "garbled") == 4  # unknown: numba's count
+    assert sgm.free_threads(4, "garbled", "max 100000") == 4  # unknown: numba's count
+    # a container's CPU quota (cgroup v2 cpu.max; v1's quota and period read the same way)
+    idle = "0.0 0.0 0.0 1/90 7"
+    assert sgm.free_threads(4, idle, "100000 100000") == 1
+    assert sgm.free_threads(4, idle, "150000 100000") == min(2, cores)  # 1.5 cores: 2
+    assert sgm.free_threads(4, "garbled", "200000 100000") == 2
+    assert sgm.free_threads(4, idle, "max 100000") == min(4, cores)  # no quota
+    assert sgm.free_threads(4, idle, "-1 100000") == min(4, cores)  # v1: no quota
+
+
+def test_quota_cores_reads_the_cgroup_text():
+    assert _threads.quota_cores("max 100000\n") is None
+    assert _threads.quota_cores("-1 100000") is None
+    assert _threads.quota_cores("50000 100000") == 1  # half a core: one thread
+    assert _threads.quota_cores("200000 100000") == 2
+    assert _threads.quota_cores("250000 100000") == 3
+    assert _threads.quota_cores("garbled") is None
+    assert _threads.quota_cores("100 0") is None
+    # this machine's own files: a whole number of cores, or no quota
+    own = _threads.quota_cores()
+    assert own is None or own >= 1
     threads = numba.get_num_threads()
     with sgm.threads_with_cores():
         assert 1 <= numba.get_num_threads() <= threads
