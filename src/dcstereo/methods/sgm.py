@@ -30,7 +30,6 @@ a multiple of 16): the volumes (the costs and two sums of paths, int16) of one t
 ``6 * tile pixels * Dp`` bytes, at most :data:`VOLUME_BYTES` (768 MiB): the whole image when
 ``6 * W * H * Dp`` fits, otherwise a grid of tiles of rows and columns (:func:`tiles`), each
 with :data:`STRIP_MARGIN` rows and columns of context on each side, which the paths cross
-from dataclasses import dataclass
 from the tile's edge, so that such a result differs (slightly, near the cuts) from the
 whole-image one; about 45 bytes a pixel of images, codes and choices; and each thread's
 path buffers, about ``16 * tile width * Dp`` bytes. When the call ends its volumes go back
