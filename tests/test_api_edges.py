@@ -104,6 +104,7 @@ OTHER_VALUES = {
     "lr_tolerance": 2,
     "planes": True,
     "census_step": 2,
+    "photometric": "matched",
     "aggregation": "cross",
     "cross_limit": 9,
     "cross_tau": 12,

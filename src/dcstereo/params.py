@@ -92,6 +92,9 @@ DEFAULT_CROSS_ITERATIONS = 1
 #: ``sgm``: the spacing of the census window's samples (1: every pixel).
 DEFAULT_CENSUS_STEP = 1
 
+#: ``sgm``: the photometric alignments of the right view before the colour term (None: none).
+PHOTOMETRIC = ("matched",)
+
 #: ``sgm``: the largest census window (its bits, one per pixel but the centre, fill 64).
 MAX_CENSUS_BITS = 64
 
@@ -137,6 +140,7 @@ METHOD_OPTIONS = {
     "cross_tau": ("sgm",),
     "cross_iterations": ("sgm",),
     "census_step": ("sgm",),
+    "photometric": ("sgm",),
 }
 
 
@@ -360,6 +364,12 @@ class MatchParams:
     census_step : int
         ``sgm`` only: the spacing of the census window's samples (1, the default: every
         pixel; 2: a sparse census twice as wide for the same bits).
+    photometric : str or None
+        ``sgm`` with ``cost="census-ad"`` only, off (None) by default. ``"matched"``: before
+        the colour term, each channel of the right view is mapped onto the left's levels
+        through the histograms of the pixels a coarse pass matched (census alone, four
+        times smaller each way), so that a change of gain, offset or gamma between the
+        views costs the colour term little (:mod:`dcstereo.costs.photometric`).
     """
 
     max_disparity: int
@@ -399,6 +409,7 @@ class MatchParams:
     cross_tau: int = DEFAULT_CROSS_TAU
     cross_iterations: int = DEFAULT_CROSS_ITERATIONS
     census_step: int = DEFAULT_CENSUS_STEP
+    photometric: str | None = None
 
     def __post_init__(self):
         for field in fields(self):  # numpy scalars (np.int64(4), np.True_): the Python value
@@ -544,6 +555,17 @@ class MatchParams:
                 f"aggregation must be None or one of {', '.join(AGGREGATIONS)}, "
                 f"got {self.aggregation!r}"
             )
+        if self.photometric is not None:
+            if self.photometric not in PHOTOMETRIC:
+                raise ValueError(
+                    f"photometric must be None or one of {', '.join(PHOTOMETRIC)}, "
+                    f"got {self.photometric!r}"
+                )
+            if self.method == "sgm" and self.cost != "census-ad":  # other methods: refused below
+                raise ValueError(
+                    f"photometric={self.photometric!r} aligns the colour term's colours: it "
+                    f"needs cost='census-ad', got cost={self.cost!r}"
+                )
         for name, lowest, highest in (
             ("cross_limit", 1, 1024),
             ("cross_tau", 1, 256),

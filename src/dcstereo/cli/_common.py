@@ -186,6 +186,12 @@ _METHOD_OPTION_TABLE = {
         "census twice as wide for the same bits.",
         {"type": int},
     ),
+    "photometric": (
+        "Before the colour term (cost census-ad): matched maps the right view's colours "
+        "onto the left's through the pixels a coarse pass matched, against a change of "
+        "gain, offset or gamma between the cameras. Default: none.",
+        {"type": click.Choice(list(_params.PHOTOMETRIC))},
+    ),
     "aggregation": (
         "A stage between the costs and the semi-global paths: cross (the costs averaged "
         "over cross-based support regions of the left view, ADCensus) or cross-both (over "

@@ -22,6 +22,10 @@ function of arrays with its parameters in :class:`~dcstereo.params.MatchParams`:
    (:mod:`dcstereo.refine.consistency`);
 6. the median post-filter (``median``, by :func:`dcstereo.match`).
 
+With ``photometric="matched"`` (off by default), before 1: the right view's colours mapped
+onto the left's through the colours of the pixels a coarse pass matched
+(:mod:`dcstereo.costs.photometric`).
+
 With ``planes`` (off by default), between 4 and 5: a robust plane per superpixel of the left
 image for the mismatches and the unsure estimates (:func:`dcstereo.refine.planes.refine_planes`).
 
@@ -58,6 +62,7 @@ from dcstereo._vector.sgm import HIGH, LANES
 from dcstereo.aggregate import sgm as sgm_kernels
 from dcstereo.aggregate.cross import cross_aggregate
 from dcstereo.costs import census as census_kernels
+from dcstereo.costs import photometric
 from dcstereo.costs.census_sparse import census_sparse
 from dcstereo.methods._pipeline import FILL, MEDIAN, Method, MethodParams, core, option
 from dcstereo.params import MatchParams
@@ -363,6 +368,33 @@ def _run(left, right, params, want_confidence):
         return _run_threads(left, right, params, want_confidence)
 
 
+def _aligned_right(colour_l, colour_r, params):
+    """Return the right view's channels mapped onto the left's (``photometric="matched"``).
+
+    The coarse pass: ``sgm`` with the census alone on the two views'
+    :data:`~dcstereo.costs.photometric.COARSE_FACTOR` times smaller box means, over the
+    range divided by the factor (rounded outwards), no fill; its estimates that pass the
+    left-right check pair the pixels (:func:`dcstereo.costs.photometric.align_right`).
+    A pair too small for it keeps its right view.
+    """
+    factor = photometric.COARSE_FACTOR
+    if min(colour_l.shape[1:]) < factor * photometric.MIN_COARSE_SIDE:
+        return colour_r
+    small_l = photometric.box_down(colour_l, factor)
+    small_r = photometric.box_down(colour_r, factor)
+    if small_l.shape[2] == 1:  # gray: one channel, the intensity
+        small_l, small_r = small_l[:, :, 0], small_r[:, :, 0]
+    coarse = MatchParams(
+        max_disparity=-(-params.max_disparity // factor),
+        min_disparity=params.min_disparity // factor,
+        method="sgm",
+        cost="census",
+        fill=False,
+    )
+    result, _ = _run_threads(small_l, small_r, coarse, False)
+    return photometric.align_right(colour_l, colour_r, result.disparity, factor)
+
+
 def _run_threads(left, right, params, want_confidence):
     """:func:`_run` at the thread count set."""
     height, width = left.shape[:2]
@@ -376,6 +408,8 @@ def _run_threads(left, right, params, want_confidence):
     _census(luma_l, rows, cols, codes_l, params.census_step)
     _census(padded_signal(right, 0), rows, cols, codes_r, params.census_step)
     colour_l, colour_r = colour_channels(left, right)
+    if params.photometric == "matched":
+        colour_r = _aligned_right(colour_l, colour_r, params)
     guide = colour_l if params.aggregation is not None else None
     guide_r = colour_r if params.aggregation == "cross-both" else None
     if params.cost == "census":
@@ -473,6 +507,7 @@ class SGMParams(MethodParams):
     cross_tau: float = option("cross_tau")
     cross_iterations: int = option("cross_iterations")
     census_step: int = option("census_step")
+    photometric: str | None = option("photometric")
 
 
 METHOD = Method(
