@@ -105,14 +105,23 @@ def fit_segment(xs, ys, ds, iterations, inlier, stop, seed, max_scored=2**30):
     return refined, count
 
 
-def fit_planes(disparity, usable, labels, n, iterations, inlier, stop, max_scored=2**30):
-    """Per label: (plane or None, used, inliers, size); pixels taken in raster order."""
+def fit_planes(disparity, usable, labels, n, iterations, inlier, stop, max_scored=2**30,
+               wanted=None, min_support=0.0):  # fmt: skip
+    """Per label: (plane or None, used, inliers, size); pixels taken in raster order.
+
+    A label none of whose pixels is ``wanted``, or whose estimates are under three or under
+    ``min_support`` of its pixels, is not fitted: (None, used, 0, size).
+    """
     out = []
     for k in range(n):
         ys, xs = np.nonzero(labels == k)  # raster order, as the kernel's counting sort
         keep = usable[ys, xs]
         sx, sy = xs[keep].astype(float), ys[keep].astype(float)
         sd = disparity[ys[keep], xs[keep]].astype(float)
+        needed = wanted is None or bool(wanted[ys, xs].any())
+        if not needed or len(sx) < 3 or len(sx) < min_support * len(ys):
+            out.append((None, len(sx), 0, len(ys)))
+            continue
         plane, count = fit_segment(
             list(sx), list(sy), list(sd), iterations, inlier, stop, k, max_scored
         )
@@ -165,7 +174,8 @@ def refine(
         holes = np.isnan(out)
         usable = (margin >= fit_margin) & ~holes
         replaceable = ~kept & (holes | (margin < replace_margin))
-        fits = fit_planes(out, usable, labels, ny * nx, iterations, inlier, stop, max_scored)
+        fits = fit_planes(out, usable, labels, ny * nx, iterations, inlier, stop, max_scored,
+                          wanted=replaceable, min_support=min_support)  # fmt: skip
         planes = [p if p is not None else (0.0, 0.0, 0.0) for p, *_ in fits]
         trusted = [
             p is not None

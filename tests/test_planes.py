@@ -22,8 +22,11 @@ def test_slic_equals_naive(seed):
     np.testing.assert_array_equal(got, expected)
 
 
-@pytest.mark.parametrize(("seed", "max_scored"), [(0, 2**30), (1, 2**30), (2, 7), (3, 12)])
-def test_fit_planes_equals_naive(seed, max_scored):
+@pytest.mark.parametrize(
+    ("seed", "max_scored", "partial"), [(0, 2**30, False), (1, 2**30, True), (2, 7, False),
+                                        (3, 12, True)]
+)  # fmt: skip
+def test_fit_planes_equals_naive(seed, max_scored, partial):
     rng = np.random.default_rng(10 + seed)
     height, width, step = 14, 19, 6
     labels = planes.superpixels(rng.integers(0, 256, (1, height, width)).astype(np.int16), step)
@@ -34,14 +37,24 @@ def test_fit_planes_equals_naive(seed, max_scored):
     disparity[rng.random((height, width)) < 0.1] = np.nan
     usable = np.isfinite(disparity) & (rng.random((height, width)) < 0.9)
     ny, nx = kernels.grid_shape(height, width, step)
+    # partial: a few wanted pixels (some segments have none) and a support floor
+    wanted = rng.random((height, width)) < 0.02 if partial else None
+    min_support = 0.75 if partial else 0.0
     got_planes, support = planes.fit_planes(
-        disparity, usable, labels, nx, ny, 50, 1.0, 0.8, max_scored
-    )
-    expected = naive_planes.fit_planes(disparity, usable, labels, ny * nx, 50, 1.0, 0.8, max_scored)
+        disparity, usable, labels, nx, ny, 50, 1.0, 0.8, max_scored, wanted=wanted,
+        min_support=min_support,
+    )  # fmt: skip
+    expected = naive_planes.fit_planes(disparity, usable, labels, ny * nx, 50, 1.0, 0.8,
+                                       max_scored, wanted, min_support)  # fmt: skip
+    fitted = 0
     for k, (plane, used, inliers, size) in enumerate(expected):
         assert tuple(support[k]) == (used, inliers, size)
         if plane is not None:
+            fitted += 1
             np.testing.assert_allclose(got_planes[k], plane, rtol=1e-9, atol=1e-9)
+        else:
+            assert not got_planes[k].any()
+    assert 0 < fitted < len(expected) if partial else fitted == len(expected)
 
 
 def test_apply_planes_equals_naive():
@@ -239,6 +252,42 @@ def test_coarse_superpixels_shrink_and_expand_by_hand():
     full = np.empty((5, 7), dtype=np.int32)
     kernels.expand(labels, 2, full)
     np.testing.assert_array_equal(full, np.repeat(np.repeat(labels, 2, 0), 2, 1)[:5, :7])
+    np.testing.assert_array_equal(planes.shrunk(colour, 2), small)
     got, nx, ny = planes.coarse_superpixels(colour, 4, 10.0, 2, 2)
     np.testing.assert_array_equal(got[::2, ::2], planes.superpixels(small, 2, 10.0, 2))
     assert (ny, nx) == kernels.grid_shape(3, 4, 2)
+
+
+def test_cell_starts_by_hand():
+    # 10 pixels in 3 cells: pixel x in cell (3 x) // 10, so cells start at 0, 4 and 7
+    np.testing.assert_array_equal(kernels.cell_starts(10, 3), [0, 4, 7, 10])
+    for size, cells in ((10, 3), (17, 4), (5, 5), (9, 1)):
+        starts = kernels.cell_starts(size, cells)
+        cell = (np.arange(size) * cells) // size
+        np.testing.assert_array_equal(np.searchsorted(cell, np.arange(cells + 1)), starts)
+
+
+def test_segment_points_by_hand():
+    # two segments (left and right halves of a 2 x 4 map); the estimates in raster order
+    labels = np.array([[0, 0, 1, 1], [0, 0, 1, 1]], dtype=np.int32)
+    disparity = np.arange(8, dtype=np.float32).reshape(2, 4)
+    usable = np.array([[1, 0, 1, 1], [1, 1, 0, 0]], dtype=bool)
+    wanted = np.zeros((2, 4), bool)
+    wanted[1, 3] = True
+    starts, size, need, xs, ys, ds = kernels.segment_points(disparity, usable, wanted, labels, 2)
+    np.testing.assert_array_equal(starts, [0, 3, 5])
+    np.testing.assert_array_equal(size, [4, 4])
+    np.testing.assert_array_equal(need, [False, True])
+    np.testing.assert_array_equal(xs, [0, 0, 1, 2, 3])
+    np.testing.assert_array_equal(ys, [0, 1, 1, 0, 0])
+    np.testing.assert_array_equal(ds, [0, 4, 5, 2, 3])
+
+
+@pytest.mark.parametrize("channels", [1, 3])
+def test_slic_equals_naive_on_uneven_cells(channels):
+    # a size that the grid does not divide, a step that leaves cells of two widths
+    rng = np.random.default_rng(40 + channels)
+    colour = rng.integers(0, 256, (channels, 23, 31)).astype(np.int16)
+    colour[:, 11:, :] //= 3
+    got = planes.superpixels(colour, step=7, compactness=15.0, iterations=2)
+    np.testing.assert_array_equal(got, naive_planes.slic(colour, 7, 15.0, 2))

@@ -92,22 +92,36 @@ def superpixels(colour: np.ndarray, step: int = 16, compactness: float = 20.0,
     return labels
 
 
+def shrunk(colour: np.ndarray, scale: int) -> np.ndarray:
+    """``colour`` (``(C, H, W)``) with each ``scale x scale`` block averaged, float64.
+
+    A block cut by the edge: the mean of its pixels. ``scale`` 1: ``colour`` as float64.
+    """
+    if scale == 1:
+        return np.ascontiguousarray(colour, dtype=np.float64)
+    height, width = colour.shape[1:]
+    small = np.empty((colour.shape[0], -(-height // scale), -(-width // scale)), np.float64)
+    _kernels.shrink(np.ascontiguousarray(colour), scale, small)
+    return small
+
+
 def coarse_superpixels(colour: np.ndarray, step: int, compactness: float, iterations: int,
-                       scale: int):  # fmt: skip
+                       scale: int, *, small: np.ndarray | None = None):  # fmt: skip
     """:func:`superpixels` of ``colour`` shrunk ``scale`` times: ``(labels, nx, ny)``.
 
     Each ``scale x scale`` block of pixels averaged (a block cut by the edge: its pixels),
     cut into superpixels of about ``step / scale`` blocks a side, each pixel labelled as its
     block: ``scale**2`` times less work, for edges a block coarse. ``scale`` 1: the image
-    itself. ``nx, ny``: the labels' grid.
+    itself. ``nx, ny``: the labels' grid. ``small``: ``shrunk(colour, scale)``, when the
+    caller has it already.
     """
     height, width = colour.shape[1:]
+    if small is None:
+        small = shrunk(colour, scale)
     if scale == 1:
         ny, nx = _kernels.grid_shape(height, width, step)
-        return superpixels(colour, step, compactness, iterations), nx, ny
-    rows, cols = -(-height // scale), -(-width // scale)
-    small = np.empty((colour.shape[0], rows, cols), dtype=np.float64)
-    _kernels.shrink(np.ascontiguousarray(colour), scale, small)
+        return superpixels(small, step, compactness, iterations), nx, ny
+    rows, cols = small.shape[1:]
     coarse_step = max(2, round(step / scale))
     labels = superpixels(small, coarse_step, compactness, iterations)
     ny, nx = _kernels.grid_shape(rows, cols, coarse_step)
@@ -118,7 +132,8 @@ def coarse_superpixels(colour: np.ndarray, step: int, compactness: float, iterat
 
 def fit_planes(disparity: np.ndarray, usable: np.ndarray, labels: np.ndarray, nx: int,
                ny: int, iterations: int = 200, inlier: float = 1.0,
-               stop: float = 0.9, max_scored: int = 2**30):  # fmt: skip
+               stop: float = 0.9, max_scored: int = 2**30, *,
+               wanted: np.ndarray | None = None, min_support: float = 0.0):  # fmt: skip
     """Fit a plane to each segment's ``usable`` estimates; return ``(planes, support)``.
 
     Each RANSAC draw is scored on about ``max_scored`` of a segment's estimates (every
@@ -126,25 +141,37 @@ def fit_planes(disparity: np.ndarray, usable: np.ndarray, labels: np.ndarray, nx
 
     ``labels``: ``gy * nx + gx`` on a grid of ``ny x nx`` segments. ``planes``: ``(n, 3)``
     float64, ``(a, b, c)`` of ``d = a x + b y + c``; ``support``: ``(n, 3)`` int64,
-    (estimates used, inliers within ``inlier`` px, pixels of the segment).
+    (estimates used, inliers within ``inlier`` px, pixels of the segment). Only the
+    segments with a ``wanted`` pixel (every pixel by default) whose estimates cover at least
+    ``min_support`` of their pixels are fitted; the others get no plane and no inliers.
     """
     n = ny * nx
     planes = np.zeros((n, 3), dtype=np.float64)
     support = np.zeros((n, 3), dtype=np.int64)
+    if wanted is None:
+        wanted = np.ones(labels.shape, dtype=bool)
+    disparity = np.ascontiguousarray(disparity)
+    if disparity.dtype not in (np.float32, np.float64):
+        disparity = disparity.astype(np.float64)
     _kernels.fit_planes(
-        np.ascontiguousarray(disparity, dtype=np.float64), np.ascontiguousarray(usable),
-        np.ascontiguousarray(labels), n, nx, int(iterations), float(inlier), float(stop),
-        int(max_scored), planes, support,
+        disparity, np.ascontiguousarray(usable),
+        np.ascontiguousarray(wanted), np.ascontiguousarray(labels), n, nx, int(iterations),
+        float(inlier), float(stop), int(max_scored), float(min_support), planes, support,
     )  # fmt: skip
     return planes, support
 
 
 def _plane_pass(disparity, labels, nx, ny, usable, replaceable, low, high, iterations,
                 inlier, outlier, min_ratio, min_support, stop, max_scored=2**30):  # fmt: skip
-    """One pass: fit each segment's plane, give its value where the plane is trusted."""
+    """One pass: fit each segment's plane, give its value where the plane is trusted.
+
+    Only the segments with a ``replaceable`` pixel and enough support are fitted: the
+    others could change nothing.
+    """
     planes, support = fit_planes(
-        disparity, usable, labels, nx, ny, iterations, inlier, stop, max_scored
-    )
+        disparity, usable, labels, nx, ny, iterations, inlier, stop, max_scored,
+        wanted=replaceable, min_support=min_support,
+    )  # fmt: skip
     used, inliers, size = support[:, 0], support[:, 1], support[:, 2]
     trusted = (used >= 3) & (used >= min_support * size)
     trusted &= inliers >= min_ratio * np.maximum(used, 1)
@@ -213,17 +240,19 @@ def refine_planes(
     unsure = margin < params.replace_margin
     sure = margin >= params.fit_margin
     out = d
+    small = shrunk(colour, params.slic_scale)  # one shrunk image for every pass
     for step in params.steps:
         labels, nx, ny = coarse_superpixels(
-            colour, step, params.compactness, params.slic_iterations, params.slic_scale
-        )
+            colour, step, params.compactness, params.slic_iterations, params.slic_scale,
+            small=small,
+        )  # fmt: skip
         holes = np.isnan(out)
         out = _plane_pass(
             out, labels, nx, ny, sure & ~holes, ~kept & (holes | unsure),
             result.params.min_disparity, result.params.max_disparity, params.iterations,
             params.inlier, params.outlier, params.min_ratio, params.min_support, params.stop,
             params.max_scored,
-        ).astype(np.float32)  # fmt: skip
+        ).astype(np.float32, copy=False)  # fmt: skip
     filled = np.isnan(d) & np.isfinite(out)
     flags = result.flags | (filled.view(np.uint8) * np.uint8(FLAG_FILLED))
     return replace(result, disparity=out, flags=flags)
