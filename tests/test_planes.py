@@ -142,6 +142,39 @@ def test_plane_params_validated():
         planes.PlaneParams(min_ratio=1.5)
     with pytest.raises(TypeError, match="planes"):
         MatchParams(max_disparity=8, planes=1)
+    with pytest.raises(ValueError, match="slic_scale"):
+        planes.PlaneParams(steps=(48, 16), slic_scale=(4, 2, 2))
+    with pytest.raises(ValueError, match="slic_scale"):
+        planes.PlaneParams(slic_scale=0)
+
+
+def test_refine_planes_scale_per_pass_is_its_passes_one_by_one():
+    # steps (12, 6) with scales (3, 1): the pass at 12 on the image shrunk 3 times, then the
+    # pass at 6 on the image itself, as two calls of one pass each
+    rng = np.random.default_rng(31)
+    height, width = 24, 30
+    params = MatchParams(max_disparity=12, method="sgm", fill=False)
+    yy, xx = np.mgrid[0:height, 0:width]
+    disparity = (0.1 * xx + 0.05 * yy + 3 + rng.normal(0, 0.3, (height, width))).astype(np.float32)
+    disparity[rng.random((height, width)) < 0.3] = rng.uniform(0, 12)
+    disparity[rng.random((height, width)) < 0.15] = np.nan
+    flags = np.where(np.isnan(disparity), FLAG_MISMATCH, 0).astype(np.uint8)
+    margin = rng.random((height, width)).astype(np.float32) * 0.3
+    colour = rng.integers(0, 256, (3, height, width)).astype(np.int16)
+    result = DisparityResult(disparity, flags, params, np.full(height, np.nan))
+    both = planes.refine_planes(
+        result, colour, margin, planes.PlaneParams(steps=(12, 6), slic_scale=(3, 1))
+    )
+    first = planes.refine_planes(
+        result, colour, margin, planes.PlaneParams(steps=(12,), slic_scale=3)
+    )
+    second = planes.refine_planes(
+        first, colour, margin, planes.PlaneParams(steps=(6,), slic_scale=1)
+    )
+    np.testing.assert_array_equal(both.disparity, second.disparity)
+    np.testing.assert_array_equal(both.flags, second.flags)
+    assert not np.array_equal(disparity, first.disparity, equal_nan=True)  # both passes act
+    assert not np.array_equal(first.disparity, second.disparity, equal_nan=True)
 
 
 def test_sgm_planes_on_a_slanted_plane():
@@ -274,7 +307,10 @@ def test_segment_points_by_hand():
     usable = np.array([[1, 0, 1, 1], [1, 1, 0, 0]], dtype=bool)
     wanted = np.zeros((2, 4), bool)
     wanted[1, 3] = True
-    starts, size, need, xs, ys, ds = kernels.segment_points(disparity, usable, wanted, labels, 2)
+    xs, ys = np.zeros(8, np.int32), np.zeros(8, np.int32)
+    ds = np.zeros(8)
+    starts, size, need = kernels.segment_points(disparity, usable, wanted, labels, 2, xs, ys, ds)
+    xs, ys, ds = xs[:5], ys[:5], ds[:5]
     np.testing.assert_array_equal(starts, [0, 3, 5])
     np.testing.assert_array_equal(size, [4, 4])
     np.testing.assert_array_equal(need, [False, True])

@@ -84,10 +84,11 @@ def _assign_row(colour, y, centres, ny, nx, weight, xstarts, labels):
                     near[t] += dc * dc
             least = best[x0:x1]
             chosen = row[x0:x1]
-            for t in range(run):
-                if near[t] < least[t]:
-                    least[t] = near[t]
-                    chosen[t] = k
+            for t in range(run):  # branch-free, so that it runs in vector lanes
+                value, low = near[t], least[t]
+                closer = value < low
+                least[t] = value if closer else low
+                chosen[t] = k if closer else chosen[t]
     labels[y, :] = row
 
 
@@ -212,7 +213,9 @@ def fit_segment(xs, ys, ds, iterations, inlier, stop, max_scored, seed, out):
     scored = (n + stride - 1) // stride
     sx, sy, sd = xs, ys, ds
     if stride > 1:  # the scored points gathered once, for a contiguous loop per draw
-        sx, sy, sd = np.empty(scored), np.empty(scored), np.empty(scored)
+        sx = np.empty(scored, dtype=xs.dtype)
+        sy = np.empty(scored, dtype=ys.dtype)
+        sd = np.empty(scored, dtype=ds.dtype)
         for q in range(scored):
             sx[q], sy[q], sd[q] = xs[q * stride], ys[q * stride], ds[q * stride]
     state = (seed * 7919 + 1) % LCG_M
@@ -253,11 +256,13 @@ def fit_segment(xs, ys, ds, iterations, inlier, stop, max_scored, seed, out):
 
 
 @nb.njit(cache=True)
-def segment_points(disparity, usable, wanted, labels, n):
+def segment_points(disparity, usable, wanted, labels, n, xs, ys, ds):
     """Each segment's ``usable`` estimates, gathered in raster order: a counting sort.
 
-    Returns ``(starts, size, need, xs, ys, ds)``: segment ``k``'s estimates are
-    ``xs[starts[k]:starts[k + 1]]`` (columns; ``ys`` rows, ``ds`` disparities, float64),
+    ``xs``, ``ys``, ``ds``: buffers of at least as many elements as there are ``usable``
+    pixels (a caller's, reused: a fresh array of a few megabytes costs more in page faults
+    than the sort). Returns ``(starts, size, need)``: segment ``k``'s estimates are
+    ``xs[starts[k]:starts[k + 1]]`` (columns; ``ys`` rows, ``ds`` disparities),
     ``size[k]`` its pixels, ``need[k]`` whether any of them is ``wanted``.
     """
     height, width = disparity.shape
@@ -265,39 +270,39 @@ def segment_points(disparity, usable, wanted, labels, n):
     size = np.zeros(n, dtype=np.int64)
     need = np.zeros(n, dtype=np.bool_)
     for y in range(height):
+        row, use, want = labels[y], usable[y], wanted[y]
         for x in range(width):
-            k = labels[y, x]
+            k = row[x]
             size[k] += 1
-            if usable[y, x]:
-                starts[k + 1] += 1
-            if wanted[y, x]:
+            starts[k + 1] += use[x]
+            if want[x]:
                 need[k] = True
     for k in range(n):
         starts[k + 1] += starts[k]
-    total = starts[n]
-    xs, ys, ds = np.empty(total), np.empty(total), np.empty(total)
     fill = starts[:n].copy()
     for y in range(height):
+        row, use, values = labels[y], usable[y], disparity[y]
         for x in range(width):
-            if usable[y, x]:
-                k = labels[y, x]
+            if use[x]:
+                k = row[x]
                 q = fill[k]
-                xs[q], ys[q], ds[q] = x, y, disparity[y, x]
+                xs[q], ys[q], ds[q] = x, y, values[x]
                 fill[k] = q + 1
-    return starts, size, need, xs, ys, ds
+    return starts, size, need
 
 
 @nb.njit(cache=True, parallel=True)
 def fit_planes(disparity, usable, wanted, labels, n, nx, iterations, inlier, stop, max_scored,
-               min_support, planes, support):  # fmt: skip
+               min_support, xs, ys, ds, planes, support):  # fmt: skip
     """Fit a plane to each segment's ``usable`` estimates.
 
     ``planes[k]``: (a, b, c); ``support[k]``: (estimates used, inliers, pixels). A segment
     none of whose pixels is ``wanted``, or with under three estimates or under
     ``min_support`` of its pixels, is not fitted: plane (0, 0, 0), no inliers. Segments are
-    fitted a grid row at a time (labels ``gy * nx ..``), rows in parallel.
+    fitted a grid row at a time (labels ``gy * nx ..``), rows in parallel. ``xs``, ``ys``,
+    ``ds``: :func:`segment_points`' buffers.
     """
-    starts, size, need, xs, ys, ds = segment_points(disparity, usable, wanted, labels, n)
+    starts, size, need = segment_points(disparity, usable, wanted, labels, n, xs, ys, ds)
     ny = n // nx
     for gy in nb.prange(ny):
         plane = np.zeros(3)
@@ -363,7 +368,12 @@ def shrink(colour, scale, out):
 def expand(labels, scale, out):
     """Label each pixel of ``out`` (``(H, W)``) as its ``scale x scale`` block in ``labels``."""
     height, width = out.shape
+    cols = labels.shape[1]
     for y in nb.prange(height):
-        r = y // scale
-        for x in range(width):
-            out[y, x] = labels[r, x // scale]
+        source = labels[y // scale]
+        row = out[y]
+        for q in range(cols):
+            x0 = q * scale
+            value = source[q]
+            for x in range(x0, min(width, x0 + scale)):
+                row[x] = value
