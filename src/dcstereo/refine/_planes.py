@@ -347,21 +347,27 @@ def shrink(colour, scale, out):
     """Mean of each ``scale x scale`` block of ``colour`` (``(C, H, W)``) into ``out``.
 
     ``out``: ``(C, ceil(H / scale), ceil(W / scale))`` float64; a block cut by the image's
-    edge is the mean of the pixels it has.
+    edge is the mean of the pixels it has. The block's rows are added first (whole rows at a
+    time, in vector lanes), then each block's columns: for integer images (the exact sums of
+    at most ``2**53``) the same sums as in any order.
     """
     channels, height, width = colour.shape
     rows, cols = out.shape[1], out.shape[2]
     for r in nb.prange(rows):
         y0, y1 = r * scale, min(height, (r + 1) * scale)
-        for q in range(cols):
-            x0, x1 = q * scale, min(width, (q + 1) * scale)
-            count = (y1 - y0) * (x1 - x0)
-            for c in range(channels):
+        column = np.empty(width)
+        for c in range(channels):
+            column[:] = 0.0
+            for y in range(y0, y1):
+                source = colour[c, y]
+                for x in range(width):
+                    column[x] += source[x]
+            for q in range(cols):
+                x0, x1 = q * scale, min(width, (q + 1) * scale)
                 total = 0.0
-                for y in range(y0, y1):
-                    for x in range(x0, x1):
-                        total += colour[c, y, x]
-                out[c, r, q] = total / count
+                for x in range(x0, x1):
+                    total += column[x]
+                out[c, r, q] = total / ((y1 - y0) * (x1 - x0))
 
 
 @nb.njit(cache=True, parallel=True)
