@@ -3,7 +3,7 @@
     NUMBA_NUM_THREADS=1 python scripts/time_planes.py
     NUMBA_NUM_THREADS=1 python scripts/time_planes.py --scenes Piano --plane-params "{...}"
 
-Per scene, the median of ``--repeats`` runs (one process, compiled first), in milliseconds:
+Per scene, the least of ``--repeats`` runs (one process, compiled first), in milliseconds:
 ``sgm`` and ``planes`` (``dcstereo.match`` without and with ``planes=True``); ``margin``
 (what keeping ``sgm``'s confidence margin adds to its run); ``refine`` (the stage,
 :func:`dcstereo.refine.planes.refine_planes`, on ``sgm``'s unfilled map), and its parts:
@@ -27,15 +27,16 @@ from dcstereo.refine import planes
 from dcstereo.result import FLAG_BORDER, FLAG_OCCLUDED
 
 
-def median_ms(run, repeats):
-    """Median wall time of ``run()`` in milliseconds, after one run to compile."""
+def best_ms(run, repeats):
+    """Least wall time of ``run()`` over ``repeats`` runs in milliseconds, after one run to
+    compile (the least: what the code costs when no other process takes the core)."""
     run()
     times = []
     for _ in range(repeats):
         start = time.perf_counter()
         run()
         times.append(1000 * (time.perf_counter() - start))
-    return float(np.median(times))
+    return float(np.min(times))
 
 
 def stage_parts(raw, colour, margin, params, clock):
@@ -45,9 +46,7 @@ def stage_parts(raw, colour, margin, params, clock):
     free = (raw.flags & (FLAG_OCCLUDED | FLAG_BORDER)) == 0
     unsure = margin < params.replace_margin
     sure = margin >= params.fit_margin
-    scales = params.slic_scale
-    if not isinstance(scales, tuple):
-        scales = (scales,) * len(params.steps)
+    scales = planes.pass_scales(params)
     out = np.array(raw.disparity, dtype=np.float32)
     scratch = planes.point_buffers(out.shape)
     labels_full = np.empty(out.shape, dtype=np.int32)
@@ -92,22 +91,22 @@ def stage_parts(raw, colour, margin, params, clock):
 def time_pair(pair, params, repeats):
     """The line of one scene: its times in milliseconds."""
     options = {"max_disparity": pair.max_disparity, "min_disparity": pair.min_disparity}
-    sgm = median_ms(lambda: dcstereo.match(pair.left, pair.right, **options), repeats)
-    with_planes = median_ms(
+    sgm = best_ms(lambda: dcstereo.match(pair.left, pair.right, **options), repeats)
+    with_planes = best_ms(
         lambda: dcstereo.match(pair.left, pair.right, planes=True, **options), repeats
     )
     raw_params = replace(sgm_params(pair), fill=False)
-    bare = median_ms(lambda: _run(pair.left, pair.right, raw_params, False), repeats)
-    kept = median_ms(lambda: _run(pair.left, pair.right, raw_params, True), repeats)
+    bare = best_ms(lambda: _run(pair.left, pair.right, raw_params, False), repeats)
+    kept = best_ms(lambda: _run(pair.left, pair.right, raw_params, True), repeats)
     raw, margin = _run(pair.left, pair.right, raw_params, True)
     colour = colour_channels(pair.left, pair.left)[0]
-    refine = median_ms(lambda: planes.refine_planes(raw, colour, margin, params), repeats)
+    refine = best_ms(lambda: planes.refine_planes(raw, colour, margin, params), repeats)
     runs = []
     for _ in range(repeats + 1):
         clock = dict.fromkeys(("slic", "fit", "apply"), 0.0)
         stage_parts(raw, colour, margin, params, clock)
         runs.append(clock)
-    parts = {k: 1000 * float(np.median([c[k] for c in runs[1:]])) for k in runs[0]}
+    parts = {k: 1000 * float(np.min([c[k] for c in runs[1:]])) for k in runs[0]}
     height, width = pair.left.shape[:2]
     size = f"{width}x{height}x{pair.max_disparity - pair.min_disparity + 1}"
     return (

@@ -28,6 +28,8 @@ class PlaneParams:
     each pass fits its planes to the map the pass before left (the holes it filled among
     the estimates); ``slic_scale``: the superpixels cut on the image shrunk that many
     times (:func:`coarse_superpixels`, for speed), one for every pass or one per pass;
+    None: ``step // 8`` (at least 1) for each pass, superpixels of about 8 blocks a side
+    (6, 4 and 2 for the default steps);
     ``iterations``, ``inlier``, ``stop``, ``max_scored``: the RANSAC of each segment
     (:func:`fit_planes`);
     ``min_support``, ``min_ratio``: when a plane is trusted; ``outlier``: how far from it
@@ -39,7 +41,7 @@ class PlaneParams:
     steps: tuple[int, ...] = (48, 32, 16)
     compactness: float = 10.0
     slic_iterations: int = 3
-    slic_scale: int | tuple[int, ...] = 2
+    slic_scale: int | tuple[int, ...] | None = None
     iterations: int = 100
     max_scored: int = 128
     inlier: float = 1.5
@@ -63,16 +65,6 @@ class PlaneParams:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
-        scales = self.slic_scale if isinstance(self.slic_scale, tuple) else (self.slic_scale,)
-        if (
-            not scales
-            or not all(isinstance(f, int) and not isinstance(f, bool) and f >= 1 for f in scales)
-            or (isinstance(self.slic_scale, tuple) and len(scales) != len(self.steps))
-        ):
-            raise ValueError(
-                "slic_scale must be a positive integer or one per step, got "
-                f"{self.slic_scale!r} for steps {self.steps!r}"
-            )
         steps = self.steps
         if (
             not isinstance(steps, tuple)
@@ -80,6 +72,16 @@ class PlaneParams:
             or not all(isinstance(f, int) and not isinstance(f, bool) and f >= 2 for f in steps)
         ):
             raise ValueError(f"steps must be a non-empty tuple of integers from 2, got {steps!r}")
+        scale = self.slic_scale
+        scales = scale if isinstance(scale, tuple) else (scale,)
+        if scale is not None and (
+            not all(isinstance(f, int) and not isinstance(f, bool) and f >= 1 for f in scales)
+            or (isinstance(scale, tuple) and len(scales) != len(steps))
+        ):
+            raise ValueError(
+                "slic_scale must be None, a positive integer or one per step, got "
+                f"{scale!r} for steps {steps!r}"
+            )
         for name in ("compactness", "inlier", "outlier"):
             value = getattr(self, name)
             if not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
@@ -88,6 +90,14 @@ class PlaneParams:
             value = getattr(self, name)
             if not isinstance(value, (int, float)) or not 0 <= value <= 1:
                 raise ValueError(f"{name} must be a number from 0 to 1, got {value!r}")
+
+
+def pass_scales(params: PlaneParams) -> tuple[int, ...]:
+    """Return the shrink factor of each pass of ``params.steps`` (``slic_scale`` resolved)."""
+    scale = params.slic_scale
+    if scale is None:
+        return tuple(max(1, step // 8) for step in params.steps)
+    return scale if isinstance(scale, tuple) else (scale,) * len(params.steps)
 
 
 def superpixels(colour: np.ndarray, step: int = 16, compactness: float = 20.0,
@@ -265,9 +275,7 @@ def refine_planes(
     free = (result.flags & (FLAG_OCCLUDED | FLAG_BORDER)) == 0  # not the background fill's
     unsure = margin < params.replace_margin
     sure = margin >= params.fit_margin
-    scales = params.slic_scale
-    if not isinstance(scales, tuple):
-        scales = (scales,) * len(params.steps)
+    scales = pass_scales(params)
     small = {scale: shrunk(colour, scale) for scale in set(scales)}  # one per scale
     # the buffers every pass reuses (fresh arrays of this size cost their page faults)
     out = np.array(d, dtype=np.float32)  # the map, each pass writing its own in place
