@@ -73,7 +73,7 @@ def stage_parts(raw, colour, margin, params, clock):
         fitted, support = planes.fit_planes(
             out, usable, labels, nx, ny, params.iterations, params.inlier, params.stop,
             params.max_scored, wanted=replaceable, min_support=params.min_support,
-            scratch=scratch,
+            lattice=params.fit_lattice, scratch=scratch,
         )  # fmt: skip
         clock["fit"] += time.perf_counter() - tick
         tick = time.perf_counter()

@@ -256,33 +256,38 @@ def fit_segment(xs, ys, ds, iterations, inlier, stop, max_scored, seed, out):
 
 
 @nb.njit(cache=True)
-def segment_points(disparity, usable, wanted, labels, n, xs, ys, ds):
+def segment_points(disparity, usable, wanted, labels, n, lattice, xs, ys, ds):
     """Each segment's ``usable`` estimates, gathered in raster order: a counting sort.
 
-    ``xs``, ``ys``, ``ds``: buffers of at least as many elements as there are ``usable``
-    pixels (a caller's, reused: a fresh array of a few megabytes costs more in page faults
-    than the sort). Returns ``(starts, size, need)``: segment ``k``'s estimates are
+    Only the pixels of every ``lattice``-th row and column count (1: all of them), but a
+    segment is ``need``-ed when any of its pixels is ``wanted``. ``xs``, ``ys``, ``ds``:
+    buffers of at least as many elements as there are ``usable`` pixels (a caller's,
+    reused: a fresh array of a few megabytes costs more in page faults than the sort).
+    Returns ``(starts, size, need)``: segment ``k``'s estimates are
     ``xs[starts[k]:starts[k + 1]]`` (columns; ``ys`` rows, ``ds`` disparities),
-    ``size[k]`` its pixels, ``need[k]`` whether any of them is ``wanted``.
+    ``size[k]`` its pixels on the lattice, ``need[k]`` whether any pixel is ``wanted``.
     """
     height, width = disparity.shape
     starts = np.zeros(n + 1, dtype=np.int64)
     size = np.zeros(n, dtype=np.int64)
     need = np.zeros(n, dtype=np.bool_)
     for y in range(height):
-        row, use, want = labels[y], usable[y], wanted[y]
+        row, want = labels[y], wanted[y]
         for x in range(width):
+            if want[x]:
+                need[row[x]] = True
+    for y in range(0, height, lattice):
+        row, use = labels[y], usable[y]
+        for x in range(0, width, lattice):
             k = row[x]
             size[k] += 1
             starts[k + 1] += use[x]
-            if want[x]:
-                need[k] = True
     for k in range(n):
         starts[k + 1] += starts[k]
     fill = starts[:n].copy()
-    for y in range(height):
+    for y in range(0, height, lattice):
         row, use, values = labels[y], usable[y], disparity[y]
-        for x in range(width):
+        for x in range(0, width, lattice):
             if use[x]:
                 k = row[x]
                 q = fill[k]
@@ -293,7 +298,7 @@ def segment_points(disparity, usable, wanted, labels, n, xs, ys, ds):
 
 @nb.njit(cache=True, parallel=True)
 def fit_planes(disparity, usable, wanted, labels, n, nx, iterations, inlier, stop, max_scored,
-               min_support, xs, ys, ds, planes, support):  # fmt: skip
+               min_support, lattice, xs, ys, ds, planes, support):  # fmt: skip
     """Fit a plane to each segment's ``usable`` estimates.
 
     ``planes[k]``: (a, b, c); ``support[k]``: (estimates used, inliers, pixels). A segment
@@ -302,7 +307,8 @@ def fit_planes(disparity, usable, wanted, labels, n, nx, iterations, inlier, sto
     fitted a grid row at a time (labels ``gy * nx ..``), rows in parallel. ``xs``, ``ys``,
     ``ds``: :func:`segment_points`' buffers.
     """
-    starts, size, need = segment_points(disparity, usable, wanted, labels, n, xs, ys, ds)
+    starts, size, need = segment_points(disparity, usable, wanted, labels, n, lattice, xs, ys,
+                                        ds)  # fmt: skip
     ny = n // nx
     for gy in nb.prange(ny):
         plane = np.zeros(3)

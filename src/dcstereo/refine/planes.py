@@ -31,7 +31,8 @@ class PlaneParams:
     None: ``step // 8`` (at least 1) for each pass, superpixels of about 8 blocks a side
     (6, 4 and 2 for the default steps);
     ``iterations``, ``inlier``, ``stop``, ``max_scored``: the RANSAC of each segment
-    (:func:`fit_planes`);
+    (:func:`fit_planes`); ``fit_lattice``: the planes fitted to, and judged by, the
+    estimates of every ``fit_lattice``-th row and column only;
     ``min_support``, ``min_ratio``: when a plane is trusted; ``outlier``: how far from it
     an estimate is replaced; ``fit_margin``: the least confidence margin of an estimate
     the planes are fitted to; ``replace_margin``: estimates whose margin is below it may
@@ -44,6 +45,7 @@ class PlaneParams:
     slic_scale: int | tuple[int, ...] | None = None
     iterations: int = 100
     max_scored: int = 128
+    fit_lattice: int = 2
     inlier: float = 1.5
     stop: float = 0.9
     min_support: float = 0.3
@@ -61,7 +63,7 @@ class PlaneParams:
             raise ValueError(
                 f"max_scored must be an integer of at least 3, got {self.max_scored!r}"
             )
-        for name in ("slic_iterations", "iterations"):
+        for name in ("slic_iterations", "iterations", "fit_lattice"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
@@ -155,7 +157,7 @@ def fit_planes(disparity: np.ndarray, usable: np.ndarray, labels: np.ndarray, nx
                ny: int, iterations: int = 200, inlier: float = 1.0,
                stop: float = 0.9, max_scored: int = 2**30, *,
                wanted: np.ndarray | None = None, min_support: float = 0.0,
-               scratch=None):  # fmt: skip
+               lattice: int = 1, scratch=None):  # fmt: skip
     """Fit a plane to each segment's ``usable`` estimates; return ``(planes, support)``.
 
     Each RANSAC draw is scored on about ``max_scored`` of a segment's estimates (every
@@ -166,7 +168,10 @@ def fit_planes(disparity: np.ndarray, usable: np.ndarray, labels: np.ndarray, nx
     (estimates used, inliers within ``inlier`` px, pixels of the segment). Only the
     segments with a ``wanted`` pixel (every pixel by default) whose estimates cover at least
     ``min_support`` of their pixels are fitted; the others get no plane and no inliers.
-    ``scratch``: :func:`point_buffers` of the image's size, when the caller reuses them.
+    ``lattice``: only every ``lattice``-th row and column's estimates and pixels count
+    (the used, the inliers, the pixels; a segment is fitted when any of its pixels is
+    wanted). ``scratch``: :func:`point_buffers` of the image's size, when the caller reuses
+    them.
     """
     n = ny * nx
     planes = np.zeros((n, 3), dtype=np.float64)
@@ -181,8 +186,8 @@ def fit_planes(disparity: np.ndarray, usable: np.ndarray, labels: np.ndarray, nx
     _kernels.fit_planes(
         disparity, np.ascontiguousarray(usable),
         np.ascontiguousarray(wanted), np.ascontiguousarray(labels), n, nx, int(iterations),
-        float(inlier), float(stop), int(max_scored), float(min_support), *scratch, planes,
-        support,
+        float(inlier), float(stop), int(max_scored), float(min_support), int(lattice),
+        *scratch, planes, support,
     )  # fmt: skip
     return planes, support
 
@@ -198,7 +203,7 @@ def point_buffers(shape):
 
 def _plane_pass(disparity, labels, nx, ny, usable, replaceable, low, high, iterations,
                 inlier, outlier, min_ratio, min_support, stop, max_scored=2**30,
-                scratch=None, into=None):  # fmt: skip
+                scratch=None, into=None, lattice=1):  # fmt: skip
     """One pass: fit each segment's plane, give its value where the plane is trusted.
 
     Only the segments with a ``replaceable`` pixel and enough support are fitted: the
@@ -207,7 +212,7 @@ def _plane_pass(disparity, labels, nx, ny, usable, replaceable, low, high, itera
     """
     planes, support = fit_planes(
         disparity, usable, labels, nx, ny, iterations, inlier, stop, max_scored,
-        wanted=replaceable, min_support=min_support, scratch=scratch,
+        wanted=replaceable, min_support=min_support, lattice=lattice, scratch=scratch,
     )  # fmt: skip
     used, inliers, size = support[:, 0], support[:, 1], support[:, 2]
     trusted = (used >= 3) & (used >= min_support * size)
@@ -295,7 +300,7 @@ def refine_planes(
             out, labels, nx, ny, usable, replaceable,
             result.params.min_disparity, result.params.max_disparity, params.iterations,
             params.inlier, params.outlier, params.min_ratio, params.min_support, params.stop,
-            params.max_scored, scratch, out,
+            params.max_scored, scratch, out, params.fit_lattice,
         )  # fmt: skip
     filled = np.isnan(d) & np.isfinite(out)
     flags = result.flags | (filled.view(np.uint8) * np.uint8(FLAG_FILLED))
