@@ -334,7 +334,7 @@ def test_segment_points_by_hand():
     np.testing.assert_array_equal(ds[:2], [0, 2])
 
 
-@pytest.mark.parametrize("channels", [1, 3])
+@pytest.mark.parametrize("channels", [1, 2, 3])
 def test_slic_equals_naive_on_uneven_cells(channels):
     # a size that the grid does not divide, a step that leaves cells of two widths
     rng = np.random.default_rng(40 + channels)

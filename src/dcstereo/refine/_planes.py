@@ -71,10 +71,34 @@ def _assign_row(colour, y, centres, ny, nx, weight, xstarts, labels):
             x0, x1 = xstarts[max(0, i - 1)], xstarts[min(nx, i + 2)]
             run = x1 - x0
             dy = y - centres[k, 0]
-            dx0 = x0 - centres[k, 1]
+            cx = centres[k, 1]
+            least = best[x0:x1]
+            chosen = row[x0:x1]
+            if channels == 3 or channels == 1:  # one loop: the distance and the choice
+                mean0 = centres[k, 2]
+                mean1 = centres[k, 3] if channels == 3 else 0.0
+                mean2 = centres[k, 4] if channels == 3 else 0.0
+                first = colour[0, y, x0:x1]
+                second = colour[channels // 2, y, x0:x1]  # unread for one channel
+                third = colour[channels - 1, y, x0:x1]
+                for t in range(run):
+                    dx = (x0 + t) - cx
+                    value = weight * (dy * dy + dx * dx)
+                    dc = first[t] - mean0
+                    value += dc * dc
+                    if channels == 3:
+                        dc = second[t] - mean1
+                        value += dc * dc
+                        dc = third[t] - mean2
+                        value += dc * dc
+                    low = least[t]
+                    closer = value < low  # branch-free, so that it runs in vector lanes
+                    least[t] = value if closer else low
+                    chosen[t] = k if closer else chosen[t]
+                continue
             near = dist[x0:x1]
             for t in range(run):
-                dx = t + dx0
+                dx = (x0 + t) - cx
                 near[t] = weight * (dy * dy + dx * dx)
             for c in range(channels):
                 mean = centres[k, 2 + c]
@@ -82,9 +106,7 @@ def _assign_row(colour, y, centres, ny, nx, weight, xstarts, labels):
                 for t in range(run):
                     dc = values[t] - mean
                     near[t] += dc * dc
-            least = best[x0:x1]
-            chosen = row[x0:x1]
-            for t in range(run):  # branch-free, so that it runs in vector lanes
+            for t in range(run):
                 value, low = near[t], least[t]
                 closer = value < low
                 least[t] = value if closer else low
