@@ -14,9 +14,14 @@ pixel with ground truth, dense (a pixel without an estimate counts wrong)::
     python scripts/eval_refine.py                      # base only
     python scripts/eval_refine.py --candidates base,planes --scenes teddy,Piano
     python scripts/eval_refine.py --candidates planes --per-scene
+    python scripts/eval_refine.py --candidates base,stage --plane-params "{'slic_iterations': 2}"
+
+``stage`` is the library's stage (``refine_planes``) with the ``PlaneParams`` of
+``--plane-params``.
 """
 
 import argparse
+import ast
 import json
 import sys
 import time
@@ -32,7 +37,7 @@ from dcstereo.evaluation.datasets import (
     load_scene,
     middlebury_dir,
 )
-from dcstereo.evaluation.metrics import bad_pixel_rate
+from dcstereo.evaluation.metrics import bad_pixel_rate, d1_rate
 from dcstereo.io import read_image
 from dcstereo.methods.sgm import _run, colour_channels
 from dcstereo.params import MatchParams
@@ -109,7 +114,19 @@ def cand_base(pair, raw, margin, colour, params):
     return finish(raw, colour, params).disparity
 
 
-CANDIDATES = {"base": cand_base}
+#: ``PlaneParams`` of the ``stage`` candidate (``--plane-params``).
+PLANE_OPTIONS = {}
+
+
+def cand_stage(pair, raw, margin, colour, params):
+    """``refine_planes`` with ``PlaneParams(**PLANE_OPTIONS)``, then sgm's own end."""
+    from dcstereo.refine.planes import PlaneParams, refine_planes
+
+    refined = refine_planes(raw, colour, margin, PlaneParams(**PLANE_OPTIONS))
+    return finish(refined, colour, params).disparity
+
+
+CANDIDATES = {"base": cand_base, "stage": cand_stage}
 
 
 def register(name):
@@ -133,14 +150,8 @@ def load_candidates():
 
 def kitti_scores(estimate, truth, mask):
     """bad-1, bad-2, bad-3 and D1 (percent) over ``mask``; NaN estimates count wrong."""
-    t = truth[mask]
-    e = estimate[mask].astype(np.float64)
-    err = np.abs(e - t)
-    err[~np.isfinite(err)] = np.inf
-    return (
-        100 * np.mean(err > 1), 100 * np.mean(err > 2), 100 * np.mean(err > 3),
-        100 * np.mean((err > 3) & (err > 0.05 * t)),
-    )  # fmt: skip
+    bad = [bad_pixel_rate(estimate, truth, threshold=t, mask=mask) for t in (1.0, 2.0, 3.0)]
+    return (*bad, d1_rate(estimate, truth, mask=mask))
 
 
 def score(pair, disparity):
@@ -156,7 +167,12 @@ def main(argv=None):
     parser.add_argument("--groups", default="v2,new,kitti")
     parser.add_argument("--per-scene", action="store_true")
     parser.add_argument("--cache", default="/tmp/dcstereo_refine_cache")
+    parser.add_argument(
+        "--plane-params", default="{}", help="dict of PlaneParams for the 'stage' candidate"
+    )
+    parser.add_argument("--json", help="write each candidate's scores per scene to this file")
     args = parser.parse_args(argv)
+    PLANE_OPTIONS.update(ast.literal_eval(args.plane_params))
     load_candidates()
     cache = Path(args.cache)
     cache.mkdir(parents=True, exist_ok=True)
@@ -207,6 +223,10 @@ def main(argv=None):
             m = kit.mean(axis=0)
             parts.append(f"kitti b1 {m[0]:5.2f} b2 {m[1]:5.2f} b3 {m[2]:5.2f} D1 {m[3]:5.2f}")
         print(f"{n:28s} {'  '.join(parts)}  [{1000 * times[n]:.0f} ms total]", flush=True)
+    if args.json:
+        ms = {n: 1000 * times[n] for n in names}
+        record = {"plane_params": args.plane_params, "scores": table, "ms": ms}
+        Path(args.json).write_text(json.dumps(record))
     if args.per_scene and len(names) >= 1:
         print("per scene (bad-1 nonocc / D1):")
         for name in table[names[0]]:

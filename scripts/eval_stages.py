@@ -28,7 +28,7 @@ import numpy as np
 from PIL import Image
 
 from dcstereo.evaluation.datasets import find_scenes, load_motorcycle, load_scene, middlebury_dir
-from dcstereo.evaluation.metrics import bad_pixel_rate
+from dcstereo.evaluation.metrics import bad_pixel_rate, d1_rate
 from dcstereo.evaluation.scoring import run_method
 
 V2 = ("tsukuba", "venus", "teddy", "cones")
@@ -40,16 +40,13 @@ OUTDOOR = Path(
 def kitti_scores(estimate: np.ndarray, truth: np.ndarray) -> dict:
     """bad-2, bad-3 and D1 (percent) over the pixels with truth (``truth > 0``), dense.
 
-    A NaN estimate counts as wrong.
+    A NaN estimate counts as wrong (:mod:`dcstereo.evaluation.metrics`).
     """
     known = truth > 0
-    error = np.abs(estimate[known].astype(np.float64) - truth[known])
-    error = np.where(np.isfinite(error), error, np.inf)
-    true = truth[known]
     return {
-        "bad2": 100.0 * np.mean(error > 2.0),
-        "bad3": 100.0 * np.mean(error > 3.0),
-        "d1": 100.0 * np.mean((error > 3.0) & (error > 0.05 * true)),
+        "bad2": bad_pixel_rate(estimate, truth, threshold=2.0, mask=known),
+        "bad3": bad_pixel_rate(estimate, truth, threshold=3.0, mask=known),
+        "d1": d1_rate(estimate, truth, mask=known),
     }
 
 

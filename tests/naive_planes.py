@@ -105,14 +105,26 @@ def fit_segment(xs, ys, ds, iterations, inlier, stop, seed, max_scored=2**30):
     return refined, count
 
 
-def fit_planes(disparity, usable, labels, n, iterations, inlier, stop, max_scored=2**30):
-    """Per label: (plane or None, used, inliers, size); pixels taken in raster order."""
+def fit_planes(disparity, usable, labels, n, iterations, inlier, stop, max_scored=2**30,
+               wanted=None, min_support=0.0, lattice=1):  # fmt: skip
+    """Per label: (plane or None, used, inliers, size); pixels taken in raster order.
+
+    A label none of whose pixels is ``wanted``, or whose estimates are under three or under
+    ``min_support`` of its pixels, is not fitted: (None, used, 0, size). Only the pixels of
+    every ``lattice``-th row and column count (but any wanted pixel makes a label wanted).
+    """
     out = []
     for k in range(n):
-        ys, xs = np.nonzero(labels == k)  # raster order, as the kernel's counting sort
+        all_ys, all_xs = np.nonzero(labels == k)  # raster order, as the kernel's counting sort
+        needed = wanted is None or bool(wanted[all_ys, all_xs].any())
+        on = (all_ys % lattice == 0) & (all_xs % lattice == 0)
+        ys, xs = all_ys[on], all_xs[on]
         keep = usable[ys, xs]
         sx, sy = xs[keep].astype(float), ys[keep].astype(float)
         sd = disparity[ys[keep], xs[keep]].astype(float)
+        if not needed or len(sx) < 3 or len(sx) < min_support * len(ys):
+            out.append((None, len(sx), 0, len(ys)))
+            continue
         plane, count = fit_segment(
             list(sx), list(sy), list(sd), iterations, inlier, stop, k, max_scored
         )
@@ -155,8 +167,12 @@ def refine(
     low,
     high,
     max_scored=2**30,
+    lattice=1,
 ):
-    """``dcstereo.refine.planes.refine_planes``'s passes from the functions above: the new map."""
+    """``dcstereo.refine.planes.refine_planes``'s passes from the functions above: the new map.
+
+    The superpixels on the image itself (``slic_scale`` 1).
+    """
     out = disparity.astype(np.float32)
     height, width = out.shape
     for step in steps:
@@ -165,7 +181,9 @@ def refine(
         holes = np.isnan(out)
         usable = (margin >= fit_margin) & ~holes
         replaceable = ~kept & (holes | (margin < replace_margin))
-        fits = fit_planes(out, usable, labels, ny * nx, iterations, inlier, stop, max_scored)
+        fits = fit_planes(out, usable, labels, ny * nx, iterations, inlier, stop, max_scored,
+                          wanted=replaceable, min_support=min_support,
+                          lattice=lattice)  # fmt: skip
         planes = [p if p is not None else (0.0, 0.0, 0.0) for p, *_ in fits]
         trusted = [
             p is not None

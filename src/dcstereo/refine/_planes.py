@@ -37,27 +37,81 @@ def grid_shape(height, width, step):
 
 
 @nb.njit(cache=True)
-def _assign_row(colour, y, centres, ny, nx, weight, labels):
-    """Label row ``y``: the nearest seed of the 3 x 3 grid cells around the pixel's own."""
+def cell_starts(size, cells):
+    """First pixel of each of ``cells`` grid cells along ``size`` pixels, and ``size``.
+
+    Pixel ``x`` lies in cell ``(x * cells) // size``, so cell ``i`` starts at
+    ``ceil(i * size / cells)``.
+    """
+    starts = np.empty(cells + 1, dtype=np.int64)
+    for i in range(cells + 1):
+        starts[i] = (i * size + cells - 1) // cells
+    return starts
+
+
+@nb.njit(cache=True)
+def _assign_row(colour, y, centres, ny, nx, weight, xstarts, labels):
+    """Label row ``y``: the nearest seed of the 3 x 3 grid cells around the pixel's own.
+
+    Seed by seed (ascending label, as a pixel's 3 x 3 search goes), over the run of pixels
+    whose cells are next to the seed's: the same distances in the same order, in loops
+    over contiguous pixels.
+    """
     channels, height, width = colour.shape
     gy = min(ny - 1, (y * ny) // height)
-    for x in range(width):
-        gx = min(nx - 1, (x * nx) // width)
-        best = np.inf
-        best_label = gy * nx + gx
-        for j in range(max(0, gy - 1), min(ny, gy + 2)):
-            for i in range(max(0, gx - 1), min(nx, gx + 2)):
-                k = j * nx + i
-                dy = y - centres[k, 0]
-                dx = x - centres[k, 1]
-                dist = weight * (dy * dy + dx * dx)
-                for c in range(channels):
-                    dc = colour[c, y, x] - centres[k, 2 + c]
-                    dist += dc * dc
-                if dist < best:
-                    best = dist
-                    best_label = k
-        labels[y, x] = best_label
+    best = np.full(width, np.inf)
+    dist = np.empty(width)
+    row = np.empty(width, dtype=np.int32)
+    for i in range(nx):
+        for x in range(xstarts[i], xstarts[i + 1]):
+            row[x] = gy * nx + i
+    for j in range(max(0, gy - 1), min(ny, gy + 2)):
+        for i in range(nx):
+            k = j * nx + i
+            x0, x1 = xstarts[max(0, i - 1)], xstarts[min(nx, i + 2)]
+            run = x1 - x0
+            dy = y - centres[k, 0]
+            cx = centres[k, 1]
+            least = best[x0:x1]
+            chosen = row[x0:x1]
+            if channels == 3 or channels == 1:  # one loop: the distance and the choice
+                mean0 = centres[k, 2]
+                mean1 = centres[k, 3] if channels == 3 else 0.0
+                mean2 = centres[k, 4] if channels == 3 else 0.0
+                first = colour[0, y, x0:x1]
+                second = colour[channels // 2, y, x0:x1]  # unread for one channel
+                third = colour[channels - 1, y, x0:x1]
+                for t in range(run):
+                    dx = (x0 + t) - cx
+                    value = weight * (dy * dy + dx * dx)
+                    dc = first[t] - mean0
+                    value += dc * dc
+                    if channels == 3:
+                        dc = second[t] - mean1
+                        value += dc * dc
+                        dc = third[t] - mean2
+                        value += dc * dc
+                    low = least[t]
+                    closer = value < low  # branch-free, so that it runs in vector lanes
+                    least[t] = value if closer else low
+                    chosen[t] = k if closer else chosen[t]
+                continue
+            near = dist[x0:x1]
+            for t in range(run):
+                dx = (x0 + t) - cx
+                near[t] = weight * (dy * dy + dx * dx)
+            for c in range(channels):
+                mean = centres[k, 2 + c]
+                values = colour[c, y, x0:x1]
+                for t in range(run):
+                    dc = values[t] - mean
+                    near[t] += dc * dc
+            for t in range(run):
+                value, low = near[t], least[t]
+                closer = value < low
+                least[t] = value if closer else low
+                chosen[t] = k if closer else chosen[t]
+    labels[y, :] = row
 
 
 @nb.njit(cache=True, parallel=True)
@@ -82,10 +136,11 @@ def slic(colour, step, compactness, iterations, labels):
             for c in range(channels):
                 centres[k, 2 + c] = colour[c, y, x]
     weight = (compactness / step) ** 2
+    xstarts = cell_starts(width, nx)
     sums = np.empty((n, 3 + channels), dtype=np.float64)
     for it in range(iterations + 1):
         for y in nb.prange(height):
-            _assign_row(colour, y, centres, ny, nx, weight, labels)
+            _assign_row(colour, y, centres, ny, nx, weight, xstarts, labels)
         if it == iterations:
             break
         sums[:] = 0.0
@@ -178,6 +233,13 @@ def fit_segment(xs, ys, ds, iterations, inlier, stop, max_scored, seed, out):
         return 0
     stride = max(1, n // max_scored)
     scored = (n + stride - 1) // stride
+    sx, sy, sd = xs, ys, ds
+    if stride > 1:  # the scored points gathered once, for a contiguous loop per draw
+        sx = np.empty(scored, dtype=xs.dtype)
+        sy = np.empty(scored, dtype=ys.dtype)
+        sd = np.empty(scored, dtype=ds.dtype)
+        for q in range(scored):
+            sx[q], sy[q], sd[q] = xs[q * stride], ys[q * stride], ds[q * stride]
     state = (seed * 7919 + 1) % LCG_M
     trial = np.empty(3)
     best = np.empty(3)
@@ -193,9 +255,10 @@ def fit_segment(xs, ys, ds, iterations, inlier, stop, max_scored, seed, out):
             continue
         if not _plane_through(xs, ys, ds, i, j, k, trial):
             continue
+        a, b, c = trial[0], trial[1], trial[2]
         count = 0
-        for p in range(0, n, stride):  # scored on every stride-th point
-            if abs(trial[0] * xs[p] + trial[1] * ys[p] + trial[2] - ds[p]) <= inlier:
+        for q in range(scored):
+            if abs(a * sx[q] + b * sy[q] + c - sd[q]) <= inlier:
                 count += 1
         if count > best_count:
             best_count = count
@@ -215,61 +278,74 @@ def fit_segment(xs, ys, ds, iterations, inlier, stop, max_scored, seed, out):
 
 
 @nb.njit(cache=True)
-def segment_order(labels, n):
-    """Pixels (flat indices) sorted by label, stably, and each label's start: a counting sort."""
-    flat = labels.reshape(-1)
+def segment_points(disparity, usable, wanted, labels, n, lattice, xs, ys, ds):
+    """Each segment's ``usable`` estimates, gathered in raster order: a counting sort.
+
+    Only the pixels of every ``lattice``-th row and column count (1: all of them), but a
+    segment is ``need``-ed when any of its pixels is ``wanted``. ``xs``, ``ys``, ``ds``:
+    buffers of at least as many elements as there are ``usable`` pixels (a caller's,
+    reused: a fresh array of a few megabytes costs more in page faults than the sort).
+    Returns ``(starts, size, need)``: segment ``k``'s estimates are
+    ``xs[starts[k]:starts[k + 1]]`` (columns; ``ys`` rows, ``ds`` disparities),
+    ``size[k]`` its pixels on the lattice, ``need[k]`` whether any pixel is ``wanted``.
+    """
+    height, width = disparity.shape
     starts = np.zeros(n + 1, dtype=np.int64)
-    for p in range(flat.shape[0]):
-        starts[flat[p] + 1] += 1
+    size = np.zeros(n, dtype=np.int64)
+    need = np.zeros(n, dtype=np.bool_)
+    for y in range(height):
+        row, want = labels[y], wanted[y]
+        for x in range(width):
+            if want[x]:
+                need[row[x]] = True
+    for y in range(0, height, lattice):
+        row, use = labels[y], usable[y]
+        for x in range(0, width, lattice):
+            k = row[x]
+            size[k] += 1
+            starts[k + 1] += use[x]
     for k in range(n):
         starts[k + 1] += starts[k]
     fill = starts[:n].copy()
-    order = np.empty(flat.shape[0], dtype=np.int64)
-    for p in range(flat.shape[0]):
-        k = flat[p]
-        order[fill[k]] = p
-        fill[k] += 1
-    return order, starts
+    for y in range(0, height, lattice):
+        row, use, values = labels[y], usable[y], disparity[y]
+        for x in range(0, width, lattice):
+            if use[x]:
+                k = row[x]
+                q = fill[k]
+                xs[q], ys[q], ds[q] = x, y, values[x]
+                fill[k] = q + 1
+    return starts, size, need
 
 
 @nb.njit(cache=True, parallel=True)
-def fit_planes(
-    disparity, usable, labels, n, nx, iterations, inlier, stop, max_scored, planes, support
-):
+def fit_planes(disparity, usable, wanted, labels, n, nx, iterations, inlier, stop, max_scored,
+               min_support, lattice, xs, ys, ds, planes, support):  # fmt: skip
     """Fit a plane to each segment's ``usable`` estimates.
 
-    ``planes[k]``: (a, b, c); ``support[k]``: (estimates used, inliers, pixels). Segments
-    are fitted a grid row at a time (labels ``gy * nx ..``), rows in parallel.
+    ``planes[k]``: (a, b, c); ``support[k]``: (estimates used, inliers, pixels). A segment
+    none of whose pixels is ``wanted``, or with under three estimates or under
+    ``min_support`` of its pixels, is not fitted: plane (0, 0, 0), no inliers. Segments are
+    fitted a grid row at a time (labels ``gy * nx ..``), rows in parallel. ``xs``, ``ys``,
+    ``ds``: :func:`segment_points`' buffers.
     """
-    height, width = disparity.shape
-    order, starts = segment_order(labels, n)
+    starts, size, need = segment_points(disparity, usable, wanted, labels, n, lattice, xs, ys,
+                                        ds)  # fmt: skip
     ny = n // nx
     for gy in nb.prange(ny):
+        plane = np.zeros(3)
         for k in range(gy * nx, (gy + 1) * nx):
-            size = starts[k + 1] - starts[k]
-            m = 0
-            for q in range(starts[k], starts[k + 1]):
-                p = order[q]
-                if usable[p // width, p % width]:
-                    m += 1
-            xs = np.empty(m)
-            ys = np.empty(m)
-            ds = np.empty(m)
-            m = 0
-            for q in range(starts[k], starts[k + 1]):
-                p = order[q]
-                y, x = p // width, p % width
-                if usable[y, x]:
-                    xs[m] = x
-                    ys[m] = y
-                    ds[m] = disparity[y, x]
-                    m += 1
-            plane = np.zeros(3)
-            count = fit_segment(xs, ys, ds, iterations, inlier, stop, max_scored, k, plane)
+            s0, s1 = starts[k], starts[k + 1]
+            m = s1 - s0
+            count = 0
+            plane[:] = 0.0
+            if need[k] and m >= 3 and m >= min_support * size[k]:
+                count = fit_segment(xs[s0:s1], ys[s0:s1], ds[s0:s1], iterations, inlier, stop,
+                                    max_scored, k, plane)  # fmt: skip
             planes[k, :] = plane
             support[k, 0] = m
             support[k, 1] = count
-            support[k, 2] = size
+            support[k, 2] = size[k]
 
 
 @nb.njit(cache=True, parallel=True)
@@ -299,28 +375,39 @@ def shrink(colour, scale, out):
     """Mean of each ``scale x scale`` block of ``colour`` (``(C, H, W)``) into ``out``.
 
     ``out``: ``(C, ceil(H / scale), ceil(W / scale))`` float64; a block cut by the image's
-    edge is the mean of the pixels it has.
+    edge is the mean of the pixels it has. The block's rows are added first (whole rows at a
+    time, in vector lanes), then each block's columns: for integer images (the exact sums of
+    at most ``2**53``) the same sums as in any order.
     """
     channels, height, width = colour.shape
     rows, cols = out.shape[1], out.shape[2]
     for r in nb.prange(rows):
         y0, y1 = r * scale, min(height, (r + 1) * scale)
-        for q in range(cols):
-            x0, x1 = q * scale, min(width, (q + 1) * scale)
-            count = (y1 - y0) * (x1 - x0)
-            for c in range(channels):
+        column = np.empty(width)
+        for c in range(channels):
+            column[:] = 0.0
+            for y in range(y0, y1):
+                source = colour[c, y]
+                for x in range(width):
+                    column[x] += source[x]
+            for q in range(cols):
+                x0, x1 = q * scale, min(width, (q + 1) * scale)
                 total = 0.0
-                for y in range(y0, y1):
-                    for x in range(x0, x1):
-                        total += colour[c, y, x]
-                out[c, r, q] = total / count
+                for x in range(x0, x1):
+                    total += column[x]
+                out[c, r, q] = total / ((y1 - y0) * (x1 - x0))
 
 
 @nb.njit(cache=True, parallel=True)
 def expand(labels, scale, out):
     """Label each pixel of ``out`` (``(H, W)``) as its ``scale x scale`` block in ``labels``."""
     height, width = out.shape
+    cols = labels.shape[1]
     for y in nb.prange(height):
-        r = y // scale
-        for x in range(width):
-            out[y, x] = labels[r, x // scale]
+        source = labels[y // scale]
+        row = out[y]
+        for q in range(cols):
+            x0 = q * scale
+            value = source[q]
+            for x in range(x0, min(width, x0 + scale)):
+                row[x] = value

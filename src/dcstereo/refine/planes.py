@@ -27,9 +27,12 @@ class PlaneParams:
     (:func:`superpixels`, with ``compactness`` and ``slic_iterations``), coarse to fine:
     each pass fits its planes to the map the pass before left (the holes it filled among
     the estimates); ``slic_scale``: the superpixels cut on the image shrunk that many
-    times (:func:`coarse_superpixels`, for speed);
+    times (:func:`coarse_superpixels`, for speed), one for every pass or one per pass;
+    None: ``step // 8`` (at least 1) for each pass, superpixels of about 8 blocks a side
+    (6, 4 and 2 for the default steps);
     ``iterations``, ``inlier``, ``stop``, ``max_scored``: the RANSAC of each segment
-    (:func:`fit_planes`);
+    (:func:`fit_planes`); ``fit_lattice``: the planes fitted to, and judged by, the
+    estimates of every ``fit_lattice``-th row and column only;
     ``min_support``, ``min_ratio``: when a plane is trusted; ``outlier``: how far from it
     an estimate is replaced; ``fit_margin``: the least confidence margin of an estimate
     the planes are fitted to; ``replace_margin``: estimates whose margin is below it may
@@ -39,9 +42,10 @@ class PlaneParams:
     steps: tuple[int, ...] = (48, 32, 16)
     compactness: float = 10.0
     slic_iterations: int = 3
-    slic_scale: int = 2
+    slic_scale: int | tuple[int, ...] | None = None
     iterations: int = 100
     max_scored: int = 128
+    fit_lattice: int = 2
     inlier: float = 1.5
     stop: float = 0.9
     min_support: float = 0.3
@@ -59,7 +63,7 @@ class PlaneParams:
             raise ValueError(
                 f"max_scored must be an integer of at least 3, got {self.max_scored!r}"
             )
-        for name in ("slic_iterations", "slic_scale", "iterations"):
+        for name in ("slic_iterations", "iterations", "fit_lattice"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
@@ -70,6 +74,16 @@ class PlaneParams:
             or not all(isinstance(f, int) and not isinstance(f, bool) and f >= 2 for f in steps)
         ):
             raise ValueError(f"steps must be a non-empty tuple of integers from 2, got {steps!r}")
+        scale = self.slic_scale
+        scales = scale if isinstance(scale, tuple) else (scale,)
+        if scale is not None and (
+            not all(isinstance(f, int) and not isinstance(f, bool) and f >= 1 for f in scales)
+            or (isinstance(scale, tuple) and len(scales) != len(steps))
+        ):
+            raise ValueError(
+                "slic_scale must be None, a positive integer or one per step, got "
+                f"{scale!r} for steps {steps!r}"
+            )
         for name in ("compactness", "inlier", "outlier"):
             value = getattr(self, name)
             if not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
@@ -78,6 +92,14 @@ class PlaneParams:
             value = getattr(self, name)
             if not isinstance(value, (int, float)) or not 0 <= value <= 1:
                 raise ValueError(f"{name} must be a number from 0 to 1, got {value!r}")
+
+
+def pass_scales(params: PlaneParams) -> tuple[int, ...]:
+    """Return the shrink factor of each pass of ``params.steps`` (``slic_scale`` resolved)."""
+    scale = params.slic_scale
+    if scale is None:
+        return tuple(max(1, step // 8) for step in params.steps)
+    return scale if isinstance(scale, tuple) else (scale,) * len(params.steps)
 
 
 def superpixels(colour: np.ndarray, step: int = 16, compactness: float = 20.0,
@@ -92,33 +114,50 @@ def superpixels(colour: np.ndarray, step: int = 16, compactness: float = 20.0,
     return labels
 
 
+def shrunk(colour: np.ndarray, scale: int) -> np.ndarray:
+    """``colour`` (``(C, H, W)``) with each ``scale x scale`` block averaged, float64.
+
+    A block cut by the edge: the mean of its pixels. ``scale`` 1: ``colour`` as float64.
+    """
+    if scale == 1:
+        return np.ascontiguousarray(colour, dtype=np.float64)
+    height, width = colour.shape[1:]
+    small = np.empty((colour.shape[0], -(-height // scale), -(-width // scale)), np.float64)
+    _kernels.shrink(np.ascontiguousarray(colour), scale, small)
+    return small
+
+
 def coarse_superpixels(colour: np.ndarray, step: int, compactness: float, iterations: int,
-                       scale: int):  # fmt: skip
+                       scale: int, *, small: np.ndarray | None = None,
+                       out: np.ndarray | None = None):  # fmt: skip
     """:func:`superpixels` of ``colour`` shrunk ``scale`` times: ``(labels, nx, ny)``.
 
     Each ``scale x scale`` block of pixels averaged (a block cut by the edge: its pixels),
     cut into superpixels of about ``step / scale`` blocks a side, each pixel labelled as its
     block: ``scale**2`` times less work, for edges a block coarse. ``scale`` 1: the image
-    itself. ``nx, ny``: the labels' grid.
+    itself. ``nx, ny``: the labels' grid. ``small``: ``shrunk(colour, scale)``, when the
+    caller has it already; ``out``: an ``(H, W)`` int32 array for the labels (scale above 1).
     """
     height, width = colour.shape[1:]
+    if small is None:
+        small = shrunk(colour, scale)
     if scale == 1:
         ny, nx = _kernels.grid_shape(height, width, step)
-        return superpixels(colour, step, compactness, iterations), nx, ny
-    rows, cols = -(-height // scale), -(-width // scale)
-    small = np.empty((colour.shape[0], rows, cols), dtype=np.float64)
-    _kernels.shrink(np.ascontiguousarray(colour), scale, small)
+        return superpixels(small, step, compactness, iterations), nx, ny
+    rows, cols = small.shape[1:]
     coarse_step = max(2, round(step / scale))
     labels = superpixels(small, coarse_step, compactness, iterations)
     ny, nx = _kernels.grid_shape(rows, cols, coarse_step)
-    full = np.empty((height, width), dtype=np.int32)
+    full = np.empty((height, width), dtype=np.int32) if out is None else out
     _kernels.expand(labels, scale, full)
     return full, nx, ny
 
 
 def fit_planes(disparity: np.ndarray, usable: np.ndarray, labels: np.ndarray, nx: int,
                ny: int, iterations: int = 200, inlier: float = 1.0,
-               stop: float = 0.9, max_scored: int = 2**30):  # fmt: skip
+               stop: float = 0.9, max_scored: int = 2**30, *,
+               wanted: np.ndarray | None = None, min_support: float = 0.0,
+               lattice: int = 1, scratch=None):  # fmt: skip
     """Fit a plane to each segment's ``usable`` estimates; return ``(planes, support)``.
 
     Each RANSAC draw is scored on about ``max_scored`` of a segment's estimates (every
@@ -126,29 +165,59 @@ def fit_planes(disparity: np.ndarray, usable: np.ndarray, labels: np.ndarray, nx
 
     ``labels``: ``gy * nx + gx`` on a grid of ``ny x nx`` segments. ``planes``: ``(n, 3)``
     float64, ``(a, b, c)`` of ``d = a x + b y + c``; ``support``: ``(n, 3)`` int64,
-    (estimates used, inliers within ``inlier`` px, pixels of the segment).
+    (estimates used, inliers within ``inlier`` px, pixels of the segment). Only the
+    segments with a ``wanted`` pixel (every pixel by default) whose estimates cover at least
+    ``min_support`` of their pixels are fitted; the others get no plane and no inliers.
+    ``lattice``: only every ``lattice``-th row and column's estimates and pixels count
+    (the used, the inliers, the pixels; a segment is fitted when any of its pixels is
+    wanted). ``scratch``: :func:`point_buffers` of the image's size, when the caller reuses
+    them.
     """
     n = ny * nx
     planes = np.zeros((n, 3), dtype=np.float64)
     support = np.zeros((n, 3), dtype=np.int64)
+    if wanted is None:
+        wanted = np.ones(labels.shape, dtype=bool)
+    disparity = np.ascontiguousarray(disparity)
+    if disparity.dtype not in (np.float32, np.float64):
+        disparity = disparity.astype(np.float64)
+    if scratch is None:
+        scratch = point_buffers(disparity.shape)
     _kernels.fit_planes(
-        np.ascontiguousarray(disparity, dtype=np.float64), np.ascontiguousarray(usable),
-        np.ascontiguousarray(labels), n, nx, int(iterations), float(inlier), float(stop),
-        int(max_scored), planes, support,
+        disparity, np.ascontiguousarray(usable),
+        np.ascontiguousarray(wanted), np.ascontiguousarray(labels), n, nx, int(iterations),
+        float(inlier), float(stop), int(max_scored), float(min_support), int(lattice),
+        *scratch, planes, support,
     )  # fmt: skip
     return planes, support
 
 
+def point_buffers(shape):
+    """Return the buffers :func:`fit_planes` gathers estimates in, for a map of ``shape``.
+
+    Columns and rows (int32) and disparities (float64), one element per pixel.
+    """
+    size = int(np.prod(shape))
+    return np.empty(size, np.int32), np.empty(size, np.int32), np.empty(size, np.float64)
+
+
 def _plane_pass(disparity, labels, nx, ny, usable, replaceable, low, high, iterations,
-                inlier, outlier, min_ratio, min_support, stop, max_scored=2**30):  # fmt: skip
-    """One pass: fit each segment's plane, give its value where the plane is trusted."""
+                inlier, outlier, min_ratio, min_support, stop, max_scored=2**30,
+                scratch=None, into=None, lattice=1):  # fmt: skip
+    """One pass: fit each segment's plane, give its value where the plane is trusted.
+
+    Only the segments with a ``replaceable`` pixel and enough support are fitted: the
+    others could change nothing. ``into``: the array the new map is written to (a new one
+    by default; ``disparity`` itself may be given: each pixel reads only its own value).
+    """
     planes, support = fit_planes(
-        disparity, usable, labels, nx, ny, iterations, inlier, stop, max_scored
-    )
+        disparity, usable, labels, nx, ny, iterations, inlier, stop, max_scored,
+        wanted=replaceable, min_support=min_support, lattice=lattice, scratch=scratch,
+    )  # fmt: skip
     used, inliers, size = support[:, 0], support[:, 1], support[:, 2]
     trusted = (used >= 3) & (used >= min_support * size)
     trusted &= inliers >= min_ratio * np.maximum(used, 1)
-    out = np.empty_like(disparity)
+    out = np.empty_like(disparity) if into is None else into
     _kernels.apply_planes(
         disparity, np.ascontiguousarray(replaceable), labels, planes, trusted, float(outlier),
         float(low), float(high), out,
@@ -208,22 +277,31 @@ def refine_planes(
     reason flag and gains :data:`~dcstereo.result.FLAG_FILLED`.
     """
     d = result.disparity
-    height, width = d.shape
-    kept = (result.flags & (FLAG_OCCLUDED | FLAG_BORDER)) != 0
+    free = (result.flags & (FLAG_OCCLUDED | FLAG_BORDER)) == 0  # not the background fill's
     unsure = margin < params.replace_margin
     sure = margin >= params.fit_margin
-    out = d
-    for step in params.steps:
+    scales = pass_scales(params)
+    small = {scale: shrunk(colour, scale) for scale in set(scales)}  # one per scale
+    # the buffers every pass reuses (fresh arrays of this size cost their page faults)
+    out = np.array(d, dtype=np.float32)  # the map, each pass writing its own in place
+    scratch = point_buffers(d.shape)
+    labels_full = np.empty(d.shape, dtype=np.int32)
+    holes, usable, replaceable = (np.empty(d.shape, dtype=bool) for _ in range(3))
+    for step, scale in zip(params.steps, scales, strict=True):
         labels, nx, ny = coarse_superpixels(
-            colour, step, params.compactness, params.slic_iterations, params.slic_scale
-        )
-        holes = np.isnan(out)
-        out = _plane_pass(
-            out, labels, nx, ny, sure & ~holes, ~kept & (holes | unsure),
+            colour, step, params.compactness, params.slic_iterations, scale,
+            small=small[scale], out=labels_full,
+        )  # fmt: skip
+        np.isnan(out, out=holes)
+        np.greater(sure, holes, out=usable)  # sure and not a hole
+        np.logical_or(holes, unsure, out=replaceable)
+        replaceable &= free
+        _plane_pass(
+            out, labels, nx, ny, usable, replaceable,
             result.params.min_disparity, result.params.max_disparity, params.iterations,
             params.inlier, params.outlier, params.min_ratio, params.min_support, params.stop,
-            params.max_scored,
-        ).astype(np.float32)  # fmt: skip
+            params.max_scored, scratch, out, params.fit_lattice,
+        )  # fmt: skip
     filled = np.isnan(d) & np.isfinite(out)
     flags = result.flags | (filled.view(np.uint8) * np.uint8(FLAG_FILLED))
     return replace(result, disparity=out, flags=flags)
