@@ -175,11 +175,16 @@ def _subpixel(t, off, k, ndisp, mode):
 @nb.njit(cache=True)
 def _margin(t, off, k, ndisp, best):
     """``(rival - best) / rival`` for the least total ``rival`` two or more disparities off."""
-    rival = 1 << 30
-    for j in range(ndisp):
-        if abs(j - k) >= 2 and t[off + j] < rival:
-            rival = t[off + j]
-    if rival == 1 << 30 or rival <= 0:
+    if k < 2 and k + 2 >= ndisp:
+        return np.float32(np.nan)  # no disparity two or more away
+    row = t[off : off + ndisp]
+    rival = row[0] if k >= 2 else row[ndisp - 1]
+    for j in range(k - 1):  # the disparities two or more below the chosen one
+        rival = min(rival, row[j])
+    for j in range(k + 2, ndisp):  # and two or more above it
+        rival = min(rival, row[j])
+    rival = np.int64(rival)
+    if rival <= 0:
         return np.float32(np.nan)
     return np.float32((rival - best) / rival)
 
