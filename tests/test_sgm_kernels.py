@@ -256,3 +256,32 @@ def test_sgm_kernels_run_as_plain_python(tmp_path):
     plain = np.load(tmp_path / "plain.npz")
     np.testing.assert_array_equal(plain["d"], compiled.disparity)
     np.testing.assert_array_equal(plain["f"], compiled.flags)
+
+
+@pytest.mark.parametrize(
+    ("dtype", "shape", "before", "after"),
+    [
+        (np.uint32, (5, 9), 4, 0),
+        (np.uint64, (3, 7), 0, 3),
+        (np.int16, (3, 4, 6), 5, 2),
+        (np.int16, (1, 1, 1), 2, 2),
+    ],
+)
+def test_reversed_right_equals_pad_then_reverse(dtype, shape, before, after):
+    # the one-pass kernel against its definition: numpy's edge padding, then reversed
+    rng = np.random.default_rng(sum(shape) + before)
+    array = rng.integers(0, 200, shape).astype(dtype)
+    widths = [(0, 0)] * (array.ndim - 1) + [(before, after)]
+    expected = np.pad(array, widths, mode="edge")[..., ::-1]
+    got = sgm._reversed_right(array, before, after)
+    assert got.dtype == dtype and got.flags.c_contiguous
+    np.testing.assert_array_equal(got, expected)
+
+
+def test_reversed_padded_rows_by_hand():
+    # row 1 2 3, one repeated first value before and two repeated last ones after:
+    # 1 1 2 3 3 3, reversed 3 3 3 2 1 1
+    rows = np.array([[1, 2, 3]], dtype=np.uint32)
+    np.testing.assert_array_equal(
+        census_kernels.reversed_padded_rows(rows, 1, 2), [[3, 3, 3, 2, 1, 1]]
+    )

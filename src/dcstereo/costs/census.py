@@ -26,6 +26,31 @@ from dcstereo._vector.sgm import next_task
 
 
 @nb.njit(cache=True, parallel=True)
+def reversed_padded_rows(rows_in, before, after):
+    """Return each row of ``rows_in`` (``(N, W)``) padded and reversed, in one pass.
+
+    Padded by ``before`` repeated first values and ``after`` repeated last ones, then
+    reversed: ``out[n, j] = rows_in[n, clip(W + after - 1 - j, 0, W - 1)]``, ``W + before +
+    after`` columns (the right view as the cost kernel reads it). Rows in parallel.
+    """
+    count, width = rows_in.shape
+    length = width + before + after
+    out = np.empty((count, length), dtype=rows_in.dtype)
+    for n in nb.prange(count):
+        row = rows_in[n]
+        dst = out[n]
+        last = row[width - 1]
+        first = row[0]
+        for j in range(after):
+            dst[j] = last
+        for j in range(after, after + width):
+            dst[j] = row[width + after - 1 - j]
+        for j in range(after + width, length):
+            dst[j] = first
+    return out
+
+
+@nb.njit(cache=True, parallel=True)
 def census_transform(padded, rows, cols, out):
     """Write the census codes over a ``rows x cols`` window into ``out``.
 

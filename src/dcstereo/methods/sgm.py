@@ -137,10 +137,12 @@ def _reversed_right(array: np.ndarray, before: int, after: int) -> np.ndarray:
     """Return the right view's ``array`` (``(..., H, W)``) as the cost kernel reads it.
 
     Padded along its last axis by ``before`` and ``after`` repeated edge columns, then
-    reversed.
+    reversed, in one pass (``census.reversed_padded_rows``; ``np.pad`` then a reversed
+    copy took 5 ms of a 94 ms call on Piano).
     """
-    widths = [(0, 0)] * (array.ndim - 1) + [(before, after)]
-    return np.ascontiguousarray(np.pad(array, widths, mode="edge")[..., ::-1])
+    rows = np.ascontiguousarray(array).reshape(-1, array.shape[-1])
+    out = census_kernels.reversed_padded_rows(rows, before, after)
+    return out.reshape(*array.shape[:-1], out.shape[-1])
 
 
 class _VolumePool:
