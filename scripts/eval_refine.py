@@ -38,7 +38,6 @@ from dcstereo.evaluation.datasets import (
     middlebury_dir,
 )
 from dcstereo.evaluation.metrics import bad_pixel_rate, d1_rate
-from dcstereo.io import read_image
 from dcstereo.methods.sgm import _run, colour_channels
 from dcstereo.params import MatchParams
 from dcstereo.refine.consistency import fill_with_colour
@@ -70,11 +69,12 @@ def kitti_pairs():
     root = Path(default_data_dir()) / "outdoor"
     out = []
     for folder in sorted(p for p in root.iterdir() if (p / "meta.json").exists()):
-        meta = json.loads((folder / "meta.json").read_text())
-        truth = read_image(folder / "disp_gt.png").astype(np.float32) / 256.0
-        mask = truth > 0
-        left, right = read_image(folder / "left.png"), read_image(folder / "right.png")
-        out.append(Pair(folder.name, left, right, truth, mask, 0, int(meta["ndisp"]) - 1, "kitti"))
+        scene = load_scene(folder)  # the one-pair KITTI layout: truth NaN where none
+        truth = scene.disparity.astype(np.float32)
+        out.append(
+            Pair(folder.name, scene.left, scene.right, truth, np.isfinite(truth), 0,
+                 scene.max_disparity, "kitti")
+        )  # fmt: skip
     return out
 
 

@@ -25,7 +25,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
 
 from dcstereo.evaluation.datasets import find_scenes, load_motorcycle, load_scene, middlebury_dir
 from dcstereo.evaluation.metrics import bad_pixel_rate, d1_rate
@@ -38,7 +37,7 @@ OUTDOOR = Path(
 
 
 def kitti_scores(estimate: np.ndarray, truth: np.ndarray) -> dict:
-    """bad-2, bad-3 and D1 (percent) over the pixels with truth (``truth > 0``), dense.
+    """bad-2, bad-3 and D1 (percent) over the pixels with truth (``truth > 0``; NaN: none), dense.
 
     A NaN estimate counts as wrong (:mod:`dcstereo.evaluation.metrics`).
     """
@@ -51,13 +50,14 @@ def kitti_scores(estimate: np.ndarray, truth: np.ndarray) -> dict:
 
 
 def kitti_pairs(root=OUTDOOR):
-    """Yield ``(name, left, right, truth, max_disparity)`` for each outdoor pair."""
+    """Yield ``(name, left, right, truth, max_disparity)`` for each outdoor pair.
+
+    Read by :func:`~dcstereo.evaluation.datasets.load_scene` (the one-pair KITTI layout:
+    ``truth`` NaN where there is none, ``max_disparity`` ``ndisp - 1``).
+    """
     for folder in sorted(p for p in Path(root).iterdir() if (p / "meta.json").exists()):
-        meta = json.loads((folder / "meta.json").read_text())
-        left = np.asarray(Image.open(folder / "left.png"))
-        right = np.asarray(Image.open(folder / "right.png"))
-        truth = np.asarray(Image.open(folder / "disp_gt.png")).astype(np.float64) / 256.0
-        yield folder.name, left, right, truth, int(meta["ndisp"]) - 1
+        scene = load_scene(folder)
+        yield folder.name, scene.left, scene.right, scene.disparity, scene.max_disparity
 
 
 def middlebury_scenes():

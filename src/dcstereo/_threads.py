@@ -63,7 +63,7 @@ def free_threads(threads: int, loadavg: str | None = None, cpu_max: str | None =
         running = int(loadavg.split()[3].split("/")[0])
         cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None
     except (OSError, ValueError, IndexError):
-        return max(1, threads)
+        return threads  # at least one: the quota is
     cores = cores or os.cpu_count() or threads
     return max(1, min(threads, cores - (running - 1)))
 

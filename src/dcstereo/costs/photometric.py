@@ -125,8 +125,8 @@ def align_right(colour_l: np.ndarray, colour_r: np.ndarray, coarse: np.ndarray, 
     than :data:`MIN_PAIRS` pairs, ``colour_r`` itself.
     """
     channels = colour_l.shape[0]
-    hist_l = np.zeros((channels, LEVELS), dtype=np.int64)
-    hist_r = np.zeros((channels, LEVELS), dtype=np.int64)
+    hist_l = np.empty((channels, LEVELS), dtype=np.int64)  # zeroed by pair_histograms
+    hist_r = np.empty((channels, LEVELS), dtype=np.int64)
     pairs = pair_histograms(colour_l, colour_r, coarse, factor, hist_l, hist_r)
     if pairs < MIN_PAIRS:
         return colour_r
