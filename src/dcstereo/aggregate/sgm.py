@@ -177,12 +177,17 @@ def _margin(t, off, k, ndisp, best):
     """``(rival - best) / rival`` for the least total ``rival`` two or more disparities off."""
     if k < 2 and k + 2 >= ndisp:
         return np.float32(np.nan)  # no disparity two or more away
-    row = t[off : off + ndisp]
-    rival = row[0] if k >= 2 else row[ndisp - 1]
-    for j in range(k - 1):  # the disparities two or more below the chosen one
-        rival = min(rival, row[j])
-    for j in range(k + 2, ndisp):  # and two or more above it
-        rival = min(rival, row[j])
+    # the rows below and above the three nearest as slices, the least by compare and store:
+    # the compiler makes whole vectors of it (``min`` on the indexed row stayed scalar)
+    rival = np.int16(32767)
+    below = t[off : off + max(k - 1, 0)]
+    for j in range(below.size):  # the disparities two or more below the chosen one
+        if below[j] < rival:
+            rival = below[j]
+    above = t[off + min(k + 2, ndisp) : off + ndisp]
+    for j in range(above.size):  # and two or more above it
+        if above[j] < rival:
+            rival = above[j]
     rival = np.int64(rival)
     if rival <= 0:
         return np.float32(np.nan)

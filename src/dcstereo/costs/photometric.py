@@ -31,6 +31,9 @@ MIN_PAIRS = 1000
 #: Colour levels (the 0..255 scale of :func:`dcstereo.signal.colour_channels`).
 LEVELS = 256
 
+#: Sub-histograms :func:`pair_histograms` counts into, by column (3.2 -> 2.0 ms on Piano).
+WAYS = 4
+
 
 @nb.njit(cache=True)
 def box_down(colour, factor):
@@ -62,27 +65,43 @@ def pair_histograms(colour_l, colour_r, coarse, factor, hist_l, hist_r):
     each way. The left pixel ``(y, x)`` takes the disparity ``d = factor * coarse[y //
     factor, x // factor]`` (the last row and column of boxes reach the image's edge), and
     its partner is the right pixel ``(y, round(x - d))`` (halves to even) where that lies
-    in the image. ``hist_l[c, v]`` and ``hist_r[c, v]`` (int64, ``(C, 256)``, zeroed here)
-    count the level ``v`` of channel ``c`` over the left pixels and over their partners.
+    in the image. ``hist_l[c, v]`` and ``hist_r[c, v]`` (int64, ``(C, 256)``, overwritten)
+    count the level ``v`` of channel ``c`` over the left pixels and over their partners
+    (every element written).
     """
     channels, height, width = colour_l.shape
     rows, cols = coarse.shape
-    hist_l[:] = 0
-    hist_r[:] = 0
+    # each count spread over WAYS sub-histograms by column (summed at the end): neighbours
+    # mostly share a level, and one histogram would make each count wait for the last
+    sub_l = np.zeros((channels, WAYS, LEVELS), dtype=np.int64)
+    sub_r = np.zeros((channels, WAYS, LEVELS), dtype=np.int64)
+    partner = np.empty(width, dtype=np.int64)  # a row's partner columns, -1: none
     pairs = 0
     for y in range(height):
         cy = min(y // factor, rows - 1)
         for x in range(width):
             d = coarse[cy, min(x // factor, cols - 1)]
-            if not np.isfinite(d):
-                continue
-            xr = int(np.rint(x - factor * d))
-            if xr < 0 or xr >= width:
-                continue
-            pairs += 1
-            for c in range(channels):
-                hist_l[c, colour_l[c, y, x]] += 1
-                hist_r[c, colour_r[c, y, xr]] += 1
+            xr = -1
+            if np.isfinite(d):
+                xr = int(np.rint(x - factor * d))
+                if xr >= width:
+                    xr = -1
+            partner[x] = xr
+        for c in range(channels):
+            row_l, row_r = colour_l[c, y], colour_r[c, y]
+            for x in range(width):
+                xr = partner[x]
+                if xr >= 0:
+                    way = x % WAYS
+                    sub_l[c, way, row_l[x]] += 1
+                    sub_r[c, way, row_r[xr]] += 1
+        for x in range(width):
+            if partner[x] >= 0:
+                pairs += 1
+    for c in range(channels):
+        for v in range(LEVELS):
+            hist_l[c, v] = sub_l[c, :, v].sum()
+            hist_r[c, v] = sub_r[c, :, v].sum()
     return pairs
 
 
@@ -125,7 +144,7 @@ def align_right(colour_l: np.ndarray, colour_r: np.ndarray, coarse: np.ndarray, 
     than :data:`MIN_PAIRS` pairs, ``colour_r`` itself.
     """
     channels = colour_l.shape[0]
-    hist_l = np.empty((channels, LEVELS), dtype=np.int64)  # zeroed by pair_histograms
+    hist_l = np.empty((channels, LEVELS), dtype=np.int64)  # filled by pair_histograms
     hist_r = np.empty((channels, LEVELS), dtype=np.int64)
     pairs = pair_histograms(colour_l, colour_r, coarse, factor, hist_l, hist_r)
     if pairs < MIN_PAIRS:
