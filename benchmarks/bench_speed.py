@@ -98,6 +98,9 @@ RESULT_TAG = "BENCH_SPEED_RESULT "
 STRIP_ROWS = 32
 WIDE_SIZES = "3000x400x256,6000x400x256,8000x400x256,16000x400x256,16000x400x512"
 BUSY_LOOP = "while True: pass"
+#: Suffixes of ``sgm``'s name that add one of its stages on request, in any order:
+#: ``sgm+photometric+planes`` is ``sgm`` with ``photometric="matched"`` and ``planes=True``.
+STAGE_SUFFIXES = {"+photometric": {"photometric": "matched"}, "+planes": {"planes": True}}
 
 
 # --------------------------------------------------------------------------- inputs
@@ -200,6 +203,23 @@ def max_rss_bytes():
     return value if sys.platform == "darwin" else value * 1024
 
 
+def stage_options(method):
+    """Split ``method`` into the name ``run_method`` takes and the options of its stages.
+
+    ``"sgm+photometric+planes"`` -> ``("sgm", {"photometric": "matched", "planes": True})``
+    (:data:`STAGE_SUFFIXES`); a name without them comes back as it is, with no options.
+    """
+    options = {}
+    while True:
+        for suffix, extra in STAGE_SUFFIXES.items():
+            if method.endswith(suffix):
+                method = method.removesuffix(suffix)
+                options.update(extra)
+                break
+        else:
+            return method, options
+
+
 def make_call(method, left, right, min_disparity, max_disparity):
     """A no-argument matcher call for ``method``; returns (call, disparities searched)."""
     from dcstereo.evaluation.scoring import run_method
@@ -215,10 +235,13 @@ def make_call(method, left, right, min_disparity, max_disparity):
 
         return call, opencv_num_disparities(min_disparity, max_disparity)
 
+    name, options = stage_options(method)
+
     def call():  # a name ending in +bt: that method with the Birchfield-Tomasi cost
         return run_method(
-            method, left, right, max_disparity=max_disparity, min_disparity=min_disparity
-        )
+            name, left, right, max_disparity=max_disparity, min_disparity=min_disparity,
+            **options,
+        )  # fmt: skip
 
     return call, max_disparity - min_disparity + 1
 
@@ -736,7 +759,8 @@ def parse_args(argv):
         "--methods",
         default=",".join(DEFAULT_METHODS),
         help="comma-separated methods: dcstereo methods (a name ending in +bt: with the "
-        "Birchfield-Tomasi cost), opencv-bm, opencv-sgbm "
+        "Birchfield-Tomasi cost; sgm+photometric, sgm+planes, sgm+photometric+planes: sgm "
+        "with those stages), opencv-bm, opencv-sgbm, opencv-hh "
         "(default: %(default)s)",
     )
     parser.add_argument(
@@ -843,10 +867,14 @@ def main(argv=None):
     methods = comma_list(args.methods)
     bt_methods = [m + BT_SUFFIX for m in dcstereo.METHODS if m != "redert"]
     known = list(dcstereo.METHODS) + bt_methods + list(OPENCV_METHODS)
-    unknown = [m for m in methods if m not in known]
+    staged = [m for m in methods if stage_options(m)[1] and stage_options(m)[0] == "sgm"]
+    unknown = [m for m in methods if m not in known and m not in staged]
     if unknown or not methods:
         named = f"unknown method(s) {', '.join(unknown)}" if unknown else "no method given"
-        return fail(f"--methods: {named}; choose from {', '.join(known)}")
+        return fail(
+            f"--methods: {named}; choose from {', '.join(known)} (sgm may end in "
+            f"{' and '.join(STAGE_SUFFIXES)}, its stages on request)"
+        )
     if args.compile_methods is not None:
         wrong = [m for m in comma_list(args.compile_methods) if m not in dcstereo.METHODS]
         if wrong:

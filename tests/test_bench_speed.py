@@ -323,3 +323,24 @@ def test_bt_methods_run_with_the_birchfield_tomasi_cost(bench, tmp_path):
     expected = dcstereo.match(left, right, max_disparity=7, method="dsi5", cost="bt")
     assert got.disparity.tobytes() == expected.disparity.tobytes()
     assert bench.main(["--methods", "redert+bt", "--skip-large"]) == 2
+
+
+def test_stage_suffixes_run_sgm_with_its_stages(bench, tmp_path, capsys):
+    # "sgm+photometric+planes" times sgm with both stages on request, in either order
+    import dcstereo
+
+    assert bench.stage_options("sgm") == ("sgm", {})
+    assert bench.stage_options("sgm+planes+photometric") == (
+        "sgm",
+        {"planes": True, "photometric": "matched"},
+    )
+    left, right, _ = bench.synthetic_pair(120, 80, 8, seed=4)
+    call, disparities = bench.make_call("sgm+photometric+planes", left, right, 0, 7)
+    assert disparities == 8
+    got = call()
+    assert got.params.planes is True and got.params.photometric == "matched"
+    expected = dcstereo.match(left, right, max_disparity=7, photometric="matched", planes=True)
+    assert got.disparity.tobytes() == expected.disparity.tobytes()
+    # a stage suffix on another method is refused by name
+    assert bench.main(["--methods", "dsi5+planes", "--skip-large"]) == 2
+    assert "dsi5+planes" in capsys.readouterr().err
