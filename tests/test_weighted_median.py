@@ -1,0 +1,106 @@
+"""The colour-weighted median (``refine.weighted_median``): its kernel, its tables, its use."""
+
+import numpy as np
+import pytest
+
+import dcstereo
+import naive_weighted_median as naive
+from dcstereo.params import MatchParams
+from dcstereo.refine import _weighted_median as kernels
+from dcstereo.refine import weighted_median as wm
+from dcstereo.result import FLAG_FEATURE, FLAG_OCCLUDED, DisparityResult
+
+
+def test_weight_tables_equal_their_definition():
+    colour, space = wm.weight_tables(4, 20.0, 3.0)
+    twin_colour, twin_space = naive.weights(4, 20.0, 3.0)
+    assert colour.dtype == space.dtype == np.int64
+    assert colour.tolist() == twin_colour and space.tolist() == twin_space
+    assert colour[0] == space[4, 4] == wm.UNIT  # the centre pixel weighs UNIT * UNIT
+
+
+def test_weighted_median_by_hand():
+    # one row [1, 5, 2], the guide [0, 0, 200], radius 1 (colour 20, space 3): weights
+    # 1024 * 1024 = 1048576 for the pixel itself, 1024 * 734 = 751616 for a neighbour of the
+    # same colour, 0 across the edge (round(1024 * exp(-10)) = 0). Pixel 1 sees 1 (751616),
+    # 5 (1048576) and 2 (0): half of 1800192 is reached at 5, so it keeps 5 where the plain
+    # median would give 2; pixel 0 sees 1 (1048576) and 5 (751616): 1; pixel 2 sees 5 (0)
+    # and 2: 2. The edge stays.
+    d = np.array([[1.0, 5.0, 2.0]], dtype=np.float32)
+    guide = np.array([[[0, 0, 200]]], dtype=np.int16)
+    colour, space = wm.weight_tables(1, 20.0, 3.0)
+    assert space[1, 0] == 734 and colour[200] == 0
+    out = d.copy()
+    kernels.weighted_median_rows(d, guide, np.ones_like(d, bool), 1, colour, space, out)
+    assert out.tolist() == [[1.0, 5.0, 2.0]]
+    # without the edge in the guide: pixel 1 sees 1 and 2 (751616 each) and 5 (1048576):
+    # the running weight reaches half at 2
+    flat = np.zeros_like(guide)
+    kernels.weighted_median_rows(d, flat, np.ones_like(d, bool), 1, colour, space, out)
+    assert out[0, 1] == 2.0
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_kernel_equals_its_twin(seed):
+    rng = np.random.default_rng(seed)
+    height, width = rng.integers(3, 14), rng.integers(3, 14)
+    channels = 1 if seed % 2 else 3
+    # few distinct values, so that ties and equal running weights occur
+    d = (rng.integers(0, 6, (height, width)) / 2).astype(np.float32)
+    d[rng.random((height, width)) < 0.15] = np.nan
+    guide = rng.integers(0, 256, (channels, height, width)).astype(np.int16)
+    guide[:, : height // 2] //= 16  # a region of nearly one colour
+    moved = np.isfinite(d) & (rng.random((height, width)) < 0.9)
+    radius = 1 + seed % 3
+    colour, space = wm.weight_tables(radius, 15.0 + seed, 2.0 + seed)
+    out = d.copy()
+    kernels.weighted_median_rows(d, guide, moved, radius, colour, space, out)
+    twin = naive.weighted_median_rows(d, guide, moved, radius, 15.0 + seed, 2.0 + seed)
+    assert out.tobytes() == twin.tobytes()
+
+
+def test_weighted_select_reorders_but_finds_the_least_half_weight_value():
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        n = int(rng.integers(1, 40))
+        values = rng.integers(0, 5, n).astype(np.float32)
+        weights = rng.integers(0, 4, n).astype(np.int64)
+        weights[0] += 1  # a positive total
+        pairs = sorted(zip(values.tolist(), weights.tolist(), strict=True))
+        total = int(weights.sum())
+        running, expected = 0, None
+        for v, w in pairs:
+            running += w
+            if 2 * running >= total:
+                expected = v
+                break
+        assert kernels.weighted_select(values, weights, n, total) == expected
+
+
+def test_filter_keeps_features_holes_and_flags():
+    params = MatchParams(max_disparity=8, method="sgm", fill=False)
+    d = np.full((5, 12), 4.0, dtype=np.float32)
+    d[2, 6] = 7.0  # a spike in a region of one colour goes
+    d[1, 9] = 7.5  # a feature pair keeps its value
+    d[3, 3] = np.nan  # no estimate: stays without
+    flags = np.zeros(d.shape, np.uint8)
+    flags[1, 9] = FLAG_FEATURE
+    flags[3, 3] = FLAG_OCCLUDED
+    result = DisparityResult(d, flags, params, np.full(5, np.nan))
+    left = np.full((5, 12), 90, np.uint8)
+    out = wm.weighted_median_filter(result, left)
+    assert out.disparity[2, 6] == 4.0 and out.disparity[1, 9] == 7.5
+    assert np.isnan(out.disparity[3, 3]) and (out.flags == flags).all()
+
+
+def test_filter_refuses_bad_arguments():
+    result = dcstereo.match(np.zeros((8, 20), np.uint8), np.zeros((8, 20), np.uint8),
+                            max_disparity=4)  # fmt: skip
+    with pytest.raises(TypeError, match="DisparityResult"):
+        wm.weighted_median_filter(result.disparity, np.zeros((8, 20), np.uint8))
+    with pytest.raises(ValueError, match="radius"):
+        wm.weighted_median_filter(result, np.zeros((8, 20), np.uint8), radius=0)
+    with pytest.raises(ValueError, match="colour_scale"):
+        wm.weighted_median_filter(result, np.zeros((8, 20), np.uint8), colour_scale=0.0)
+    with pytest.raises(ValueError, match="shape"):
+        wm.weighted_median_filter(result, np.zeros((8, 21), np.uint8))
