@@ -26,9 +26,8 @@ from dcstereo.signal import colour_channels
 
 __all__ = ["weight_tables", "weighted_median_filter"]
 
-#: The window's half side (a 9 x 9 window): 3 (7 x 7) and 5 lost 0.04-0.06 points of
-#: bad-1.0 on the development scenes, a 13 x 13 window of every second pixel 0.12 on the
-#: newer ones.
+#: The window's half side (a 9 x 9 window): 3 (7 x 7) lost 0.04 points of bad-1.0 on the
+#: development scenes, 5 (11 x 11) 0.05 on the newer ones (docs/guide/methods.md).
 RADIUS = 4
 #: Colour differences (0..255, the largest of the channels) that divide a weight by e.
 COLOUR_SCALE = 20.0
