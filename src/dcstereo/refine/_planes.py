@@ -395,16 +395,20 @@ def apply_planes(disparity, replaceable, labels, planes, trusted, outlier, low, 
     """
     height, width = disparity.shape
     for y in nb.prange(height):
+        source, row, replace, target = disparity[y], labels[y], replaceable[y], out[y]
+        for x in range(width):  # a loop, not a slice copy: ``out`` may be ``disparity``
+            target[x] = source[x]
         for x in range(width):
-            d = disparity[y, x]
-            out[y, x] = d
-            k = labels[y, x]
-            if not trusted[k] or not replaceable[y, x]:
+            if not replace[x]:  # most pixels: their own value, the plane unread
                 continue
+            k = row[x]
+            if not trusted[k]:
+                continue
+            d = source[x]
             value = planes[k, 0] * x + planes[k, 1] * y + planes[k, 2]
             if not (np.isnan(d) or abs(d - value) > outlier):
                 continue
-            out[y, x] = min(high, max(low, value))
+            target[x] = min(high, max(low, value))
 
 
 @nb.njit(cache=True, parallel=True)
@@ -437,14 +441,20 @@ def shrink(colour, scale, out):
 
 @nb.njit(cache=True, parallel=True)
 def expand(labels, scale, out):
-    """Label each pixel of ``out`` (``(H, W)``) as its ``scale x scale`` block in ``labels``."""
+    """Label each pixel of ``out`` (``(H, W)``) as its ``scale x scale`` block in ``labels``.
+
+    A block row's first pixel row is spread once, then copied to its other rows.
+    """
     height, width = out.shape
-    cols = labels.shape[1]
-    for y in nb.prange(height):
-        source = labels[y // scale]
-        row = out[y]
+    rows, cols = labels.shape
+    for r in nb.prange(rows):
+        source = labels[r]
+        y0 = r * scale
+        row = out[y0]
         for q in range(cols):
             x0 = q * scale
             value = source[q]
             for x in range(x0, min(width, x0 + scale)):
                 row[x] = value
+        for y in range(y0 + 1, min(height, y0 + scale)):
+            out[y, :] = row
