@@ -417,26 +417,36 @@ def shrink(colour, scale, out):
 
     ``out``: ``(C, ceil(H / scale), ceil(W / scale))`` float64; a block cut by the image's
     edge is the mean of the pixels it has. The block's rows are added first (whole rows at a
-    time, in vector lanes), then each block's columns: for integer images (the exact sums of
-    at most ``2**53``) the same sums as in any order.
+    time, in vector lanes), then each block's columns in order (blocks side by side in vector
+    lanes): for integer images (the exact sums of at most ``2**53``) the same sums as in
+    any order.
     """
     channels, height, width = colour.shape
     rows, cols = out.shape[1], out.shape[2]
     for r in nb.prange(rows):
         y0, y1 = r * scale, min(height, (r + 1) * scale)
         column = np.empty(width)
+        total = np.empty(cols)
+        whole = width // scale  # the blocks not cut by the right edge
         for c in range(channels):
             column[:] = 0.0
             for y in range(y0, y1):
                 source = colour[c, y]
                 for x in range(width):
                     column[x] += source[x]
-            for q in range(cols):
-                x0, x1 = q * scale, min(width, (q + 1) * scale)
-                total = 0.0
-                for x in range(x0, x1):
-                    total += column[x]
-                out[c, r, q] = total / ((y1 - y0) * (x1 - x0))
+            # each block's columns added in order, a block per vector lane: offset by offset
+            total[:] = 0.0
+            for dx in range(scale):
+                for q in range(whole):
+                    total[q] += column[q * scale + dx]
+            for x in range(whole * scale, width):
+                total[whole] += column[x]
+            target = out[c, r]
+            area = (y1 - y0) * scale
+            for q in range(whole):
+                target[q] = total[q] / area
+            if whole < cols:
+                target[whole] = total[whole] / ((y1 - y0) * (width - whole * scale))
 
 
 @nb.njit(cache=True, parallel=True)
