@@ -342,3 +342,19 @@ def test_slic_equals_naive_on_uneven_cells(channels):
     colour[:, 11:, :] //= 3
     got = planes.superpixels(colour, step=7, compactness=15.0, iterations=2)
     np.testing.assert_array_equal(got, naive_planes.slic(colour, 7, 15.0, 2))
+
+
+@pytest.mark.parametrize("scale", [2, 3, 4, 6, 20])
+def test_shrink_equals_block_means(scale):
+    # sizes that the blocks do not divide (cut blocks at the right and bottom edges), and a
+    # scale wider than the image (one block, cut)
+    rng = np.random.default_rng(50 + scale)
+    colour = rng.integers(0, 256, (3, 13, 17)).astype(np.int16)
+    got = planes.shrunk(colour, scale)
+    rows, cols = -(-13 // scale), -(-17 // scale)
+    expected = np.empty((3, rows, cols))
+    for r in range(rows):
+        for q in range(cols):
+            block = colour[:, r * scale : (r + 1) * scale, q * scale : (q + 1) * scale]
+            expected[:, r, q] = block.reshape(3, -1).mean(axis=1)
+    np.testing.assert_array_equal(got, expected)

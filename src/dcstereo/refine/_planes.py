@@ -50,18 +50,18 @@ def cell_starts(size, cells):
 
 
 @nb.njit(cache=True)
-def _assign_row(colour, y, centres, ny, nx, weight, xstarts, labels):
+def _assign_row(colour, y, centres, ny, nx, weight, xstarts, best, dist, labels):
     """Label row ``y``: the nearest seed of the 3 x 3 grid cells around the pixel's own.
 
     Seed by seed (ascending label, as a pixel's 3 x 3 search goes), over the run of pixels
     whose cells are next to the seed's: the same distances in the same order, in loops
-    over contiguous pixels.
+    over contiguous pixels. ``best``, ``dist``: ``(W,)`` float64 scratch (the caller's,
+    reused row after row).
     """
     channels, height, width = colour.shape
     gy = min(ny - 1, (y * ny) // height)
-    best = np.full(width, np.inf)
-    dist = np.empty(width)
-    row = np.empty(width, dtype=np.int32)
+    best[:] = np.inf
+    row = labels[y]
     for i in range(nx):
         for x in range(xstarts[i], xstarts[i + 1]):
             row[x] = gy * nx + i
@@ -111,7 +111,53 @@ def _assign_row(colour, y, centres, ny, nx, weight, xstarts, labels):
                 closer = value < low
                 least[t] = value if closer else low
                 chosen[t] = k if closer else chosen[t]
-    labels[y, :] = row
+
+
+@nb.njit(cache=True)
+def _move_centres(colour, labels, sums, centres):
+    """Move each seed to the mean position and colour of its pixels (``labels``).
+
+    ``sums``: ``(n, 3 + C)`` scratch. Each row is taken run by run (pixels of one label
+    in a row): the colours are added in raster order as one pixel at a time would (the same
+    sums, to the bit) but in registers, not through ``sums`` in memory each pixel; a run's
+    rows and columns are integers, their sums exact in any order.
+    """
+    channels, height, width = colour.shape
+    n = centres.shape[0]
+    sums[:] = 0.0
+    for y in range(height):
+        row = labels[y]
+        x0 = 0
+        while x0 < width:
+            k = row[x0]
+            x1 = x0 + 1
+            while x1 < width and row[x1] == k:
+                x1 += 1
+            run = x1 - x0
+            sums[k, 0] += y * run
+            sums[k, 1] += (x0 + x1 - 1) * run // 2
+            if channels == 3:  # three independent chains of additions, side by side
+                first, second, third = colour[0, y], colour[1, y], colour[2, y]
+                t0, t1, t2 = sums[k, 2], sums[k, 3], sums[k, 4]
+                for x in range(x0, x1):
+                    t0 += first[x]
+                    t1 += second[x]
+                    t2 += third[x]
+                sums[k, 2], sums[k, 3], sums[k, 4] = t0, t1, t2
+            else:
+                for c in range(channels):
+                    total = sums[k, 2 + c]
+                    values = colour[c, y]
+                    for x in range(x0, x1):
+                        total += values[x]
+                    sums[k, 2 + c] = total
+            sums[k, 2 + channels] += run
+            x0 = x1
+    for k in range(n):
+        count = sums[k, 2 + channels]
+        if count > 0:
+            for f in range(2 + channels):
+                centres[k, f] = sums[k, f] / count
 
 
 @nb.njit(cache=True, parallel=True)
@@ -138,25 +184,16 @@ def slic(colour, step, compactness, iterations, labels):
     weight = (compactness / step) ** 2
     xstarts = cell_starts(width, nx)
     sums = np.empty((n, 3 + channels), dtype=np.float64)
+    parts = 1  # a block of rows per thread, one scratch each
     for it in range(iterations + 1):
-        for y in nb.prange(height):
-            _assign_row(colour, y, centres, ny, nx, weight, xstarts, labels)
+        for part in nb.prange(parts):
+            best = np.empty(width)
+            dist = np.empty(width)
+            for y in range(part * height // parts, (part + 1) * height // parts):
+                _assign_row(colour, y, centres, ny, nx, weight, xstarts, best, dist, labels)
         if it == iterations:
             break
-        sums[:] = 0.0
-        for y in range(height):
-            for x in range(width):
-                k = labels[y, x]
-                sums[k, 0] += y
-                sums[k, 1] += x
-                for c in range(channels):
-                    sums[k, 2 + c] += colour[c, y, x]
-                sums[k, 2 + channels] += 1.0
-        for k in range(n):
-            count = sums[k, 2 + channels]
-            if count > 0:
-                for f in range(2 + channels):
-                    centres[k, f] = sums[k, f] / count
+        _move_centres(colour, labels, sums, centres)
     return n
 
 
@@ -358,16 +395,20 @@ def apply_planes(disparity, replaceable, labels, planes, trusted, outlier, low, 
     """
     height, width = disparity.shape
     for y in nb.prange(height):
+        source, row, replace, target = disparity[y], labels[y], replaceable[y], out[y]
+        for x in range(width):  # a loop, not a slice copy: ``out`` may be ``disparity``
+            target[x] = source[x]
         for x in range(width):
-            d = disparity[y, x]
-            out[y, x] = d
-            k = labels[y, x]
-            if not trusted[k] or not replaceable[y, x]:
+            if not replace[x]:  # most pixels: their own value, the plane unread
                 continue
+            k = row[x]
+            if not trusted[k]:
+                continue
+            d = source[x]
             value = planes[k, 0] * x + planes[k, 1] * y + planes[k, 2]
             if not (np.isnan(d) or abs(d - value) > outlier):
                 continue
-            out[y, x] = min(high, max(low, value))
+            target[x] = min(high, max(low, value))
 
 
 @nb.njit(cache=True, parallel=True)
@@ -376,38 +417,54 @@ def shrink(colour, scale, out):
 
     ``out``: ``(C, ceil(H / scale), ceil(W / scale))`` float64; a block cut by the image's
     edge is the mean of the pixels it has. The block's rows are added first (whole rows at a
-    time, in vector lanes), then each block's columns: for integer images (the exact sums of
-    at most ``2**53``) the same sums as in any order.
+    time, in vector lanes), then each block's columns in order (blocks side by side in vector
+    lanes): for integer images (the exact sums of at most ``2**53``) the same sums as in
+    any order.
     """
     channels, height, width = colour.shape
     rows, cols = out.shape[1], out.shape[2]
     for r in nb.prange(rows):
         y0, y1 = r * scale, min(height, (r + 1) * scale)
         column = np.empty(width)
+        total = np.empty(cols)
+        whole = width // scale  # the blocks not cut by the right edge
         for c in range(channels):
             column[:] = 0.0
             for y in range(y0, y1):
                 source = colour[c, y]
                 for x in range(width):
                     column[x] += source[x]
-            for q in range(cols):
-                x0, x1 = q * scale, min(width, (q + 1) * scale)
-                total = 0.0
-                for x in range(x0, x1):
-                    total += column[x]
-                out[c, r, q] = total / ((y1 - y0) * (x1 - x0))
+            # each block's columns added in order, a block per vector lane: offset by offset
+            total[:] = 0.0
+            for dx in range(scale):
+                for q in range(whole):
+                    total[q] += column[q * scale + dx]
+            for x in range(whole * scale, width):
+                total[whole] += column[x]
+            target = out[c, r]
+            area = (y1 - y0) * scale
+            for q in range(whole):
+                target[q] = total[q] / area
+            if whole < cols:
+                target[whole] = total[whole] / ((y1 - y0) * (width - whole * scale))
 
 
 @nb.njit(cache=True, parallel=True)
 def expand(labels, scale, out):
-    """Label each pixel of ``out`` (``(H, W)``) as its ``scale x scale`` block in ``labels``."""
+    """Label each pixel of ``out`` (``(H, W)``) as its ``scale x scale`` block in ``labels``.
+
+    A block row's first pixel row is spread once, then copied to its other rows.
+    """
     height, width = out.shape
-    cols = labels.shape[1]
-    for y in nb.prange(height):
-        source = labels[y // scale]
-        row = out[y]
+    rows, cols = labels.shape
+    for r in nb.prange(rows):
+        source = labels[r]
+        y0 = r * scale
+        row = out[y0]
         for q in range(cols):
             x0 = q * scale
             value = source[q]
             for x in range(x0, min(width, x0 + scale)):
                 row[x] = value
+        for y in range(y0 + 1, min(height, y0 + scale)):
+            out[y, :] = row
