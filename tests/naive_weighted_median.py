@@ -32,11 +32,12 @@ def weighted_median_rows(disparity, guide, moved, radius, colour_scale, space_sc
             for yy in range(max(0, y - radius), min(height, y + radius + 1)):
                 for xx in range(max(0, x - radius), min(width, x + radius + 1)):
                     v = disparity[yy, xx]
-                    if not np.isfinite(v):
+                    if not np.isfinite(v):  # NaN or infinite: no estimate
                         continue
                     g = max(abs(int(guide[c, yy, xx]) - int(guide[c, y, x]))
                             for c in range(guide.shape[0]))  # fmt: skip
-                    samples.append((float(v), colour[g] * space[yy - y + radius][xx - x + radius]))
+                    w = colour[g] * space[yy - y + radius][xx - x + radius]
+                    samples.append((float(v) + 0.0, w))  # -0.0 as +0.0
             samples.sort()
             total = sum(w for _, w in samples)
             running = 0

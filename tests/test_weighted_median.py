@@ -30,51 +30,54 @@ def test_weighted_median_by_hand():
     guide = np.array([[[0, 0, 200]]], dtype=np.int16)
     colour, space = wm.weight_tables(1, 20.0, 3.0)
     assert space[1, 0] == 734 and colour[200] == 0
-    out = d.copy()
-    kernels.weighted_median_rows(d, guide, np.ones_like(d, bool), 1, colour, space, out)
+    out = wm.weighted_medians(d, guide, np.ones_like(d, bool), 1, colour, space)
     assert out.tolist() == [[1.0, 5.0, 2.0]]
     # without the edge in the guide: pixel 1 sees 1 and 2 (751616 each) and 5 (1048576):
     # the running weight reaches half at 2
     flat = np.zeros_like(guide)
-    kernels.weighted_median_rows(d, flat, np.ones_like(d, bool), 1, colour, space, out)
+    out = wm.weighted_medians(d, flat, np.ones_like(d, bool), 1, colour, space)
     assert out[0, 1] == 2.0
 
 
-@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("seed", range(6))
 def test_kernel_equals_its_twin(seed):
     rng = np.random.default_rng(seed)
-    height, width = rng.integers(3, 14), rng.integers(3, 14)
+    # wider than a chunk of the kernel for some seeds: chunks and the image's edges
+    height = int(rng.integers(3, 14))
+    width = int(rng.integers(3, 14)) if seed < 3 else kernels.CHUNK + int(rng.integers(1, 40))
     channels = 1 if seed % 2 else 3
-    # few distinct values, so that ties and equal running weights occur
-    d = (rng.integers(0, 6, (height, width)) / 2).astype(np.float32)
+    # few distinct values, so that ties and equal running weights occur; negatives, zeros
+    d = (rng.integers(-4, 6, (height, width)) / 2).astype(np.float32)
     d[rng.random((height, width)) < 0.15] = np.nan
+    d[rng.random((height, width)) < 0.03] = np.inf
     guide = rng.integers(0, 256, (channels, height, width)).astype(np.int16)
     guide[:, : height // 2] //= 16  # a region of nearly one colour
     moved = np.isfinite(d) & (rng.random((height, width)) < 0.9)
-    radius = 1 + seed % 3
+    radius = 1 + seed % 4
     colour, space = wm.weight_tables(radius, 15.0 + seed, 2.0 + seed)
-    out = d.copy()
-    kernels.weighted_median_rows(d, guide, moved, radius, colour, space, out)
+    out = wm.weighted_medians(d, guide, moved, radius, colour, space)
     twin = naive.weighted_median_rows(d, guide, moved, radius, 15.0 + seed, 2.0 + seed)
     assert out.tobytes() == twin.tobytes()
 
 
-def test_weighted_select_reorders_but_finds_the_least_half_weight_value():
-    rng = np.random.default_rng(7)
-    for _ in range(200):
-        n = int(rng.integers(1, 40))
-        values = rng.integers(0, 5, n).astype(np.float32)
-        weights = rng.integers(0, 4, n).astype(np.int64)
-        weights[0] += 1  # a positive total
-        pairs = sorted(zip(values.tolist(), weights.tolist(), strict=True))
-        total = int(weights.sum())
-        running, expected = 0, None
-        for v, w in pairs:
-            running += w
-            if 2 * running >= total:
-                expected = v
-                break
-        assert kernels.weighted_select(values, weights, n, total) == expected
+def test_sortable_keys_order_as_the_floats():
+    values = np.array([-np.inf, -3e9, -2.5, -1e-30, -0.0, 0.0, 1e-30, 0.25, 7.0, 3e9],
+                      dtype=np.float32)  # fmt: skip
+    keys = [kernels.sortable(b) for b in values[1:-1].view(np.int32)]
+    assert keys == sorted(keys) and keys[3] == keys[4] == 0  # -0.0 and +0.0 alike
+    assert len(set(keys)) == len(keys) - 1
+
+
+@pytest.mark.parametrize("count", [2, 9, 25, 49, 81])
+def test_sort_network_sorts(count):
+    network = kernels.sort_network(count)
+    rng = np.random.default_rng(count)
+    for _ in range(50):
+        values = rng.integers(0, 5, count).tolist()
+        for i, j in network:
+            values[i], values[j] = min(values[i], values[j]), max(values[i], values[j])
+        assert values == sorted(values)
+    assert len(kernels.sort_network(81)) == 864
 
 
 def test_filter_keeps_features_holes_and_flags():

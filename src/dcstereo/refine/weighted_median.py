@@ -15,6 +15,7 @@ one colour goes.
 parameters below (measured on the development scenes: ``scripts/eval_stages.py``).
 """
 
+import functools
 from dataclasses import replace
 
 import numpy as np
@@ -106,9 +107,35 @@ def weighted_median_filter(result: DisparityResult, left: np.ndarray, radius: in
         raise ValueError(
             f"left has shape {guide.shape[1:]} but the disparity map {result.disparity.shape}"
         )
-    d = result.disparity
+    d = np.ascontiguousarray(result.disparity, dtype=np.float32)
     moved = np.isfinite(d) & ((result.flags & FLAG_FEATURE) == 0)
-    out = d.copy()
     colour, space = weight_tables(int(radius), float(colour_scale), float(space_scale))
-    kernels.weighted_median_rows(d, guide, moved, int(radius), colour, space, out)
+    out = weighted_medians(d, guide, moved, int(radius), colour, space)
     return replace(result, disparity=_inside(out, result))
+
+
+def weighted_medians(disparity: np.ndarray, guide: np.ndarray, moved: np.ndarray, radius: int,
+                     colour_weight: np.ndarray, space_weight: np.ndarray) -> np.ndarray:  # fmt: skip
+    """Return ``disparity`` (float32) with each ``moved`` pixel's weighted median (the kernel).
+
+    ``guide``: ``(C, H, W)`` levels 0..255 (:func:`dcstereo.signal.colour_channels`);
+    ``colour_weight``, ``space_weight``: :func:`weight_tables`. See
+    :func:`dcstereo.refine._weighted_median.weighted_median_rows`; a zero comes out as +0.0.
+    """
+    disparity = np.ascontiguousarray(disparity, dtype=np.float32)
+    out = disparity.copy()
+    high = np.empty(disparity.shape, dtype=np.int64)
+    valid = np.empty(disparity.shape, dtype=np.int64)
+    kernels.sample_keys(disparity.view(np.int32), high, valid)
+    if guide.shape[0] == 1:  # gray: three equal channels, the same largest difference
+        guide = np.repeat(guide, 3, axis=0)
+    kernels.weighted_median_rows(
+        high, valid, np.ascontiguousarray(guide), np.ascontiguousarray(moved), radius,
+        colour_weight, space_weight, _network((2 * radius + 1) ** 2), out.view(np.int32),
+    )  # fmt: skip
+    return out
+
+
+@functools.cache
+def _network(count: int) -> np.ndarray:
+    return kernels.sort_network(count)
