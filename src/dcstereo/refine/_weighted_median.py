@@ -45,7 +45,7 @@ def sort_network(count: int) -> np.ndarray:
 
 @nb.njit(cache=True, inline="always")
 def sortable(bits):
-    """The int32 bits of a finite float32 as an integer of the same order (-0.0 as +0.0)."""
+    """Return a finite float32's int32 bits as an integer of the same order (-0.0 as +0.0)."""
     if bits == np.int32(-0x80000000):  # -0.0
         return np.int64(0)
     if bits < 0:

@@ -114,8 +114,14 @@ def weighted_median_filter(result: DisparityResult, left: np.ndarray, radius: in
     return replace(result, disparity=_inside(out, result))
 
 
-def weighted_medians(disparity: np.ndarray, guide: np.ndarray, moved: np.ndarray, radius: int,
-                     colour_weight: np.ndarray, space_weight: np.ndarray) -> np.ndarray:  # fmt: skip
+def weighted_medians(
+    disparity: np.ndarray,
+    guide: np.ndarray,
+    moved: np.ndarray,
+    radius: int,
+    colour_weight: np.ndarray,
+    space_weight: np.ndarray,
+) -> np.ndarray:
     """Return ``disparity`` (float32) with each ``moved`` pixel's weighted median (the kernel).
 
     ``guide``: ``(C, H, W)`` levels 0..255 (:func:`dcstereo.signal.colour_channels`);
