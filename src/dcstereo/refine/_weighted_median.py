@@ -38,9 +38,7 @@ def sort_network(count: int) -> np.ndarray:
     size = 1
     while size < count:
         size *= 2
-    return np.array([(i, j) for i, j in _batcher(size) if j < count], dtype=np.int64).reshape(
-        -1, 2
-    )
+    return np.array([(i, j) for i, j in _batcher(size) if j < count], dtype=np.int64).reshape(-1, 2)
 
 
 @nb.njit(cache=True, inline="always")
