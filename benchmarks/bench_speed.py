@@ -99,8 +99,13 @@ STRIP_ROWS = 32
 WIDE_SIZES = "3000x400x256,6000x400x256,8000x400x256,16000x400x256,16000x400x512"
 BUSY_LOOP = "while True: pass"
 #: Suffixes of ``sgm``'s name that add one of its stages on request, in any order:
-#: ``sgm+photometric+planes`` is ``sgm`` with ``photometric="matched"`` and ``planes=True``.
-STAGE_SUFFIXES = {"+photometric": {"photometric": "matched"}, "+planes": {"planes": True}}
+#: ``sgm+photometric+planes`` is ``sgm`` with ``photometric="matched"`` and ``planes=True``,
+#: ``+wmedian`` its median weighted by the colours (``median="weighted"``).
+STAGE_SUFFIXES = {
+    "+photometric": {"photometric": "matched"},
+    "+planes": {"planes": True},
+    "+wmedian": {"median": "weighted"},
+}
 
 
 # --------------------------------------------------------------------------- inputs
@@ -759,8 +764,8 @@ def parse_args(argv):
         "--methods",
         default=",".join(DEFAULT_METHODS),
         help="comma-separated methods: dcstereo methods (a name ending in +bt: with the "
-        "Birchfield-Tomasi cost; sgm+photometric, sgm+planes, sgm+photometric+planes: sgm "
-        "with those stages), opencv-bm, opencv-sgbm, opencv-hh "
+        "Birchfield-Tomasi cost; sgm+photometric, sgm+planes, sgm+wmedian and their "
+        "combinations: sgm with those stages), opencv-bm, opencv-sgbm, opencv-hh "
         "(default: %(default)s)",
     )
     parser.add_argument(

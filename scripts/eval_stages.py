@@ -11,7 +11,6 @@ over 3 px and over 5 % of the true disparity)::
     python scripts/eval_stages.py
     python scripts/eval_stages.py --options "{'census_window': (7, 9)}" --json out.json
     python scripts/eval_stages.py --groups kitti --scenes kitti2012_000078_10
-    python scripts/eval_stages.py --options "{'planes': True}" --weighted-median
 
 Each scene's line gives its scores and its seconds (one process, numba compiled once on a
 few rows first); the last lines the group means.
@@ -30,7 +29,6 @@ import numpy as np
 from dcstereo.evaluation.datasets import find_scenes, load_motorcycle, load_scene, middlebury_dir
 from dcstereo.evaluation.metrics import bad_pixel_rate, d1_rate
 from dcstereo.evaluation.scoring import run_method
-from dcstereo.refine.weighted_median import weighted_median_filter
 
 V2 = ("tsukuba", "venus", "teddy", "cones")
 OUTDOOR = Path(
@@ -77,16 +75,7 @@ def relit(image, gain=1.0, offset=0.0, gamma=1.0):
     return np.clip(np.rint(values), 0, 255).astype(np.uint8)
 
 
-def matched(method, left, right, weighted=False, **options):
-    """``run_method``'s result, filled; ``weighted``: the plain median replaced by the colour-
-    weighted one (:func:`~dcstereo.refine.weighted_median.weighted_median_filter`)."""
-    if not weighted:
-        return run_method(method, left, right, **options).filled()
-    result = run_method(method, left, right, **{**options, "median": 0})
-    return weighted_median_filter(result, left).filled()
-
-
-def run(method, options, groups, names=None, warm=True, light=(1.0, 0.0, 1.0), weighted=False):
+def run(method, options, groups, names=None, warm=True, light=(1.0, 0.0, 1.0)):
     """Score every scene of ``groups``; return ``{name: {metric: value, "s": seconds}}``.
 
     ``light``: the right view's ``(gain, offset, gamma)`` change (:func:`relit`).
@@ -102,11 +91,11 @@ def run(method, options, groups, names=None, warm=True, light=(1.0, 0.0, 1.0), w
                            min_disparity=scene.min_disparity, **options)  # fmt: skip
                 warm = False
             start = time.perf_counter()
-            result = matched(method, scene.left, relit(scene.right, *light), weighted,
-                             max_disparity=scene.max_disparity,
-                             min_disparity=scene.min_disparity, **options)  # fmt: skip
+            result = run_method(method, scene.left, relit(scene.right, *light),
+                                max_disparity=scene.max_disparity,
+                                min_disparity=scene.min_disparity, **options)  # fmt: skip
             seconds = time.perf_counter() - start
-            filled = result.disparity
+            filled = result.filled().disparity
             bad = bad_pixel_rate(filled, scene.disparity, threshold=1.0, mask=scene.masks["nonocc"])
             out[scene.name] = {"bad1": bad, "s": seconds}
             print(f"{scene.name:22s} bad1 {bad:6.2f}   {seconds:6.2f} s", flush=True)
@@ -118,10 +107,9 @@ def run(method, options, groups, names=None, warm=True, light=(1.0, 0.0, 1.0), w
                 run_method(method, left[:12], right[:12], max_disparity=top, **options)
                 warm = False
             start = time.perf_counter()
-            result = matched(method, left, relit(right, *light), weighted, max_disparity=top,
-                             **options)  # fmt: skip
+            result = run_method(method, left, relit(right, *light), max_disparity=top, **options)
             seconds = time.perf_counter() - start
-            scores = kitti_scores(result.disparity, truth)
+            scores = kitti_scores(result.filled().disparity, truth)
             scores["s"] = seconds
             out[name] = scores
             print(
@@ -172,19 +160,12 @@ def main(argv=None):
         "--light", default="1,0,1", help="the right view's gain,offset,gamma (a lighting change)"
     )
     parser.add_argument("--reference", help="a --json file to count wins against")
-    parser.add_argument(
-        "--weighted-median",
-        action="store_true",
-        help="the colour-weighted median in place of the method's plain one",
-    )
     args = parser.parse_args(argv)
     options = ast.literal_eval(args.options)
     names = set(args.scenes.split(",")) if args.scenes else None
-    suffix = " and the colour-weighted median" if args.weighted_median else ""
-    print(f"# {args.method} {options}{suffix}", flush=True)
+    print(f"# {args.method} {options}", flush=True)
     light = tuple(float(v) for v in args.light.split(","))
-    scores = run(args.method, options, args.groups.split(","), names, light=light,
-                 weighted=args.weighted_median)  # fmt: skip
+    scores = run(args.method, options, args.groups.split(","), names, light=light)
     reference = json.loads(Path(args.reference).read_text())["scores"] if args.reference else None
     print(group_summary(scores, reference))
     if args.json:

@@ -330,6 +330,7 @@ def test_stage_suffixes_run_sgm_with_its_stages(bench, tmp_path, capsys):
     import dcstereo
 
     assert bench.stage_options("sgm") == ("sgm", {})
+    assert bench.stage_options("sgm+wmedian") == ("sgm", {"median": "weighted"})
     assert bench.stage_options("sgm+planes+photometric") == (
         "sgm",
         {"planes": True, "photometric": "matched"},

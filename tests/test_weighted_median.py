@@ -107,3 +107,114 @@ def test_filter_refuses_bad_arguments():
         wm.weighted_median_filter(result, np.zeros((8, 20), np.uint8), colour_scale=0.0)
     with pytest.raises(ValueError, match="shape"):
         wm.weighted_median_filter(result, np.zeros((8, 21), np.uint8))
+
+
+def test_match_runs_it_as_its_median_stage():
+    # median="weighted": match's median stage is weighted_median_filter on the map that
+    # median=0 gives (sgm: filled by its core; the filter then leaves nothing to fill)
+    rng = np.random.default_rng(3)
+    right = rng.integers(0, 256, (40, 70, 3), dtype=np.uint8)
+    left = np.roll(right, 4, axis=1)
+    left[:, 30:45] = right[:, 28:43]  # a nearer band: a depth edge
+    got = dcstereo.match(left, right, max_disparity=10, median="weighted")
+    assert got.params.median == "weighted"
+    plain = dcstereo.match(left, right, max_disparity=10, median=0)
+    expected = wm.weighted_median_filter(plain, left)
+    assert got.disparity.tobytes() == expected.disparity.tobytes()
+    assert (got.flags == expected.flags).all()
+    # a method of the paper: its refinement's median stage, before its fill
+    got = dcstereo.match(left, right, max_disparity=10, method="dsi5", median="weighted")
+    plain = dcstereo.match(left, right, max_disparity=10, method="dsi5")
+    expected = wm.weighted_median_filter(plain, left)
+    assert got.disparity.tobytes() == expected.disparity.tobytes()
+
+
+def test_tiled_match_equals_the_whole_with_the_weighted_median():
+    from dcstereo.batch.tiling import match_tiled
+
+    rng = np.random.default_rng(5)
+    right = rng.integers(0, 256, (45, 60), dtype=np.uint8)
+    left = np.roll(right, 3, axis=1)
+    kwargs = dict(max_disparity=8, method="dsi5", median="weighted", fill=True)
+    whole = dcstereo.match(left, right, **kwargs)
+    tiled = match_tiled(left, right, tile_rows=7, **kwargs)
+    assert tiled.disparity.tobytes() == whole.disparity.tobytes()
+
+
+def test_median_option_takes_weighted_and_refuses_other_text():
+    from dcstereo.refine.postfilter import median_filter
+
+    assert MatchParams(max_disparity=4, median="weighted").median == "weighted"
+    with pytest.raises(TypeError, match="median must be an integer or 'weighted', got 'Weighted'"):
+        MatchParams(max_disparity=4, median="Weighted")
+    result = dcstereo.match(np.zeros((8, 20), np.uint8), np.zeros((8, 20), np.uint8),
+                            max_disparity=4)  # fmt: skip
+    with pytest.raises(ValueError, match="weighted_median_filter"):
+        median_filter(result, "weighted")
+
+
+def test_cli_median_weighted(tmp_path):
+    from click.testing import CliRunner
+    from PIL import Image
+
+    from dcstereo import io
+    from dcstereo.cli import main
+
+    rng = np.random.default_rng(2)
+    right = rng.integers(0, 256, (30, 50), dtype=np.uint8)
+    left = np.roll(right, 3, axis=1)
+    Image.fromarray(left).save(tmp_path / "l.png")
+    Image.fromarray(right).save(tmp_path / "r.png")
+    out = tmp_path / "d.pfm"
+    runner = CliRunner()
+    args = ["run", str(tmp_path / "l.png"), str(tmp_path / "r.png"), "--max-disparity", "8"]
+    result = runner.invoke(main, [*args, "-o", str(out), "--median", "weighted", "-q"])
+    assert result.exit_code == 0, result.output
+    expected = dcstereo.match(left, right, max_disparity=8, median="weighted")
+    assert io.read_pfm(out).tobytes() == expected.disparity.tobytes()
+    bad = tmp_path / "bad.pfm"
+    result = runner.invoke(main, [*args, "-o", str(bad), "--median", "mean"])
+    assert result.exit_code != 0 and "neither an integer nor 'weighted'" in result.output
+    assert not bad.exists()
+
+
+@pytest.mark.slow
+@pytest.mark.dataset
+@pytest.mark.parametrize(
+    ("name", "options", "pinned"),
+    [
+        # the plain median (5 x 5): teddy 5.803, tsukuba 3.717, Lampshade1 4.015
+        ("teddy", {}, 5.629),
+        ("tsukuba", {}, 3.362),
+        ("Lampshade1", {}, 3.438),
+        # with photometric + planes and the plain median: teddy 4.82, tsukuba 3.45
+        ("teddy", {"photometric": "matched", "planes": True}, 4.645),
+        ("tsukuba", {"photometric": "matched", "planes": True}, 2.992),
+    ],
+)
+def test_weighted_median_keeps_its_measured_accuracy(middlebury_root, name, options, pinned):
+    from dcstereo.evaluation.datasets import load_scene
+    from dcstereo.evaluation.metrics import bad_pixel_rate
+    from dcstereo.evaluation.scoring import run_scene
+
+    scene = load_scene(middlebury_root / name)
+    result = run_scene("sgm", scene, median="weighted", **options).filled()
+    mask = scene.masks["nonocc"]
+    bad = bad_pixel_rate(result.disparity, scene.disparity, threshold=1.0, mask=mask)
+    assert bad <= pinned + 0.01, f"{name}: bad-1.0 {bad:.3f} % > {pinned}"
+
+
+@pytest.mark.slow
+@pytest.mark.dataset
+def test_weighted_median_keeps_its_measured_d1_outdoors():
+    from dcstereo.evaluation.datasets import default_data_dir, load_scene
+    from dcstereo.evaluation.metrics import d1_rate
+
+    folder = default_data_dir() / "outdoor" / "kitti2012_000030_10"
+    if not folder.is_dir():
+        pytest.skip(f"outdoor data not found at {folder}")
+    scene = load_scene(folder)
+    result = dcstereo.match(scene.left, scene.right, max_disparity=scene.max_disparity,
+                            photometric="matched", planes=True, median="weighted")  # fmt: skip
+    d1 = d1_rate(result.filled().disparity, scene.disparity)
+    assert d1 <= 3.284 + 0.01, f"D1 {d1:.3f} % > 3.284 (3.449 with the plain median)"

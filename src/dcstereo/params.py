@@ -101,6 +101,10 @@ MAX_CENSUS_BITS = 64
 #: ``subpixel``: the fits of :func:`dcstereo.refine.subpixel.refine_subpixel`.
 SUBPIXEL_FITS = ("equiangular", "parabola")
 
+#: ``median="weighted"``: the median weighted by the left image's colours and the distance
+#: (:func:`dcstereo.refine.weighted_median.weighted_median_filter`) instead of a plain one.
+WEIGHTED_MEDIAN = "weighted"
+
 #: ``median``: the largest window of :func:`dcstereo.refine.postfilter.median_filter`.
 MAX_MEDIAN = 15
 
@@ -192,15 +196,22 @@ def check_method_options(names, methods, label=str) -> None:
         )
 
 
-def check_median(value, name: str = "median") -> int:
-    """Return a median filter's window side: 0 (off) or odd, 3 to :data:`MAX_MEDIAN`."""
+def check_median(value, name: str = "median") -> int | str:
+    """Return a median post-filter: 0 (off), an odd side 3 to :data:`MAX_MEDIAN`, or ``"weighted"``.
+
+    ``"weighted"`` (:data:`WEIGHTED_MEDIAN`): the median weighted by the left image's colours
+    (:mod:`dcstereo.refine.weighted_median`).
+    """
+    if isinstance(value, str) and value == WEIGHTED_MEDIAN:
+        return value
     if isinstance(value, np.integer):
         value = int(value)
     if isinstance(value, bool) or not isinstance(value, int):
-        raise TypeError(f"{name} must be an integer, got {value!r}")
+        raise TypeError(f"{name} must be an integer or {WEIGHTED_MEDIAN!r}, got {value!r}")
     if value != 0 and not (3 <= value <= MAX_MEDIAN and value % 2 == 1):
         raise ValueError(
             f"{name} must be 0 (off) or an odd integer from 3 to {MAX_MEDIAN}, got {value}"
+            f" (or {WEIGHTED_MEDIAN!r})"
         )
     return value
 
@@ -321,11 +332,14 @@ class MatchParams:
         ``"equiangular"`` or ``"parabola"``: refined to a fraction of a pixel by
         :func:`dcstereo.refine.subpixel.refine_subpixel` before ``fill``, so the filled pixels
         take their neighbours' refined values.
-    median : int
+    median : int or str
         0 (default): no post-filter. An odd side from 3 to :data:`MAX_MEDIAN`: every
         estimate but the feature pairs' takes the median of the estimates in that square
         around it (:func:`dcstereo.refine.postfilter.median_filter`), after ``subpixel`` and
-        before ``fill``.
+        before ``fill``. ``"weighted"``: the median of a 9 x 9 window weighted by the left
+        image's colours and the distance
+        (:func:`dcstereo.refine.weighted_median.weighted_median_filter`): depth edges stay on
+        the colour edges.
     orientations : tuple of float
         ``redert`` only: the surface orientations of the DP states, as disparity slopes
         (pixels of disparity per pixel), each one of ``0, +-1/16, +-1/8, +-1/4, +-1/2,
@@ -395,7 +409,7 @@ class MatchParams:
     gcp_uniqueness: float = DEFAULT_GCP_UNIQUENESS
     gcp_variance_floor: float = DEFAULT_GCP_VARIANCE_FLOOR
     subpixel: str | None = None
-    median: int | None = None
+    median: int | str | None = None
     census_window: tuple[int, int] = DEFAULT_CENSUS_WINDOW
     ad_truncation: int = DEFAULT_AD_TRUNCATION
     p1: int = DEFAULT_P1

@@ -18,6 +18,7 @@ from dcstereo.params import (
     METHOD_OPTIONS,
     METHODS,
     SUBPIXEL_FITS,
+    WEIGHTED_MEDIAN,
 )
 from dcstereo.viz import PREVIEW_STYLES
 
@@ -581,14 +582,29 @@ def check_method_options(given, methods):
 
 
 #: ``--median K``: the post-filter of :mod:`dcstereo.refine.postfilter`.
+class MedianType(click.ParamType):
+    """``--median``: an integer window side, or ``weighted`` (checked by the match's options)."""
+
+    name = "K|weighted"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, int) or value == WEIGHTED_MEDIAN:
+            return value
+        try:
+            return int(value)
+        except ValueError:
+            self.fail(f"{value!r} is neither an integer nor {WEIGHTED_MEDIAN!r}", param, ctx)
+
+
 median_option = click.option(
     "--median",
-    type=int,
+    type=MedianType(),
     default=None,
     help="Median post-filter: every estimate but the feature pairs' takes the median of "
     f"the estimates in this odd square around it, 3 to {MAX_MEDIAN} (after --subpixel, "
     f"before --fill, sgm: after its fill; 0: off; default {METHOD_DEFAULTS['sgm']['median']} "
-    "for sgm, 0 for the others).",
+    f"for sgm, 0 for the others); {WEIGHTED_MEDIAN}: the median of a 9 x 9 square weighted "
+    "by the left image's colours and the distance (depth edges stay on colour edges).",
 )
 
 

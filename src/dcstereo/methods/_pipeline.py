@@ -17,9 +17,10 @@ from dataclasses import asdict, dataclass, field, fields
 import numpy as np
 
 from dcstereo._threads import threads_with_cores
-from dcstereo.params import MatchParams
+from dcstereo.params import WEIGHTED_MEDIAN, MatchParams
 from dcstereo.refine.postfilter import median_filter
 from dcstereo.refine.subpixel import refine_subpixel
+from dcstereo.refine.weighted_median import weighted_median_filter
 from dcstereo.result import DisparityResult
 
 StageFunction = Callable[
@@ -130,9 +131,12 @@ SUBPIXEL = Stage(
 )
 
 
-#: The median post-filter (``median``): each estimate takes its window's median.
+#: The median post-filter (``median``): each estimate takes its window's median, plain or
+#: weighted by the left image's colours (``median="weighted"``).
 def _median(left, right, params, result):
     with threads_with_cores():  # as sgm's own stages: the threads that have a core
+        if params.median == WEIGHTED_MEDIAN:
+            return weighted_median_filter(result, left)
         return median_filter(result, params.median)
 
 

@@ -59,8 +59,11 @@ def median_filter(result: DisparityResult, size: int = 5) -> DisparityResult:
     if not isinstance(result, DisparityResult):
         raise TypeError(f"result must be a DisparityResult, got {type(result).__name__}")
     size = check_median(size, "size")
-    if size == 0:
-        raise ValueError("size must be an odd integer from 3, got 0")
+    if size == 0 or isinstance(size, str):
+        raise ValueError(
+            f"size must be an odd integer from 3, got {size!r} (the weighted median: "
+            "dcstereo.refine.weighted_median.weighted_median_filter)"
+        )
     d = result.disparity
     moved = np.isfinite(d) & ((result.flags & FLAG_FEATURE) == 0)
     out = d.copy()
