@@ -218,3 +218,38 @@ def test_weighted_median_keeps_its_measured_d1_outdoors():
                             photometric="matched", planes=True, median="weighted")  # fmt: skip
     d1 = d1_rate(result.filled().disparity, scene.disparity)
     assert d1 <= 3.284 + 0.01, f"D1 {d1:.3f} % > 3.284 (3.449 with the plain median)"
+
+
+def test_batch_records_and_runs_the_weighted_median(tmp_path):
+    # a folder of pairs matched with --median weighted: the outputs equal match's, and the
+    # option is recorded (a second run with the plain median is refused by name)
+    import json
+
+    from click.testing import CliRunner
+    from PIL import Image
+
+    from dcstereo import io
+    from dcstereo.batch.folders import find_pairs, output_path, run_batch
+    from dcstereo.cli import main
+
+    rng = np.random.default_rng(8)
+    pairs_dir = tmp_path / "pairs"
+    pairs_dir.mkdir()
+    for k in range(2):  # one folder a pair, left.png and right.png
+        right = rng.integers(0, 256, (24, 40, 3), dtype=np.uint8)
+        (pairs_dir / f"pair{k}").mkdir()
+        Image.fromarray(np.roll(right, 2 + k, axis=1)).save(pairs_dir / f"pair{k}" / "left.png")
+        Image.fromarray(right).save(pairs_dir / f"pair{k}" / "right.png")
+    out = tmp_path / "out"
+    args = ["batch", str(pairs_dir), "-o", str(out), "--max-disparity", "6"]
+    result = CliRunner().invoke(main, [*args, "--median", "weighted", "-q"])
+    assert result.exit_code == 0, result.output
+    assert json.loads((out / "batch.json").read_text())["median"] == "weighted"
+    for pair in find_pairs(pairs_dir):
+        expected = dcstereo.match(io.read_image(pair.left), io.read_image(pair.right),
+                                  max_disparity=6, median="weighted")  # fmt: skip
+        np.testing.assert_array_equal(
+            io.read_pfm(output_path(out, pair)), np.nan_to_num(expected.disparity, nan=np.inf)
+        )
+    with pytest.raises(ValueError, match="median"):
+        run_batch(find_pairs(pairs_dir), out, max_disparity=6, median=5)
