@@ -50,6 +50,23 @@ def median_network(count: int) -> np.ndarray:
     return np.array(kept[::-1], dtype=np.int64).reshape(-1, 2)
 
 
+@nb.njit(cache=True, inline="always")
+def exchange_rows(values, network, n):
+    """Run ``network`` on the columns ``0..n - 1`` of ``values`` (a row a network input).
+
+    Each exchange ``(i, j)`` puts the ``min`` of rows ``i`` and ``j`` in row ``i`` and the
+    ``max`` in row ``j``, over the ``n`` columns at once (vector code): one network per column.
+    """
+    for e in range(network.shape[0]):
+        low = values[network[e, 0]]
+        high = values[network[e, 1]]
+        for x in range(n):
+            a = low[x]
+            b = high[x]
+            low[x] = min(a, b)
+            high[x] = max(a, b)
+
+
 @nb.njit(cache=True, parallel=True)
 def median_rows_network(disparity, radius, network, full, out):
     """``out[y, x]``: the median of the window of each pixel with ``full[y, x]``.
@@ -69,14 +86,7 @@ def median_rows_network(disparity, radius, network, full, out):
                 dst = values[dy * side + dx]
                 for x in range(inner):
                     dst[x] = src[x]
-        for e in range(network.shape[0]):
-            low = values[network[e, 0]]
-            high = values[network[e, 1]]
-            for x in range(inner):
-                a = low[x]
-                b = high[x]
-                low[x] = min(a, b)
-                high[x] = max(a, b)
+        exchange_rows(values, network, inner)
         middle = values[count // 2]
         for x in range(inner):
             if full[y, x + radius]:

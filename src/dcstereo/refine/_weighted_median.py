@@ -14,7 +14,7 @@ positive weight), so the result is that of the samples with an estimate alone.
 import numba as nb
 import numpy as np
 
-from dcstereo.refine._median import _batcher
+from dcstereo.refine._median import _batcher, exchange_rows
 
 #: Pixels of a row whose windows are sorted together: ``81 x 128`` keys (83 KiB for a 9 x 9
 #: window, in the second-level cache) for each of the network's 864 exchanges. On teddy,
@@ -140,14 +140,7 @@ def weighted_median_rows(high, valid, guide, moved, radius, colour_weight, space
                 row = keys[o]
                 for i in range(n):
                     total[i] += row[i] & _LOW
-            for e in range(network.shape[0]):
-                lower = keys[network[e, 0]]
-                upper = keys[network[e, 1]]
-                for i in range(n):
-                    a = lower[i]
-                    b = upper[i]
-                    lower[i] = min(a, b)
-                    upper[i] = max(a, b)
+            exchange_rows(keys, network, n)
             for o in range(count):  # the first key whose running weight reaches half
                 row = keys[o]
                 for i in range(n):
