@@ -8,11 +8,12 @@ Per scene, the least of ``--repeats`` runs (one process, compiled first), in mil
 (what keeping ``sgm``'s confidence margin adds to its run); ``refine`` (the stage,
 :func:`dcstereo.refine.planes.refine_planes`, on ``sgm``'s unfilled map), and its parts:
 ``slic`` (the superpixels of every pass, the shrunk images included), ``fit`` (the planes
-of every pass) and ``apply`` (the masks and the planes' values).
+of every pass) and ``apply`` (the planes' values; the masks are the rest of ``refine``).
 """
 
 import argparse
 import ast
+import contextlib
 import sys
 import time
 from dataclasses import replace
@@ -24,7 +25,6 @@ import dcstereo
 from dcstereo.methods.sgm import _run, colour_channels
 from dcstereo.refine import _planes as kernels
 from dcstereo.refine import planes
-from dcstereo.result import FLAG_BORDER, FLAG_OCCLUDED
 
 
 def best_ms(run, repeats):
@@ -39,53 +39,40 @@ def best_ms(run, repeats):
     return float(np.min(times))
 
 
-def stage_parts(raw, colour, margin, params, clock):
-    """:func:`~dcstereo.refine.planes.refine_planes`' passes, each part's seconds added to
-    ``clock`` (a dict): the same calls, timed one by one."""
-    tick = time.perf_counter()
-    free = (raw.flags & (FLAG_OCCLUDED | FLAG_BORDER)) == 0
-    unsure = margin < params.replace_margin
-    sure = margin >= params.fit_margin
-    scales = planes.pass_scales(params)
-    out = np.array(raw.disparity, dtype=np.float32)
-    scratch = planes.point_buffers(out.shape)
-    labels_full = np.empty(out.shape, dtype=np.int32)
-    holes, usable, replaceable = (np.empty(out.shape, dtype=bool) for _ in range(3))
-    clock["apply"] += time.perf_counter() - tick
-    tick = time.perf_counter()
-    small = {scale: planes.shrunk(colour, scale) for scale in set(scales)}
-    clock["slic"] += time.perf_counter() - tick
-    low, high = raw.params.min_disparity, raw.params.max_disparity
-    for step, scale in zip(params.steps, scales, strict=True):
-        tick = time.perf_counter()
-        labels, nx, ny = planes.coarse_superpixels(
-            colour, step, params.compactness, params.slic_iterations, scale,
-            small=small[scale], out=labels_full,
-        )  # fmt: skip
-        clock["slic"] += time.perf_counter() - tick
-        tick = time.perf_counter()
-        np.isnan(out, out=holes)
-        np.greater(sure, holes, out=usable)
-        np.logical_or(holes, unsure, out=replaceable)
-        replaceable &= free
-        clock["apply"] += time.perf_counter() - tick
-        tick = time.perf_counter()
-        fitted, support = planes.fit_planes(
-            out, usable, labels, nx, ny, params.iterations, params.inlier, params.stop,
-            params.max_scored, wanted=replaceable, min_support=params.min_support,
-            lattice=params.fit_lattice, scratch=scratch,
-        )  # fmt: skip
-        clock["fit"] += time.perf_counter() - tick
-        tick = time.perf_counter()
-        used, inliers, size = support[:, 0], support[:, 1], support[:, 2]
-        trusted = (used >= 3) & (used >= params.min_support * size)
-        trusted &= inliers >= params.min_ratio * np.maximum(used, 1)
-        kernels.apply_planes(
-            out, replaceable, labels, fitted, trusted, float(params.outlier), float(low),
-            float(high), out,
-        )  # fmt: skip
-        clock["apply"] += time.perf_counter() - tick
-    return out
+@contextlib.contextmanager
+def timed_parts(clock):
+    """Add the seconds of the planes stage's calls to ``clock`` while the block runs.
+
+    The stage's own module-level calls are wrapped, so that :func:`refine_planes` itself
+    runs, not a copy of it: ``slic`` (``shrunk``, ``coarse_superpixels``), ``fit``
+    (``fit_planes``) and ``apply`` (the ``apply_planes`` kernel); the rest of the stage (its
+    masks, its buffers) is ``refine`` less these.
+    """
+    parts = {
+        (planes, "shrunk"): "slic",
+        (planes, "coarse_superpixels"): "slic",
+        (planes, "fit_planes"): "fit",
+        (kernels, "apply_planes"): "apply",
+    }
+    saved = {key: getattr(*key) for key in parts}
+
+    def timing(function, part):
+        def run(*args, **kwargs):
+            start = time.perf_counter()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                clock[part] += time.perf_counter() - start
+
+        return run
+
+    try:
+        for (module, name), part in parts.items():
+            setattr(module, name, timing(saved[module, name], part))
+        yield clock
+    finally:
+        for (module, name), function in saved.items():
+            setattr(module, name, function)
 
 
 def time_pair(pair, params, repeats):
@@ -103,8 +90,8 @@ def time_pair(pair, params, repeats):
     refine = best_ms(lambda: planes.refine_planes(raw, colour, margin, params), repeats)
     runs = []
     for _ in range(repeats + 1):
-        clock = dict.fromkeys(("slic", "fit", "apply"), 0.0)
-        stage_parts(raw, colour, margin, params, clock)
+        with timed_parts(dict.fromkeys(("slic", "fit", "apply"), 0.0)) as clock:
+            planes.refine_planes(raw, colour, margin, params)
         runs.append(clock)
     parts = {k: 1000 * float(np.min([c[k] for c in runs[1:]])) for k in runs[0]}
     height, width = pair.left.shape[:2]

@@ -10,10 +10,10 @@ import pytest
 import dcstereo
 import naive_photometric as naive
 from dcstereo.costs import photometric
-from dcstereo.evaluation.datasets import default_data_dir, load_scene
-from dcstereo.evaluation.metrics import bad_pixel_rate, d1_rate
-from dcstereo.evaluation.scoring import run_scene
+from dcstereo.evaluation.datasets import load_scene
+from dcstereo.evaluation.metrics import bad_pixel_rate
 from dcstereo.signal import colour_channels
+from pins import kitti_d1, middlebury_bad1
 
 
 def test_quantile_lut_by_hand():
@@ -189,20 +189,12 @@ def test_photometric_refuses_what_it_cannot_do():
 @pytest.mark.parametrize(("name", "pinned"), [("Books", 8.931), ("teddy", 5.764)])
 def test_photometric_keeps_its_measured_accuracy(middlebury_root, name, pinned):
     # without the alignment: Books 8.961, teddy 5.803
-    scene = load_scene(middlebury_root / name)
-    result = run_scene("sgm", scene, photometric="matched").filled()
-    mask = scene.masks["nonocc"]
-    bad = bad_pixel_rate(result.disparity, scene.disparity, threshold=1.0, mask=mask)
+    bad = middlebury_bad1(middlebury_root, name, photometric="matched")
     assert bad <= pinned + 0.01, f"{name}: bad-1.0 {bad:.3f} % > {pinned}"
 
 
 @pytest.mark.slow
 @pytest.mark.dataset
 def test_photometric_keeps_its_measured_d1_outdoors():
-    folder = default_data_dir() / "outdoor" / "kitti2012_000006_10"
-    if not folder.is_dir():
-        pytest.skip(f"outdoor data not found at {folder}")
-    scene = load_scene(folder)  # the one-pair KITTI layout: truth NaN where it has none
-    result = run_scene("sgm", scene, photometric="matched").filled()
-    d1 = d1_rate(result.disparity, scene.disparity)  # every pixel with truth
+    d1 = kitti_d1("kitti2012_000006_10", photometric="matched")
     assert d1 <= 8.985 + 0.01, f"D1 {d1:.3f} % > 8.985 (11.043 without the alignment)"

@@ -8,7 +8,9 @@ import naive_weighted_median as naive
 from dcstereo.params import MatchParams
 from dcstereo.refine import _weighted_median as kernels
 from dcstereo.refine import weighted_median as wm
+from dcstereo.refine._median import sort_network
 from dcstereo.result import FLAG_FEATURE, FLAG_OCCLUDED, DisparityResult
+from pins import kitti_d1, middlebury_bad1
 
 
 def test_weight_tables_equal_their_definition():
@@ -70,14 +72,14 @@ def test_sortable_keys_order_as_the_floats():
 
 @pytest.mark.parametrize("count", [2, 9, 25, 49, 81])
 def test_sort_network_sorts(count):
-    network = kernels.sort_network(count)
+    network = sort_network(count)
     rng = np.random.default_rng(count)
     for _ in range(50):
         values = rng.integers(0, 5, count).tolist()
         for i, j in network:
             values[i], values[j] = min(values[i], values[j]), max(values[i], values[j])
         assert values == sorted(values)
-    assert len(kernels.sort_network(81)) == 864
+    assert len(sort_network(81)) == 864
 
 
 def test_filter_keeps_features_holes_and_flags():
@@ -193,30 +195,14 @@ def test_cli_median_weighted(tmp_path):
     ],
 )
 def test_weighted_median_keeps_its_measured_accuracy(middlebury_root, name, options, pinned):
-    from dcstereo.evaluation.datasets import load_scene
-    from dcstereo.evaluation.metrics import bad_pixel_rate
-    from dcstereo.evaluation.scoring import run_scene
-
-    scene = load_scene(middlebury_root / name)
-    result = run_scene("sgm", scene, median="weighted", **options).filled()
-    mask = scene.masks["nonocc"]
-    bad = bad_pixel_rate(result.disparity, scene.disparity, threshold=1.0, mask=mask)
+    bad = middlebury_bad1(middlebury_root, name, median="weighted", **options)
     assert bad <= pinned + 0.01, f"{name}: bad-1.0 {bad:.3f} % > {pinned}"
 
 
 @pytest.mark.slow
 @pytest.mark.dataset
 def test_weighted_median_keeps_its_measured_d1_outdoors():
-    from dcstereo.evaluation.datasets import default_data_dir, load_scene
-    from dcstereo.evaluation.metrics import d1_rate
-
-    folder = default_data_dir() / "outdoor" / "kitti2012_000030_10"
-    if not folder.is_dir():
-        pytest.skip(f"outdoor data not found at {folder}")
-    scene = load_scene(folder)
-    result = dcstereo.match(scene.left, scene.right, max_disparity=scene.max_disparity,
-                            photometric="matched", planes=True, median="weighted")  # fmt: skip
-    d1 = d1_rate(result.filled().disparity, scene.disparity)
+    d1 = kitti_d1("kitti2012_000030_10", photometric="matched", planes=True, median="weighted")
     assert d1 <= 3.284 + 0.01, f"D1 {d1:.3f} % > 3.284 (3.449 with the plain median)"
 
 

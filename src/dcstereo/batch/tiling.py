@@ -25,11 +25,10 @@ import numpy as np
 
 from dcstereo._checks import is_integer
 from dcstereo.api import match
+from dcstereo.methods._pipeline import median_post_filter
 from dcstereo.methods.sgm import STRIP_MARGIN
-from dcstereo.params import WEIGHTED_MEDIAN, MatchParams
+from dcstereo.params import MatchParams
 from dcstereo.refine.consistency import fill_inconsistent
-from dcstereo.refine.postfilter import median_filter
-from dcstereo.refine.weighted_median import weighted_median_filter
 from dcstereo.result import DisparityResult
 from dcstereo.signal import check_pair
 
@@ -179,19 +178,12 @@ def match_tiled(
         if params.fill:
             result = fill_inconsistent(result, left)
         if params.median:
-            result = _median(result, left, params.median)
+            result = median_post_filter(result, left, params.median)
     elif params.median:
-        result = _median(result, left, params.median)
+        result = median_post_filter(result, left, params.median)
         if params.fill:
             result = result.filled()
     return result
-
-
-def _median(result: DisparityResult, left: np.ndarray, median: int | str) -> DisparityResult:
-    """Run the median post-filter ``median`` asks for on the stitched map (as ``match`` does)."""
-    if median == WEIGHTED_MEDIAN:
-        return weighted_median_filter(result, left)
-    return median_filter(result, median)
 
 
 def _match_band(left: np.ndarray, right: np.ndarray, match_kwargs: dict) -> DisparityResult:

@@ -581,7 +581,6 @@ def check_method_options(given, methods):
         raise CommandError(str(exc)) from None
 
 
-#: ``--median K``: the post-filter of :mod:`dcstereo.refine.postfilter`.
 class MedianType(click.ParamType):
     """``--median``: an integer window side, or ``weighted`` (checked by the match's options)."""
 
@@ -596,6 +595,8 @@ class MedianType(click.ParamType):
             self.fail(f"{value!r} is neither an integer nor {WEIGHTED_MEDIAN!r}", param, ctx)
 
 
+#: ``--median K|weighted``: the post-filter of :mod:`dcstereo.refine.postfilter` or
+#: :mod:`dcstereo.refine.weighted_median`.
 median_option = click.option(
     "--median",
     type=MedianType(),

@@ -131,13 +131,23 @@ SUBPIXEL = Stage(
 )
 
 
+def median_post_filter(result: DisparityResult, left: np.ndarray, median: int | str):
+    """Return ``result`` through the median post-filter that ``median`` names.
+
+    An odd window side: :func:`~dcstereo.refine.postfilter.median_filter`; ``"weighted"``:
+    :func:`~dcstereo.refine.weighted_median.weighted_median_filter`, guided by ``left``.
+    The one place both are chosen (``match``'s stage and ``match_tiled``'s stitched map).
+    """
+    if median == WEIGHTED_MEDIAN:
+        return weighted_median_filter(result, left)
+    return median_filter(result, median)
+
+
 #: The median post-filter (``median``): each estimate takes its window's median, plain or
 #: weighted by the left image's colours (``median="weighted"``).
 def _median(left, right, params, result):
     with threads_with_cores():  # as sgm's own stages: the threads that have a core
-        if params.median == WEIGHTED_MEDIAN:
-            return weighted_median_filter(result, left)
-        return median_filter(result, params.median)
+        return median_post_filter(result, left, params.median)
 
 
 MEDIAN = Stage("median", _median, when=lambda params: bool(params.median))

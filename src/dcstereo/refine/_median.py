@@ -30,20 +30,28 @@ def _batcher(n):
     return pairs
 
 
-def median_network(count: int) -> np.ndarray:
-    """Return the exchanges ``(i, j)`` that bring the median of ``count`` values to the middle.
+def sort_network(count: int) -> np.ndarray:
+    """Return the exchanges ``(i, j)`` that sort ``count`` values (min to ``i``, max to ``j``).
 
-    ``count`` odd. An int64 array ``(E, 2)``; after exchanging (min to ``i``, max to ``j``)
-    in order, position ``count // 2`` holds the median.
+    Batcher's odd-even merge sort of the next power of two, the exchanges with the padding
+    inputs (which would hold ``+inf`` and never move) left out: int64 ``(E, 2)``.
     """
     size = 1
     while size < count:
         size *= 2
-    # inputs beyond count are +inf: they stay at the top, and exchanges with them are no-ops
-    network = [(i, j) for i, j in _batcher(size) if j < count]
+    return np.array([(i, j) for i, j in _batcher(size) if j < count], dtype=np.int64).reshape(-1, 2)
+
+
+def median_network(count: int) -> np.ndarray:
+    """Return the exchanges ``(i, j)`` that bring the median of ``count`` values to the middle.
+
+    ``count`` odd. An int64 array ``(E, 2)``; after exchanging (min to ``i``, max to ``j``)
+    in order, position ``count // 2`` holds the median: :func:`sort_network` without the
+    exchanges that do not reach it.
+    """
     needed = {count // 2}
     kept = []
-    for i, j in reversed(network):
+    for i, j in sort_network(count)[::-1].tolist():
         if i in needed or j in needed:
             kept.append((i, j))
             needed |= {i, j}

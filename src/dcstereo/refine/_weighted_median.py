@@ -2,19 +2,20 @@
 
 Each sample of a window is one int64 key: its disparity's float32 bits made to sort as
 signed integers in the high half, its integer weight in the low half. A fixed sorting
-network of compare-exchanges (Batcher's odd-even merge sort, :func:`sort_network`) sorts
-the keys of :data:`CHUNK` pixels side by side, each exchange a ``min`` and a ``max`` of two
-rows of keys (vector code), and a running sum of the weights in sorted order finds each
-pixel's median, again for all the chunk's pixels at once. Samples outside the image or
-without an estimate get the weight 0 and the largest key: a sample of weight 0 is never the
-weighted median (the running sum reaches half the total, which is positive, at a sample of
-positive weight), so the result is that of the samples with an estimate alone.
+network of compare-exchanges (Batcher's odd-even merge sort,
+:func:`~dcstereo.refine._median.sort_network`) sorts the keys of :data:`CHUNK` pixels side
+by side, each exchange a ``min`` and a ``max`` of two rows of keys (vector code), and a
+running sum of the weights in sorted order finds each pixel's median, again for all the
+chunk's pixels at once. Samples outside the image or without an estimate get the weight 0
+and the largest key: a sample of weight 0 is never the weighted median (the running sum
+reaches half the total, which is positive, at a sample of positive weight), so the result
+is that of the samples with an estimate alone.
 """
 
 import numba as nb
 import numpy as np
 
-from dcstereo.refine._median import _batcher, exchange_rows
+from dcstereo.refine._median import exchange_rows
 
 #: Pixels of a row whose windows are sorted together: ``81 x 128`` keys (83 KiB for a 9 x 9
 #: window, in the second-level cache) for each of the network's 864 exchanges. On teddy,
@@ -24,21 +25,8 @@ CHUNK = 128
 #: The key of a sample that does not count (outside the image, or without an estimate): the
 #: largest value and the weight 0.
 EMPTY = np.int64(0x7FFFFFFF00000000)
-EMPTY_HIGH = EMPTY
 
 _LOW = np.int64(0xFFFFFFFF)
-
-
-def sort_network(count: int) -> np.ndarray:
-    """Return the exchanges ``(i, j)`` that sort ``count`` values (min to ``i``, max to ``j``).
-
-    Batcher's odd-even merge sort of the next power of two, the exchanges with the padding
-    inputs (which would hold ``+inf`` and never move) left out: int64 ``(E, 2)``.
-    """
-    size = 1
-    while size < count:
-        size *= 2
-    return np.array([(i, j) for i, j in _batcher(size) if j < count], dtype=np.int64).reshape(-1, 2)
 
 
 @nb.njit(cache=True, inline="always")
@@ -52,38 +40,35 @@ def sortable(bits):
 
 
 @nb.njit(cache=True, parallel=True)
-def sample_keys(bits, high, valid):
-    """Fill ``high`` (int64) with each pixel's key without its weight, ``valid`` with 1 or 0.
+def sample_keys(bits, high):
+    """Fill ``high`` (int64) with each pixel's key without its weight.
 
-    A finite value: its :func:`sortable` bits shifted to the high half, and 1; a NaN or an
-    infinity (no estimate): :data:`EMPTY_HIGH`, and 0.
+    A finite value: its :func:`sortable` bits shifted to the high half; a NaN or an
+    infinity (no estimate): :data:`EMPTY`, which keeps the weight 0 in the window.
     """
     height, width = bits.shape
     for y in nb.prange(height):
         for x in range(width):
             b = bits[y, x]
-            if (b & 0x7F800000) == 0x7F800000:
-                high[y, x] = EMPTY_HIGH
-                valid[y, x] = 0
-            else:
-                high[y, x] = sortable(b) << 32
-                valid[y, x] = 1
+            finite = (b & 0x7F800000) != 0x7F800000
+            high[y, x] = sortable(b) << 32 if finite else EMPTY
 
 
 @nb.njit(cache=True, parallel=True)
-def weighted_median_rows(high, valid, guide, moved, radius, colour_weight, space_weight,
-                         network, out):  # fmt: skip
+def weighted_median_rows(high, guide, moved, radius, colour_weight, space_weight, network,
+                         out):  # fmt: skip
     """Write into ``out`` the colour-weighted median of each moved pixel's window.
 
-    ``high``, ``valid``: :func:`sample_keys` of the disparity map's float32 bits (a NaN or
-    an infinity: no estimate); ``guide``: ``(3, H, W)`` integer levels 0..255 (a gray image
+    ``high``: :func:`sample_keys` of the disparity map's float32 bits (a NaN or an infinity:
+    no estimate); ``guide``: ``(3, H, W)`` integer levels 0..255 (a gray image
     as three equal channels); ``out``: the map's int32 bits, where a pixel with
     ``moved[y, x]`` receives the weighted median of the finite values of the
     ``(2 radius + 1)`` square around it, cut at the image's edges, each weighted by
     ``colour_weight[g] * space_weight[dy + radius, dx + radius]``, ``g`` the largest
     difference of a channel between that pixel and the centre: the least value ``v`` with
     ``2 * (weight of the values <= v) >= total weight`` (int64 tables, the weights under
-    ``2**31``). ``network``: :func:`sort_network` of ``(2 radius + 1)**2``. Rows in parallel.
+    ``2**31``). ``network``: :func:`~dcstereo.refine._median.sort_network` of
+    ``(2 radius + 1)**2``. Rows in parallel.
     """
     height, width = high.shape
     side = 2 * radius + 1
@@ -128,9 +113,10 @@ def weighted_median_rows(high, valid, guide, moved, radius, colour_weight, space
                         diff[i] = max(abs(np.int32(r1[i]) - np.int32(r0[i])),
                                       abs(np.int32(g1[i]) - np.int32(g0[i])),
                                       abs(np.int32(b1[i]) - np.int32(b0[i])))  # fmt: skip
-                    h1, v1, out_row = high[yy, src:], valid[yy, src:], row[first:]
+                    h1, out_row = high[yy, src:], row[first:]
                     for i in range(m):  # the weights: a table lookup each
-                        out_row[i] = h1[i] | (colour_weight[diff[i]] * space * v1[i])
+                        h = h1[i]
+                        out_row[i] = h if h == EMPTY else h | (colour_weight[diff[i]] * space)
             for i in range(n):
                 total[i] = 0
                 running[i] = 0

@@ -21,6 +21,7 @@ from dataclasses import replace
 import numpy as np
 
 from dcstereo.refine import _weighted_median as kernels
+from dcstereo.refine._median import sort_network
 from dcstereo.refine.postfilter import _inside
 from dcstereo.result import FLAG_FEATURE, DisparityResult
 from dcstereo.signal import colour_channels
@@ -107,7 +108,7 @@ def weighted_median_filter(result: DisparityResult, left: np.ndarray, radius: in
         raise ValueError(
             f"left has shape {guide.shape[1:]} but the disparity map {result.disparity.shape}"
         )
-    d = np.ascontiguousarray(result.disparity, dtype=np.float32)
+    d = result.disparity
     moved = np.isfinite(d) & ((result.flags & FLAG_FEATURE) == 0)
     colour, space = weight_tables(int(radius), float(colour_scale), float(space_scale))
     out = weighted_medians(d, guide, moved, int(radius), colour, space)
@@ -131,12 +132,11 @@ def weighted_medians(
     disparity = np.ascontiguousarray(disparity, dtype=np.float32)
     out = disparity.copy()
     high = np.empty(disparity.shape, dtype=np.int64)
-    valid = np.empty(disparity.shape, dtype=np.int64)
-    kernels.sample_keys(disparity.view(np.int32), high, valid)
+    kernels.sample_keys(disparity.view(np.int32), high)
     if guide.shape[0] == 1:  # gray: three equal channels, the same largest difference
         guide = np.repeat(guide, 3, axis=0)
     kernels.weighted_median_rows(
-        high, valid, np.ascontiguousarray(guide), np.ascontiguousarray(moved), radius,
+        high, np.ascontiguousarray(guide), np.ascontiguousarray(moved), radius,
         colour_weight, space_weight, _network((2 * radius + 1) ** 2), out.view(np.int32),
     )  # fmt: skip
     return out
@@ -144,4 +144,4 @@ def weighted_medians(
 
 @functools.cache
 def _network(count: int) -> np.ndarray:
-    return kernels.sort_network(count)
+    return sort_network(count)
