@@ -7,7 +7,8 @@ sums ``S(p, d)`` of the paths (eq. 14) choose the disparity. Eight paths: left t
 right to left, and the three from the rows above and the three from the rows below (one
 vertical, two diagonal); four paths keep the horizontal and the vertical ones.
 
-The volume is swept three times, each sweep streaming through it once:
+Below :data:`SPLIT_THREADS` (6) threads the volume is swept three times, each sweep
+streaming through it once:
 
 * :func:`vertical_pass` down the rows (the paths from above) into one sum volume, and up
   the rows (the paths from below) into another; the two are independent, so they run side
@@ -17,9 +18,21 @@ The volume is swept three times, each sweep streaming through it once:
   fit; then :func:`left_right_check`, on whole rows (a volume may hold a tile of columns),
   against the right view's choices.
 
-Parallel loops hand out their tasks (a pass, a pair of rows, a row) from a shared counter
-(:func:`next_task`): each thread takes the next task when it is done with its last, so a
-thread that waits for a core holds back one task, not a fixed share of the work.
+Two tasks cannot keep more than two threads busy. From :data:`SPLIT_THREADS` threads
+(:func:`vertical_sums`), :func:`split_passes` gives the same two volumes from bands:
+each of the six paths runs along lines that no step crosses (the vertical path's columns,
+the diagonals' lines ``x - y`` or ``x + y`` constant), so a band of such lines is a task
+that waits on no other (:func:`band_pass`, :func:`band_edges`). One parallel loop a
+direction: the vertical path's bands store their values, then the bands of one diagonal
+add theirs (saturated), then the other's, in :func:`vertical_pass`'s order of addition,
+so that the volumes are the same bit for bit. The split streams through the costs once a
+direction instead of once a pass, and through the sums three times instead of once: on
+one thread it took 1.4-2.0x the fused passes' time (8 paths; 1.05-1.2x with 4), so that
+it can only gain from more than about four threads (``docs/performance.md``).
+
+Parallel loops hand out their tasks (a pass or a band, a pair of rows, a row) from a shared
+counter (:func:`next_task`): each thread takes the next task when it is done with its
+last, so a thread that waits for a core holds back one task, not a fixed share of the work.
 
 Costs and path values are ``int16``; lanes ``k >= ndisp`` of each pixel (the vector
 padding) hold a cost no real one reaches, so they never win and never lower a minimum.
@@ -48,7 +61,9 @@ SUBPIXEL_NONE = 0
 SUBPIXEL_PARABOLA = 1
 SUBPIXEL_EQUIANGULAR = 2
 
-#: The thread count from which :func:`vertical_sums` splits the passes into bands.
+#: The thread count from which :func:`vertical_sums` splits the passes into bands: the
+#: split's one-thread time is up to 2x the fused passes', which two threads halve at best,
+#: so at 4 threads it can at best draw level; 6 leaves a margin for imperfect scaling.
 SPLIT_THREADS = 6
 
 #: The fewest columns a band of :func:`split_passes` holds on average.

@@ -46,8 +46,9 @@ together, those kept included: a call that would pass it waits for another to en
 
 Threads: numba's thread count (``numba.set_num_threads``, or ``NUMBA_NUM_THREADS`` before
 numba starts; all cores by default). The parallel loops hand out small tasks (the two vertical
-passes, a pair of rows, a row) to whichever thread is free, so a thread that waits for a
-core (other work on the machine) holds back one task.
+passes, or from 6 threads bands of each of their path directions; a pair of rows; a row) to
+whichever thread is free, so a thread that waits for a core (other work on the machine)
+holds back one task.
 """
 
 import threading
