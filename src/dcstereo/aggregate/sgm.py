@@ -7,7 +7,8 @@ sums ``S(p, d)`` of the paths (eq. 14) choose the disparity. Eight paths: left t
 right to left, and the three from the rows above and the three from the rows below (one
 vertical, two diagonal); four paths keep the horizontal and the vertical ones.
 
-The volume is swept three times, each sweep streaming through it once:
+Below :data:`SPLIT_THREADS` (6) threads the volume is swept three times, each sweep
+streaming through it once:
 
 * :func:`vertical_pass` down the rows (the paths from above) into one sum volume, and up
   the rows (the paths from below) into another; the two are independent, so they run side
@@ -17,9 +18,21 @@ The volume is swept three times, each sweep streaming through it once:
   fit; then :func:`left_right_check`, on whole rows (a volume may hold a tile of columns),
   against the right view's choices.
 
-Parallel loops hand out their tasks (a pass, a pair of rows, a row) from a shared counter
-(:func:`next_task`): each thread takes the next task when it is done with its last, so a
-thread that waits for a core holds back one task, not a fixed share of the work.
+Two tasks cannot keep more than two threads busy. From :data:`SPLIT_THREADS` threads
+(:func:`vertical_sums`), :func:`split_passes` gives the same two volumes from bands:
+each of the six paths runs along lines that no step crosses (the vertical path's columns,
+the diagonals' lines ``x - y`` or ``x + y`` constant), so a band of such lines is a task
+that waits on no other (:func:`band_pass`, :func:`band_edges`). One parallel loop a
+direction: the vertical path's bands store their values, then the bands of one diagonal
+add theirs (saturated), then the other's, in :func:`vertical_pass`'s order of addition,
+so that the volumes are the same bit for bit. The split streams through the costs once a
+direction instead of once a pass, and through the sums three times instead of once: on
+one thread it took 1.4-2.0x the fused passes' time (8 paths; 1.05-1.2x with 4), so that
+it can only gain from more than about four threads (``docs/performance.md``).
+
+Parallel loops hand out their tasks (a pass or a band, a pair of rows, a row) from a shared
+counter (:func:`next_task`): each thread takes the next task when it is done with its
+last, so a thread that waits for a core holds back one task, not a fixed share of the work.
 
 Costs and path values are ``int16``; lanes ``k >= ndisp`` of each pixel (the vector
 padding) hold a cost no real one reaches, so they never win and never lower a minimum.
@@ -30,7 +43,13 @@ the two pixels' intensities (1/16 gray levels): smaller across edges.
 import numba as nb
 import numpy as np
 
-from dcstereo._vector.sgm import next_task, path_step, path_total_step, paths_step
+from dcstereo._vector.sgm import (
+    add_saturated,
+    next_task,
+    path_step,
+    path_total_step,
+    paths_step,
+)
 from dcstereo.result import FLAG_BORDER, FLAG_MISMATCH, FLAG_OCCLUDED
 
 #: Pad of the path buffers at ``k = -1`` and ``k = Dp`` (never less than a path value;
@@ -41,6 +60,14 @@ PAD = 16383
 SUBPIXEL_NONE = 0
 SUBPIXEL_PARABOLA = 1
 SUBPIXEL_EQUIANGULAR = 2
+
+#: The thread count from which :func:`vertical_sums` splits the passes into bands: the
+#: split's one-thread time is up to 2x the fused passes', which two threads halve at best,
+#: so at 4 threads it can at best draw level; 6 leaves a margin for imperfect scaling.
+SPLIT_THREADS = 6
+
+#: The fewest columns a band of :func:`split_passes` holds on average.
+MIN_BAND = 8
 
 
 @nb.njit(cache=True)
@@ -155,6 +182,155 @@ def vertical_passes(cost, luma, p1, p2_table, diagonals, down, up, threads):
             else:
                 vertical_pass(cost, luma, last, 0, -1, p1, p2_table, diagonals, up)
             task = next_task(counter)
+
+
+@nb.njit(cache=True)
+def line_range(height, width, slope):
+    """Return the lines ``c = x + slope * t`` of a path: ``(first, last + 1)``.
+
+    ``t`` counts the rows in the path's order (0 for its first row). Slope 0: the vertical
+    path's columns; -1: the diagonal path whose predecessor is ``x - 1`` in the previous
+    row; 1: the one whose predecessor is ``x + 1``. The path's steps run along each line,
+    and no step crosses from one line to another.
+    """
+    if slope < 0:
+        return 1 - height, width
+    if slope > 0:
+        return 0, width + height - 1
+    return 0, width
+
+
+@nb.njit(cache=True)
+def line_length(height, width, slope, c):
+    """Return the number of pixels of line ``c`` (:func:`line_range`) in the image."""
+    if slope < 0:  # x = c + t
+        return min(height - 1, width - 1 - c) - max(0, -c) + 1
+    if slope > 0:  # x = c - t
+        return min(height - 1, c) - max(0, c - width + 1) + 1
+    return height
+
+
+@nb.njit(cache=True)
+def band_edges(height, width, slope, bands):
+    """Split a path's lines (:func:`line_range`) into ``bands`` bands of about equal pixels.
+
+    Returns ``bands + 1`` line numbers: band ``i`` holds lines ``edges[i]..edges[i + 1] -
+    1``, the first that start on or past ``i / bands`` of the pixels; a band may be empty
+    (fewer lines than bands).
+    """
+    first, end = line_range(height, width, slope)
+    total = height * width
+    edges = np.full(bands + 1, end, dtype=np.int64)
+    edges[0] = first
+    band = 1
+    before = 0  # pixels on the lines before c
+    for c in range(first, end):
+        while band < bands and before * bands >= band * total:
+            edges[band] = c
+            band += 1
+        before += line_length(height, width, slope, c)
+    return edges
+
+
+@nb.njit(cache=True)
+def band_pass(cost, luma, y_first, step, slope, c0, c1, p1, p2_table, add, sums):
+    """Run one path over the lines ``c0..c1 - 1`` (:func:`line_range`) into ``sums``.
+
+    The vertical path (``slope`` 0) or a diagonal one (-1, 1: predecessor ``x + slope`` in
+    the previous row) from above (``step`` 1, rows from ``y_first`` = 0 down) or from below
+    (-1, from the last row up); a path whose predecessor is beyond the image starts at the
+    pixel. ``sums[y, x]`` (a flattened ``(H, W, Dp)`` volume, as ``cost``) receives the
+    value (``add`` False) or adds it, saturated: the steps and sums of
+    :func:`vertical_pass`, one path at a time, so that the vertical path stored, then the
+    slope -1 path added, then the slope 1 one, give its volume bit for bit. Steps on
+    different lines are independent: bands of lines run side by side.
+    """
+    height, width = luma.shape
+    lanes = cost.size // (height * width)
+    stride = lanes + 2
+    slots = max(c1 - c0, 0)  # slot c - c0 holds line c's last pixel
+    prev = _path_buffer(slots, lanes)
+    cur = _path_buffer(slots, lanes)
+    zero = slots * stride  # the slot of zeros
+    prev_min = np.zeros(slots, dtype=np.int64)
+    cur_min = np.zeros(slots, dtype=np.int64)
+    mins = np.zeros(1, dtype=np.int64)
+    for t in range(height):
+        y = y_first + step * t
+        yq = y - step
+        row = y * width * lanes
+        for x in range(max(0, c0 - slope * t), min(width, c1 - slope * t)):
+            s = x + slope * t - c0
+            q = s * stride
+            xq = x + slope
+            c_off = row + x * lanes
+            if t == 0 or xq < 0 or xq >= width:
+                p, p2, pmin = zero, 0, 0
+            else:
+                p, p2, pmin = q, _gradient_p2(luma, y, x, yq, xq, p2_table), prev_min[s]
+            if add:
+                cur_min[s] = path_step(cost, c_off, prev, p, cur, q, lanes, p1, p2, pmin)
+                add_saturated(sums, c_off, sums, c_off, cur, q + 1, lanes)
+            else:
+                mins[0] = pmin
+                paths_step(cost, c_off, prev, (p,), cur, (q,), lanes, p1, (p2,), mins, sums, c_off)
+                cur_min[s] = mins[0]
+        prev, cur = cur, prev
+        prev_min, cur_min = cur_min, prev_min
+
+
+def vertical_sums(cost, luma, p1, p2_table, diagonals, down, up, threads):
+    """Aggregate the paths from above into ``down`` and from below into ``up``.
+
+    ``threads`` is numba's thread count: :func:`vertical_passes` (two tasks) below
+    :data:`SPLIT_THREADS`, :func:`split_passes` (bands of each path direction,
+    :func:`split_bands` of them) from it: the same volumes, bit for bit.
+    """
+    if threads < SPLIT_THREADS:
+        vertical_passes(cost, luma, p1, p2_table, diagonals, down, up, threads)
+    else:
+        bands = split_bands(luma.shape[1], threads)
+        split_passes(cost, luma, p1, p2_table, diagonals, down, up, threads, bands)
+
+
+def split_bands(width, threads):
+    """Return the bands of each path direction of :func:`split_passes` for ``threads``.
+
+    Two a thread, each at least :data:`MIN_BAND` lines wide on average (of ``width``
+    columns), at least one.
+    """
+    return max(1, min(2 * threads, width // MIN_BAND))
+
+
+@nb.njit(cache=True, parallel=True)
+def split_passes(cost, luma, p1, p2_table, diagonals, down, up, threads, bands):
+    """:func:`vertical_passes`' volumes, bit for bit, from tasks for any number of threads.
+
+    Three parallel loops, one a path direction: the vertical path's ``bands`` bands of
+    columns (:func:`band_pass`, :func:`band_edges`), from above into ``down`` and from
+    below into ``up``, store their values; then, with ``diagonals``, the bands of the
+    diagonal of slope -1 add theirs, then those of slope 1, in :func:`vertical_pass`'s
+    order. Each loop holds ``2 * bands`` tasks, handed out from a shared counter to
+    ``threads`` (numba's thread count); no task waits on another, only each loop's end on
+    its last.
+    """
+    height, width = luma.shape
+    last = height - 1
+    tasks = 2 * bands
+    for direction in range(3 if diagonals else 1):
+        slope = 0 if direction == 0 else 2 * direction - 3  # 0, -1, 1
+        add = direction > 0
+        edges = band_edges(height, width, slope, bands)
+        counter = np.zeros(1, dtype=np.int64)
+        for _ in nb.prange(max(1, min(threads, tasks))):
+            task = next_task(counter)
+            while task < tasks:
+                c0, c1 = edges[task // 2], edges[task // 2 + 1]
+                if task % 2 == 0:
+                    band_pass(cost, luma, 0, 1, slope, c0, c1, p1, p2_table, add, down)
+                else:
+                    band_pass(cost, luma, last, -1, slope, c0, c1, p1, p2_table, add, up)
+                task = next_task(counter)
 
 
 @nb.njit(cache=True)

@@ -46,8 +46,9 @@ together, those kept included: a call that would pass it waits for another to en
 
 Threads: numba's thread count (``numba.set_num_threads``, or ``NUMBA_NUM_THREADS`` before
 numba starts; all cores by default). The parallel loops hand out small tasks (the two vertical
-passes, a pair of rows, a row) to whichever thread is free, so a thread that waits for a
-core (other work on the machine) holds back one task.
+passes, or from 6 threads bands of each of their path directions; a pair of rows; a row) to
+whichever thread is free, so a thread that waits for a core (other work on the machine)
+holds back one task.
 """
 
 import threading
@@ -466,7 +467,7 @@ def _run_threads(left, right, params, want_confidence):
                 )  # fmt: skip
             cost = volume.reshape(-1)
             luma = np.ascontiguousarray(luma_l[m0:m1, c0:c1])
-            sgm_kernels.vertical_passes(cost, luma, p1, table, diagonals, down, up, threads)
+            sgm_kernels.vertical_sums(cost, luma, p1, table, diagonals, down, up, threads)
             sgm_kernels.final_pass(
                 cost, luma, down, up, s0 - m0, s1 - m0, k0 - c0, k1 - c0, dmin, ndisp, p1,
                 table, _SUBPIXEL[params.subpixel], best, value, candidate, margin, s0, k0,
