@@ -104,6 +104,7 @@ OTHER_VALUES = {
     "lr_tolerance": 2,
     "planes": True,
     "census_step": 2,
+    "census_smoothing": 1.0,
     "photometric": "matched",
     "aggregation": "cross",
     "cross_limit": 9,

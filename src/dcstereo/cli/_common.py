@@ -187,6 +187,11 @@ _METHOD_OPTION_TABLE = {
         "census twice as wide for the same bits.",
         {"type": int},
     ),
+    "census_smoothing": (
+        "Sigma, in pixels, of a Gaussian smoothing of each view's intensity before the "
+        "census (default 0: none; 1.2 for noisy camera images such as driving scenes).",
+        {"type": float},
+    ),
     "photometric": (
         "Before the colour term (cost census-ad): matched maps the right view's colours "
         "onto the left's through the pixels a coarse pass matched, against a change of "

@@ -22,6 +22,9 @@ function of arrays with its parameters in :class:`~dcstereo.params.MatchParams`:
    (:mod:`dcstereo.refine.consistency`);
 6. the median post-filter (``median``, by :func:`dcstereo.match`).
 
+With ``census_smoothing`` (a sigma in pixels; 0, none, by default), in 1: each view's
+intensity smoothed by a Gaussian before the census transform (:mod:`dcstereo.costs.smoothing`).
+
 With ``photometric="matched"`` (off by default), before 1: the right view's colours mapped
 onto the left's through the colours of the pixels a coarse pass matched
 (:mod:`dcstereo.costs.photometric`).
@@ -65,6 +68,7 @@ from dcstereo.aggregate.cross import cross_aggregate
 from dcstereo.costs import census as census_kernels
 from dcstereo.costs import photometric
 from dcstereo.costs.census_sparse import census_sparse
+from dcstereo.costs.smoothing import smooth_signal
 from dcstereo.methods._pipeline import FILL, MEDIAN, Method, MethodParams, core, option
 from dcstereo.params import MatchParams
 from dcstereo.refine.consistency import fill_with_colour
@@ -408,8 +412,9 @@ def _run_threads(left, right, params, want_confidence):
     codes_l = np.empty((height, width), dtype=kind)
     codes_r = np.empty((height, width), dtype=kind)
     luma_l = padded_signal(left, 0)
-    _census(luma_l, rows, cols, codes_l, params.census_step)
-    _census(padded_signal(right, 0), rows, cols, codes_r, params.census_step)
+    sigma = params.census_smoothing
+    _census(smooth_signal(luma_l, sigma), rows, cols, codes_l, params.census_step)
+    _census(smooth_signal(padded_signal(right, 0), sigma), rows, cols, codes_r, params.census_step)
     colour_l, colour_r = colour_channels(left, right)
     if params.photometric == "matched":
         colour_r = _aligned_right(colour_l, colour_r, params)
@@ -510,6 +515,7 @@ class SGMParams(MethodParams):
     cross_tau: float = option("cross_tau")
     cross_iterations: int = option("cross_iterations")
     census_step: int = option("census_step")
+    census_smoothing: float = option("census_smoothing")
     photometric: str | None = option("photometric")
 
 
