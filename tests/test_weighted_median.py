@@ -147,7 +147,10 @@ def test_median_option_takes_weighted_and_refuses_other_text():
     from dcstereo.refine.postfilter import median_filter
 
     assert MatchParams(max_disparity=4, median="weighted").median == "weighted"
-    with pytest.raises(TypeError, match="median must be an integer or 'weighted', got 'Weighted'"):
+    with pytest.raises(
+        TypeError,
+        match="median must be an integer or 'weighted' or 'weighted-planes', got 'Weighted'",
+    ):
         MatchParams(max_disparity=4, median="Weighted")
     result = dcstereo.match(np.zeros((8, 20), np.uint8), np.zeros((8, 20), np.uint8),
                             max_disparity=4)  # fmt: skip

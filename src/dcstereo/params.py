@@ -93,8 +93,9 @@ DEFAULT_CROSS_ITERATIONS = 1
 DEFAULT_CENSUS_STEP = 1
 
 #: ``sgm``: the Gaussian smoothing (sigma, pixels) of the intensity before the census
-#: transform (0: none; :mod:`dcstereo.costs.smoothing`), and its largest value.
+#: transform (0: none; :mod:`dcstereo.costs.smoothing`).
 DEFAULT_CENSUS_SMOOTHING = 0.0
+#: ``sgm``: the largest ``census_smoothing`` (pixels; the weights then reach 16 pixels).
 MAX_CENSUS_SMOOTHING = 4.0
 
 #: ``sgm``: the photometric alignments of the right view before the colour term (None: none).
@@ -109,6 +110,14 @@ SUBPIXEL_FITS = ("equiangular", "parabola")
 #: ``median="weighted"``: the median weighted by the left image's colours and the distance
 #: (:func:`dcstereo.refine.weighted_median.weighted_median_filter`) instead of a plain one.
 WEIGHTED_MEDIAN = "weighted"
+
+#: ``median="weighted-planes"``: the weighted median, then a plane through each pixel's
+#: window of estimates within a pixel of its own
+#: (:func:`dcstereo.refine.local_planes.local_plane_filter`).
+WEIGHTED_PLANES = "weighted-planes"
+
+#: The medians ``median`` may name instead of a window side.
+NAMED_MEDIANS = (WEIGHTED_MEDIAN, WEIGHTED_PLANES)
 
 #: ``median``: the largest window of :func:`dcstereo.refine.postfilter.median_filter`.
 MAX_MEDIAN = 15
@@ -203,21 +212,23 @@ def check_method_options(names, methods, label=str) -> None:
 
 
 def check_median(value, name: str = "median") -> int | str:
-    """Return a median post-filter: 0 (off), an odd side 3 to :data:`MAX_MEDIAN`, or ``"weighted"``.
+    """Return a median post-filter: 0 (off), an odd side 3 to :data:`MAX_MEDIAN`, or a name.
 
     ``"weighted"`` (:data:`WEIGHTED_MEDIAN`): the median weighted by the left image's colours
-    (:mod:`dcstereo.refine.weighted_median`).
+    (:mod:`dcstereo.refine.weighted_median`); ``"weighted-planes"`` (:data:`WEIGHTED_PLANES`):
+    that median, then a local plane per pixel (:mod:`dcstereo.refine.local_planes`).
     """
-    if isinstance(value, str) and value == WEIGHTED_MEDIAN:
+    names = " or ".join(repr(n) for n in NAMED_MEDIANS)
+    if isinstance(value, str) and value in NAMED_MEDIANS:
         return value
     if isinstance(value, np.integer):
         value = int(value)
     if isinstance(value, bool) or not isinstance(value, int):
-        raise TypeError(f"{name} must be an integer or {WEIGHTED_MEDIAN!r}, got {value!r}")
+        raise TypeError(f"{name} must be an integer or {names}, got {value!r}")
     if value != 0 and not (3 <= value <= MAX_MEDIAN and value % 2 == 1):
         raise ValueError(
             f"{name} must be 0 (off) or an odd integer from 3 to {MAX_MEDIAN}, got {value}"
-            f" (or {WEIGHTED_MEDIAN!r})"
+            f" (or {names})"
         )
     return value
 

@@ -17,8 +17,10 @@ from dcstereo.params import (
     METHOD_DEFAULTS,
     METHOD_OPTIONS,
     METHODS,
+    NAMED_MEDIANS,
     SUBPIXEL_FITS,
     WEIGHTED_MEDIAN,
+    WEIGHTED_PLANES,
 )
 from dcstereo.viz import PREVIEW_STYLES
 
@@ -587,21 +589,23 @@ def check_method_options(given, methods):
 
 
 class MedianType(click.ParamType):
-    """``--median``: an integer window side, or ``weighted`` (checked by the match's options)."""
+    """``--median``: an integer window side or a named median (checked by the match's options)."""
 
-    name = "K|weighted"
+    name = "K|" + "|".join(NAMED_MEDIANS)
 
     def convert(self, value, param, ctx):
-        if isinstance(value, int) or value == WEIGHTED_MEDIAN:
+        if isinstance(value, int) or value in NAMED_MEDIANS:
             return value
         try:
             return int(value)
         except ValueError:
-            self.fail(f"{value!r} is neither an integer nor {WEIGHTED_MEDIAN!r}", param, ctx)
+            names = " nor ".join(repr(n) for n in NAMED_MEDIANS)
+            self.fail(f"{value!r} is neither an integer nor {names}", param, ctx)
 
 
-#: ``--median K|weighted``: the post-filter of :mod:`dcstereo.refine.postfilter` or
-#: :mod:`dcstereo.refine.weighted_median`.
+#: ``--median K|weighted|weighted-planes``: the post-filter of
+#: :mod:`dcstereo.refine.postfilter`, :mod:`dcstereo.refine.weighted_median` or that and
+#: :mod:`dcstereo.refine.local_planes`.
 median_option = click.option(
     "--median",
     type=MedianType(),
@@ -610,7 +614,9 @@ median_option = click.option(
     f"the estimates in this odd square around it, 3 to {MAX_MEDIAN} (after --subpixel, "
     f"before --fill, sgm: after its fill; 0: off; default {METHOD_DEFAULTS['sgm']['median']} "
     f"for sgm, 0 for the others); {WEIGHTED_MEDIAN}: the median of a 9 x 9 square weighted "
-    "by the left image's colours and the distance (depth edges stay on colour edges).",
+    "by the left image's colours and the distance (depth edges stay on colour edges); "
+    f"{WEIGHTED_PLANES}: that, then each estimate the value of a plane fitted to the "
+    "estimates of its 9 x 9 square within a pixel of it, weighted alike (slanted surfaces).",
 )
 
 

@@ -17,7 +17,8 @@ from dataclasses import asdict, dataclass, field, fields
 import numpy as np
 
 from dcstereo._threads import threads_with_cores
-from dcstereo.params import WEIGHTED_MEDIAN, MatchParams
+from dcstereo.params import WEIGHTED_MEDIAN, WEIGHTED_PLANES, MatchParams
+from dcstereo.refine.local_planes import local_plane_filter
 from dcstereo.refine.postfilter import median_filter
 from dcstereo.refine.subpixel import refine_subpixel
 from dcstereo.refine.weighted_median import weighted_median_filter
@@ -135,11 +136,15 @@ def median_post_filter(result: DisparityResult, left: np.ndarray, median: int | 
     """Return ``result`` through the median post-filter that ``median`` names.
 
     An odd window side: :func:`~dcstereo.refine.postfilter.median_filter`; ``"weighted"``:
-    :func:`~dcstereo.refine.weighted_median.weighted_median_filter`, guided by ``left``.
-    The one place both are chosen (``match``'s stage and ``match_tiled``'s stitched map).
+    :func:`~dcstereo.refine.weighted_median.weighted_median_filter`, guided by ``left``;
+    ``"weighted-planes"``: that, then
+    :func:`~dcstereo.refine.local_planes.local_plane_filter`. The one place they are chosen
+    (``match``'s stage and ``match_tiled``'s stitched map).
     """
     if median == WEIGHTED_MEDIAN:
         return weighted_median_filter(result, left)
+    if median == WEIGHTED_PLANES:
+        return local_plane_filter(weighted_median_filter(result, left), left)
     return median_filter(result, median)
 
 
