@@ -100,12 +100,14 @@ WIDE_SIZES = "3000x400x256,6000x400x256,8000x400x256,16000x400x256,16000x400x512
 BUSY_LOOP = "while True: pass"
 #: Suffixes of ``sgm``'s name that add one of its stages on request, in any order:
 #: ``sgm+photometric+planes`` is ``sgm`` with ``photometric="matched"`` and ``planes=True``,
-#: ``+wmedian`` its median weighted by the colours (``median="weighted"``), ``+smooth`` its
+#: ``+wmedian`` its median weighted by the colours (``median="weighted"``), ``+wplanes`` that
+#: median and the local planes (``median="weighted-planes"``), ``+smooth`` its
 #: census on intensities smoothed by a Gaussian of 1.2 pixels (``census_smoothing=1.2``).
 STAGE_SUFFIXES = {
     "+photometric": {"photometric": "matched"},
     "+planes": {"planes": True},
     "+wmedian": {"median": "weighted"},
+    "+wplanes": {"median": "weighted-planes"},
     "+smooth": {"census_smoothing": 1.2},
 }
 
@@ -766,9 +768,9 @@ def parse_args(argv):
         "--methods",
         default=",".join(DEFAULT_METHODS),
         help="comma-separated methods: dcstereo methods (a name ending in +bt: with the "
-        "Birchfield-Tomasi cost; sgm+photometric, sgm+planes, sgm+wmedian, sgm+smooth and their "
-        "combinations: sgm with those stages), opencv-bm, opencv-sgbm, opencv-hh "
-        "(default: %(default)s)",
+        "Birchfield-Tomasi cost; sgm+photometric, sgm+planes, sgm+wmedian, sgm+wplanes, "
+        "sgm+smooth and their combinations: sgm with those stages), opencv-bm, opencv-sgbm, "
+        "opencv-hh (default: %(default)s)",
     )
     parser.add_argument(
         "--threads", help="comma-separated thread counts (default: 1 and all cores)"
