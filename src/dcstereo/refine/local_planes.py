@@ -121,7 +121,7 @@ def local_planes(
     ``guide``: ``(C, H, W)`` levels 0..255 (:func:`dcstereo.signal.colour_channels`), one
     or three channels; the weights: :func:`colour_powers` and the distance table of
     :func:`~dcstereo.refine.weighted_median.weight_tables`. See
-    :func:`dcstereo.refine._local_planes.local_plane_rows`; nothing is limited here.
+    ``dcstereo.refine._local_planes.local_plane_rows``; nothing is limited here.
     """
     if guide.shape[0] == 1:  # gray: three equal channels, the same largest difference
         guide = np.repeat(guide, 3, axis=0)
