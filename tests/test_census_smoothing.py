@@ -80,26 +80,24 @@ def test_only_sgm_reads_it():
         MatchParams(max_disparity=8, method="dsi5", census_smoothing=1.0)
 
 
-def test_cli_census_smoothing(tmp_path):
+def test_cli_census_smoothing(pair):
     from click.testing import CliRunner
     from PIL import Image
 
     from dcstereo import io
     from dcstereo.cli import main
 
-    rng = np.random.default_rng(6)
-    right = rng.integers(0, 256, (30, 60), dtype=np.uint8)
-    left = np.roll(right, 3, axis=1)
-    Image.fromarray(left).save(tmp_path / "l.png")
-    Image.fromarray(right).save(tmp_path / "r.png")
-    args = ["run", str(tmp_path / "l.png"), str(tmp_path / "r.png"), "--max-disparity", "8"]
+    folder, _ = pair
+    left = np.asarray(Image.open(folder / "left.png"))
+    right = np.asarray(Image.open(folder / "right.png"))
+    args = ["run", str(folder / "left.png"), str(folder / "right.png"), "--max-disparity", "10"]
     runner = CliRunner()
-    out = tmp_path / "d.pfm"
+    out = folder / "d.pfm"
     result = runner.invoke(main, [*args, "-o", str(out), "--census-smoothing", "1.2", "-q"])
     assert result.exit_code == 0, result.output
-    expected = dcstereo.match(left, right, max_disparity=8, census_smoothing=1.2)
+    expected = dcstereo.match(left, right, max_disparity=10, census_smoothing=1.2)
     assert io.read_pfm(out).tobytes() == expected.disparity.tobytes()
-    bad = tmp_path / "bad.pfm"
+    bad = folder / "bad.pfm"
     result = runner.invoke(main, [*args, "-o", str(bad), "--census-smoothing", "-1"])
     assert result.exit_code != 0 and "census_smoothing must be from 0 to 4" in result.output
     assert "Traceback" not in result.output

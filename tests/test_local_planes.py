@@ -145,23 +145,22 @@ def test_median_option_names():
         MatchParams(max_disparity=4, median="planes")
 
 
-def test_cli_median_weighted_planes(tmp_path):
+def test_cli_median_weighted_planes(pair):
     from click.testing import CliRunner
     from PIL import Image
 
     from dcstereo import io
     from dcstereo.cli import main
 
-    rng = np.random.default_rng(7)
-    right = rng.integers(0, 256, (30, 50), dtype=np.uint8)
-    left = np.roll(right, 3, axis=1)
-    Image.fromarray(left).save(tmp_path / "l.png")
-    Image.fromarray(right).save(tmp_path / "r.png")
-    out = tmp_path / "d.pfm"
-    args = ["run", str(tmp_path / "l.png"), str(tmp_path / "r.png"), "--max-disparity", "8"]
-    result = CliRunner().invoke(main, [*args, "-o", str(out), "--median", "weighted-planes", "-q"])
+    folder, _ = pair
+    left = np.asarray(Image.open(folder / "left.png"))
+    right = np.asarray(Image.open(folder / "right.png"))
+    args = ["run", str(folder / "left.png"), str(folder / "right.png"), "--max-disparity", "10"]
+    runner = CliRunner()
+    out = folder / "d.pfm"
+    result = runner.invoke(main, [*args, "-o", str(out), "--median", "weighted-planes", "-q"])
     assert result.exit_code == 0, result.output
-    expected = dcstereo.match(left, right, max_disparity=8, median="weighted-planes")
+    expected = dcstereo.match(left, right, max_disparity=10, median="weighted-planes")
     assert io.read_pfm(out).tobytes() == expected.disparity.tobytes()
 
 

@@ -21,9 +21,14 @@ import numpy as np
 
 from dcstereo.refine import _local_planes as kernels
 from dcstereo.refine.postfilter import _inside
-from dcstereo.refine.weighted_median import COLOUR_SCALE, RADIUS, SPACE_SCALE, weight_tables
+from dcstereo.refine.weighted_median import (
+    COLOUR_SCALE,
+    RADIUS,
+    SPACE_SCALE,
+    checked_guide,
+    weight_tables,
+)
 from dcstereo.result import FLAG_FEATURE, DisparityResult
-from dcstereo.signal import colour_channels
 
 __all__ = ["colour_powers", "local_plane_filter", "local_planes"]
 
@@ -86,20 +91,9 @@ def local_plane_filter(result: DisparityResult, left: np.ndarray, radius: int = 
     >>> bool(np.allclose(local_plane_filter(result, gray).disparity, d, atol=1e-5))
     True
     """
-    if not isinstance(result, DisparityResult):
-        raise TypeError(f"result must be a DisparityResult, got {type(result).__name__}")
-    if isinstance(radius, bool) or not isinstance(radius, int | np.integer) or radius < 1:
-        raise ValueError(f"radius must be a positive integer, got {radius!r}")
-    for name, value in (("colour_scale", colour_scale), ("space_scale", space_scale)):
-        if not (isinstance(value, int | float) and np.isfinite(value) and value > 0):
-            raise ValueError(f"{name} must be a positive number, got {value!r}")
+    guide = checked_guide(result, left, radius, colour_scale, space_scale)
     if not (isinstance(tolerance, int | float) and np.isfinite(tolerance) and tolerance >= 0):
         raise ValueError(f"tolerance must be a non-negative number, got {tolerance!r}")
-    guide, _ = colour_channels(left, left)
-    if guide.shape[1:] != result.disparity.shape:
-        raise ValueError(
-            f"left has shape {guide.shape[1:]} but the disparity map {result.disparity.shape}"
-        )
     d = np.ascontiguousarray(result.disparity, dtype=np.float32)
     moved = np.isfinite(d) & ((result.flags & FLAG_FEATURE) == 0)
     out = local_planes(d, guide, moved, int(radius), float(tolerance), float(colour_scale),

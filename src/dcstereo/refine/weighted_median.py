@@ -96,6 +96,23 @@ def weighted_median_filter(result: DisparityResult, left: np.ndarray, radius: in
     >>> float(np.nanmedian(weighted_median_filter(result, left).disparity))
     3.0
     """
+    guide = checked_guide(result, left, radius, colour_scale, space_scale)
+    d = result.disparity
+    moved = np.isfinite(d) & ((result.flags & FLAG_FEATURE) == 0)
+    colour, space = weight_tables(int(radius), float(colour_scale), float(space_scale))
+    out = weighted_medians(d, guide, moved, int(radius), colour, space)
+    return replace(result, disparity=_inside(out, result))
+
+
+def checked_guide(result, left, radius, colour_scale, space_scale) -> np.ndarray:
+    """Return ``left``'s channels ``(C, H, W)`` for a window filter of ``result``'s map.
+
+    Raises TypeError or ValueError naming the argument: ``result`` not a
+    :class:`~dcstereo.result.DisparityResult`, ``radius`` not a positive integer, a scale
+    not a positive number, ``left`` not of the map's shape. Shared by the filters guided
+    by the left image (:func:`weighted_median_filter`,
+    :func:`dcstereo.refine.local_planes.local_plane_filter`).
+    """
     if not isinstance(result, DisparityResult):
         raise TypeError(f"result must be a DisparityResult, got {type(result).__name__}")
     if isinstance(radius, bool) or not isinstance(radius, int | np.integer) or radius < 1:
@@ -108,11 +125,7 @@ def weighted_median_filter(result: DisparityResult, left: np.ndarray, radius: in
         raise ValueError(
             f"left has shape {guide.shape[1:]} but the disparity map {result.disparity.shape}"
         )
-    d = result.disparity
-    moved = np.isfinite(d) & ((result.flags & FLAG_FEATURE) == 0)
-    colour, space = weight_tables(int(radius), float(colour_scale), float(space_scale))
-    out = weighted_medians(d, guide, moved, int(radius), colour, space)
-    return replace(result, disparity=_inside(out, result))
+    return guide
 
 
 def weighted_medians(
