@@ -7,6 +7,7 @@ import pytest
 
 import dcstereo
 import naive_smoothing
+from cli_runs import run_equals_match
 from dcstereo.costs import smoothing
 from dcstereo.params import MatchParams
 from pins import kitti_d1
@@ -81,22 +82,10 @@ def test_only_sgm_reads_it():
 
 
 def test_cli_census_smoothing(pair):
-    from click.testing import CliRunner
-    from PIL import Image
-
-    from dcstereo import io
     from dcstereo.cli import main
 
     folder, _ = pair
-    left = np.asarray(Image.open(folder / "left.png"))
-    right = np.asarray(Image.open(folder / "right.png"))
-    args = ["run", str(folder / "left.png"), str(folder / "right.png"), "--max-disparity", "10"]
-    runner = CliRunner()
-    out = folder / "d.pfm"
-    result = runner.invoke(main, [*args, "-o", str(out), "--census-smoothing", "1.2", "-q"])
-    assert result.exit_code == 0, result.output
-    expected = dcstereo.match(left, right, max_disparity=10, census_smoothing=1.2)
-    assert io.read_pfm(out).tobytes() == expected.disparity.tobytes()
+    runner, args = run_equals_match(folder, ["--census-smoothing", "1.2"], census_smoothing=1.2)
     bad = folder / "bad.pfm"
     result = runner.invoke(main, [*args, "-o", str(bad), "--census-smoothing", "-1"])
     assert result.exit_code != 0 and "census_smoothing must be from 0 to 4" in result.output

@@ -5,6 +5,7 @@ import pytest
 
 import dcstereo
 import naive_local_planes as naive
+from cli_runs import run_equals_match
 from dcstereo.params import MatchParams
 from dcstereo.refine import local_planes as lp
 from dcstereo.refine.weighted_median import weight_tables, weighted_median_filter
@@ -146,22 +147,7 @@ def test_median_option_names():
 
 
 def test_cli_median_weighted_planes(pair):
-    from click.testing import CliRunner
-    from PIL import Image
-
-    from dcstereo import io
-    from dcstereo.cli import main
-
-    folder, _ = pair
-    left = np.asarray(Image.open(folder / "left.png"))
-    right = np.asarray(Image.open(folder / "right.png"))
-    args = ["run", str(folder / "left.png"), str(folder / "right.png"), "--max-disparity", "10"]
-    runner = CliRunner()
-    out = folder / "d.pfm"
-    result = runner.invoke(main, [*args, "-o", str(out), "--median", "weighted-planes", "-q"])
-    assert result.exit_code == 0, result.output
-    expected = dcstereo.match(left, right, max_disparity=10, median="weighted-planes")
-    assert io.read_pfm(out).tobytes() == expected.disparity.tobytes()
+    run_equals_match(pair[0], ["--median", "weighted-planes"], median="weighted-planes")
 
 
 @pytest.mark.slow
