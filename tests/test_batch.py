@@ -782,3 +782,26 @@ def test_batch_confidence_here_and_on_dask(pairs_dir, tmp_path, dask_client):
     result = CliRunner().invoke(main, [*args, "--confidence", "-q"])
     assert result.exit_code == 0, result.output
     assert len(list((out / "confidence").glob("*.pfm"))) == len(find_pairs(pairs_dir))
+
+
+def test_stage_options_are_assumed_off_in_older_folders(pairs_dir, tmp_path):
+    # a batch.json written before sgm's stages on request were recorded (census_smoothing
+    # among them) resumes as made with them off, and refuses them on
+    import json
+
+    from dcstereo.batch.folders import ASSUMED_OPTIONS
+
+    pairs = find_pairs(pairs_dir)[:2]
+    out = tmp_path / "out"
+    run_batch(pairs, out, max_disparity=MAX_DISPARITY, method="dc")
+    recorded = json.loads((out / "batch.json").read_text())
+    stages = ("planes", "aggregation", "cross_limit", "cross_tau", "cross_iterations",
+              "census_step", "photometric", "census_smoothing")  # fmt: skip
+    for name in stages:
+        assert recorded[name] == ASSUMED_OPTIONS[name], name
+        del recorded[name]
+    (out / "batch.json").write_text(json.dumps(recorded))
+    skipped = run_batch(pairs, out, max_disparity=MAX_DISPARITY, method="dc").skipped
+    assert skipped == [p.name for p in pairs]
+    with pytest.raises(ValueError, match=r"census_smoothing 0.0 \(now 1.2\)"):
+        run_batch(pairs, out, max_disparity=MAX_DISPARITY, census_smoothing=1.2)

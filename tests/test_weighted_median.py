@@ -149,7 +149,7 @@ def test_median_option_takes_weighted_and_refuses_other_text():
     assert MatchParams(max_disparity=4, median="weighted").median == "weighted"
     with pytest.raises(
         TypeError,
-        match="median must be an integer or 'weighted' or 'weighted-planes', got 'Weighted'",
+        match="median must be an integer, 'weighted' or 'weighted-planes', got 'Weighted'",
     ):
         MatchParams(max_disparity=4, median="Weighted")
     result = dcstereo.match(np.zeros((8, 20), np.uint8), np.zeros((8, 20), np.uint8),

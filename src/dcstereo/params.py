@@ -218,13 +218,13 @@ def check_median(value, name: str = "median") -> int | str:
     (:mod:`dcstereo.refine.weighted_median`); ``"weighted-planes"`` (:data:`WEIGHTED_PLANES`):
     that median, then a local plane per pixel (:mod:`dcstereo.refine.local_planes`).
     """
-    names = " or ".join(repr(n) for n in NAMED_MEDIANS)
+    names = ", ".join(repr(n) for n in NAMED_MEDIANS[:-1]) + f" or {NAMED_MEDIANS[-1]!r}"
     if isinstance(value, str) and value in NAMED_MEDIANS:
         return value
     if isinstance(value, np.integer):
         value = int(value)
     if isinstance(value, bool) or not isinstance(value, int):
-        raise TypeError(f"{name} must be an integer or {names}, got {value!r}")
+        raise TypeError(f"{name} must be an integer, {names}, got {value!r}")
     if value != 0 and not (3 <= value <= MAX_MEDIAN and value % 2 == 1):
         raise ValueError(
             f"{name} must be 0 (off) or an odd integer from 3 to {MAX_MEDIAN}, got {value}"
@@ -356,7 +356,10 @@ class MatchParams:
         before ``fill``. ``"weighted"``: the median of a 9 x 9 window weighted by the left
         image's colours and the distance
         (:func:`dcstereo.refine.weighted_median.weighted_median_filter`): depth edges stay on
-        the colour edges.
+        the colour edges. ``"weighted-planes"``: that median, then each estimate the value
+        of a plane fitted to its window's estimates within a pixel of it, weighted alike
+        (:func:`dcstereo.refine.local_planes.local_plane_filter`): slanted surfaces lose
+        the median's steps.
     orientations : tuple of float
         ``redert`` only: the surface orientations of the DP states, as disparity slopes
         (pixels of disparity per pixel), each one of ``0, +-1/16, +-1/8, +-1/4, +-1/2,

@@ -284,12 +284,14 @@ def vertical_sums(cost, luma, p1, p2_table, diagonals, down, up, threads):
 
     ``threads`` is numba's thread count: :func:`vertical_passes` (two tasks) below
     :data:`SPLIT_THREADS`, :func:`split_passes` (bands of each path direction,
-    :func:`split_bands` of them) from it: the same volumes, bit for bit.
+    :func:`split_bands` of them) from it: the same volumes, bit for bit. A strip too narrow
+    for two bands (under ``2 * MIN_BAND`` columns) keeps the fused passes: one band a
+    direction would give their two tasks for more work.
     """
-    if threads < SPLIT_THREADS:
+    bands = split_bands(luma.shape[1], threads)
+    if threads < SPLIT_THREADS or bands < 2:
         vertical_passes(cost, luma, p1, p2_table, diagonals, down, up, threads)
     else:
-        bands = split_bands(luma.shape[1], threads)
         split_passes(cost, luma, p1, p2_table, diagonals, down, up, threads, bands)
 
 

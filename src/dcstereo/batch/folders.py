@@ -66,6 +66,15 @@ ASSUMED_OPTIONS = {
     "p2_gradient": _params.DEFAULT_P2_GRADIENT,
     "paths": _params.DEFAULT_PATHS,
     "lr_tolerance": _params.DEFAULT_LR_TOLERANCE,
+    # sgm's stages on request, recorded since they were added (off before)
+    "planes": False,
+    "aggregation": None,
+    "cross_limit": _params.DEFAULT_CROSS_LIMIT,
+    "cross_tau": _params.DEFAULT_CROSS_TAU,
+    "cross_iterations": _params.DEFAULT_CROSS_ITERATIONS,
+    "census_step": _params.DEFAULT_CENSUS_STEP,
+    "photometric": None,
+    "census_smoothing": _params.DEFAULT_CENSUS_SMOOTHING,
 }
 #: Longest pair name, in bytes of UTF-8: the temporary name of its output
 #: (:data:`dcstereo.io.TEMPORARY_NAME_EXTRA` more than ``<name>.pfm``) must fit the 255

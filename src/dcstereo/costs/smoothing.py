@@ -26,9 +26,10 @@ TRUNCATE = 4.0
 def gaussian_weights(sigma: float) -> np.ndarray:
     """Return the integer 1-D Gaussian weights of ``sigma`` pixels (int64, odd length).
 
-    ``exp(-i**2 / (2 sigma**2))`` for ``|i| <= round(TRUNCATE * sigma)``, scaled to sum to
-    ``2 ** WEIGHT_BITS`` and rounded; the centre weight takes what the rounding left over,
-    so the sum is exact. ``sigma`` 0: the single weight ``2 ** WEIGHT_BITS`` (no smoothing).
+    ``exp(-i**2 / (2 sigma**2))`` for ``|i| <= round(TRUNCATE * sigma)`` (at least 1),
+    scaled to sum to ``2 ** WEIGHT_BITS`` and rounded; the centre weight takes what the
+    rounding left over, so the sum is exact. ``sigma`` 0: the single weight
+    ``2 ** WEIGHT_BITS`` (no smoothing).
     """
     total = 1 << WEIGHT_BITS
     if sigma == 0:

@@ -2,9 +2,9 @@
 
 For each pixel, the weighted sums of its window's estimates within ``tolerance`` of its
 own: their offsets, their offsets' squares and products, and their differences from the
-pixel's estimate times 1 and the offsets, in float64, in a fixed order (the window's rows,
-each summed over its columns first); then the plane through them by weighted least squares
-(the slopes lightly regularised), evaluated at the pixel.
+pixel's estimate times 1 and the offsets, in a fixed order (the window's rows, each summed
+over its columns first in float32, their totals in float64); then the plane through them
+by weighted least squares (the slopes lightly regularised), evaluated at the pixel.
 """
 
 import numba as nb

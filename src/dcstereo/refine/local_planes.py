@@ -19,6 +19,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from dcstereo._checks import is_number
 from dcstereo.refine import _local_planes as kernels
 from dcstereo.refine.postfilter import _inside
 from dcstereo.refine.weighted_median import (
@@ -92,7 +93,7 @@ def local_plane_filter(result: DisparityResult, left: np.ndarray, radius: int = 
     True
     """
     guide = checked_guide(result, left, radius, colour_scale, space_scale)
-    if not (isinstance(tolerance, int | float) and np.isfinite(tolerance) and tolerance >= 0):
+    if not (is_number(tolerance) and np.isfinite(tolerance) and tolerance >= 0):
         raise ValueError(f"tolerance must be a non-negative number, got {tolerance!r}")
     d = np.ascontiguousarray(result.disparity, dtype=np.float32)
     moved = np.isfinite(d) & ((result.flags & FLAG_FEATURE) == 0)
