@@ -149,7 +149,8 @@ def median_post_filter(result: DisparityResult, left: np.ndarray, median: int | 
 
 
 #: The median post-filter (``median``): each estimate takes its window's median, plain or
-#: weighted by the left image's colours (``median="weighted"``).
+#: weighted by the left image's colours (``median="weighted"``, and ``"weighted-planes"``
+#: with a plane per pixel after it): :func:`median_post_filter`.
 def _median(left, right, params, result):
     with threads_with_cores():  # as sgm's own stages: the threads that have a core
         return median_post_filter(result, left, params.median)

@@ -27,6 +27,7 @@ from dcstereo.refine.weighted_median import (
     RADIUS,
     SPACE_SCALE,
     checked_guide,
+    kernel_guide,
     weight_tables,
 )
 from dcstereo.result import FLAG_FEATURE, DisparityResult
@@ -118,13 +119,11 @@ def local_planes(
     :func:`~dcstereo.refine.weighted_median.weight_tables`. See
     ``dcstereo.refine._local_planes.local_plane_rows``; nothing is limited here.
     """
-    if guide.shape[0] == 1:  # gray: three equal channels, the same largest difference
-        guide = np.repeat(guide, 3, axis=0)
     disparity = np.ascontiguousarray(disparity, dtype=np.float32)
     _, space = weight_tables(radius, colour_scale, space_scale)
     out = np.empty_like(disparity)
     kernels.local_plane_rows(
-        disparity, np.ascontiguousarray(guide), np.ascontiguousarray(moved), radius, tolerance,
+        disparity, kernel_guide(guide), np.ascontiguousarray(moved), radius, tolerance,
         colour_powers(colour_scale), space.astype(np.float32), out,
     )  # fmt: skip
     return out

@@ -128,6 +128,17 @@ def checked_guide(result, left, radius, colour_scale, space_scale) -> np.ndarray
     return guide
 
 
+def kernel_guide(guide: np.ndarray) -> np.ndarray:
+    """Return ``guide`` (``(C, H, W)``) as the guided kernels read it: three contiguous channels.
+
+    A gray guide (one channel) becomes three equal ones: the same largest difference. The
+    weighted median's and the local planes' kernels both read three.
+    """
+    if guide.shape[0] == 1:
+        guide = np.repeat(guide, 3, axis=0)
+    return np.ascontiguousarray(guide)
+
+
 def weighted_medians(
     disparity: np.ndarray,
     guide: np.ndarray,
@@ -146,10 +157,8 @@ def weighted_medians(
     out = disparity.copy()
     high = np.empty(disparity.shape, dtype=np.int64)
     kernels.sample_keys(disparity.view(np.int32), high)
-    if guide.shape[0] == 1:  # gray: three equal channels, the same largest difference
-        guide = np.repeat(guide, 3, axis=0)
     kernels.weighted_median_rows(
-        high, np.ascontiguousarray(guide), np.ascontiguousarray(moved), radius,
+        high, kernel_guide(guide), np.ascontiguousarray(moved), radius,
         colour_weight, space_weight, _network((2 * radius + 1) ** 2), out.view(np.int32),
     )  # fmt: skip
     return out
