@@ -102,13 +102,15 @@ BUSY_LOOP = "while True: pass"
 #: ``sgm+photometric+planes`` is ``sgm`` with ``photometric="matched"`` and ``planes=True``,
 #: ``+wmedian`` its median weighted by the colours (``median="weighted"``), ``+wplanes`` that
 #: median and the local planes (``median="weighted-planes"``), ``+smooth`` its
-#: census on intensities smoothed by a Gaussian of 1.2 pixels (``census_smoothing=1.2``).
+#: census on intensities smoothed by a Gaussian of 1.2 pixels (``census_smoothing=1.2``),
+#: ``+rows`` the right view's rows moved onto the left's (``row_alignment="estimated"``).
 STAGE_SUFFIXES = {
     "+photometric": {"photometric": "matched"},
     "+planes": {"planes": True},
     "+wmedian": {"median": "weighted"},
     "+wplanes": {"median": "weighted-planes"},
     "+smooth": {"census_smoothing": 1.2},
+    "+rows": {"row_alignment": "estimated"},
 }
 
 
@@ -769,8 +771,8 @@ def parse_args(argv):
         default=",".join(DEFAULT_METHODS),
         help="comma-separated methods: dcstereo methods (a name ending in +bt: with the "
         "Birchfield-Tomasi cost; sgm+photometric, sgm+planes, sgm+wmedian, sgm+wplanes, "
-        "sgm+smooth and their combinations: sgm with those stages), opencv-bm, opencv-sgbm, "
-        "opencv-hh (default: %(default)s)",
+        "sgm+smooth, sgm+rows and their combinations: sgm with those stages), opencv-bm, "
+        "opencv-sgbm, opencv-hh (default: %(default)s)",
     )
     parser.add_argument(
         "--threads", help="comma-separated thread counts (default: 1 and all cores)"

@@ -101,6 +101,10 @@ MAX_CENSUS_SMOOTHING = 4.0
 #: ``sgm``: the photometric alignments of the right view before the colour term (None: none).
 PHOTOMETRIC = ("matched",)
 
+#: ``sgm``: how the right view's rows are moved onto the left's before the costs (None:
+#: not at all; ``"estimated"``: by the field :mod:`dcstereo.costs.row_offsets` measures).
+ROW_ALIGNMENTS = ("estimated",)
+
 #: ``sgm``: the largest census window (its bits, one per pixel but the centre, fill 64).
 MAX_CENSUS_BITS = 64
 
@@ -160,6 +164,7 @@ METHOD_OPTIONS = {
     "census_step": ("sgm",),
     "census_smoothing": ("sgm",),
     "photometric": ("sgm",),
+    "row_alignment": ("sgm",),
 }
 
 
@@ -410,6 +415,13 @@ class MatchParams:
         through the histograms of the pixels a coarse pass matched (census alone, four
         times smaller each way), so that a change of gain, offset or gamma between the
         views costs the colour term little (:mod:`dcstereo.costs.photometric`).
+    row_alignment : str or None
+        ``sgm`` only, off (None) by default. ``"estimated"``: for a pair whose rectification
+        is a little off, the right view's rows are moved onto the left's before the costs,
+        by a smooth field of vertical offsets measured from patches matched around a
+        coarse pass's disparities (:mod:`dcstereo.costs.row_offsets`); a pair whose field
+        stays under :data:`~dcstereo.costs.row_offsets.MIN_OFFSET` rows everywhere is left
+        as it is.
     """
 
     max_disparity: int
@@ -451,6 +463,7 @@ class MatchParams:
     census_step: int = DEFAULT_CENSUS_STEP
     census_smoothing: float = DEFAULT_CENSUS_SMOOTHING
     photometric: str | None = None
+    row_alignment: str | None = None
 
     def __post_init__(self):
         for field in fields(self):  # numpy scalars (np.int64(4), np.True_): the Python value
@@ -607,6 +620,11 @@ class MatchParams:
                     f"photometric={self.photometric!r} aligns the colour term's colours: it "
                     f"needs cost='census-ad', got cost={self.cost!r}"
                 )
+        if self.row_alignment is not None and self.row_alignment not in ROW_ALIGNMENTS:
+            raise ValueError(
+                f"row_alignment must be None or one of {', '.join(ROW_ALIGNMENTS)}, "
+                f"got {self.row_alignment!r}"
+            )
         sigma = self.census_smoothing
         if not is_number(sigma) or not math.isfinite(sigma):
             raise ValueError(f"census_smoothing must be a number of pixels, got {sigma!r}")

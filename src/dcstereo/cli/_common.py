@@ -200,6 +200,12 @@ _METHOD_OPTION_TABLE = {
         "gain, offset or gamma between the cameras. Default: none.",
         {"type": click.Choice(list(_params.PHOTOMETRIC))},
     ),
+    "row_alignment": (
+        "estimated moves the right view's rows onto the left's before the costs, by the "
+        "vertical offsets measured around a coarse pass's matches, for a pair whose "
+        "rectification is a little off. Default: none.",
+        {"type": click.Choice(list(_params.ROW_ALIGNMENTS))},
+    ),
     "aggregation": (
         "A stage between the costs and the semi-global paths: cross (the costs averaged "
         "over cross-based support regions of the left view, ADCensus) or cross-both (over "

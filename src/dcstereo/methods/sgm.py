@@ -66,7 +66,7 @@ from dcstereo._vector.sgm import HIGH, LANES
 from dcstereo.aggregate import sgm as sgm_kernels
 from dcstereo.aggregate.cross import cross_aggregate
 from dcstereo.costs import census as census_kernels
-from dcstereo.costs import photometric
+from dcstereo.costs import photometric, row_offsets
 from dcstereo.costs.census_sparse import census_sparse
 from dcstereo.costs.smoothing import smooth_signal
 from dcstereo.methods._pipeline import FILL, MEDIAN, Method, MethodParams, core, option
@@ -375,18 +375,17 @@ def _run(left, right, params, want_confidence):
         return _run_threads(left, right, params, want_confidence)
 
 
-def _aligned_right(colour_l, colour_r, params):
-    """Return the right view's channels mapped onto the left's (``photometric="matched"``).
+def _coarse_pass(colour_l, colour_r, params):
+    """Return the coarse pass's left disparities (``photometric``, ``row_alignment``).
 
-    The coarse pass: ``sgm`` with the census alone on the two views'
+    ``sgm`` with the census alone on the two views'
     :data:`~dcstereo.costs.photometric.COARSE_FACTOR` times smaller box means, over the
-    range divided by the factor (rounded outwards), no fill; its estimates that pass the
-    left-right check pair the pixels (:func:`dcstereo.costs.photometric.align_right`).
-    A pair too small for it keeps its right view.
+    range divided by the factor (rounded outwards), no fill; NaN where its left-right check
+    rejected the estimate. None for a pair too small for it.
     """
     factor = photometric.COARSE_FACTOR
     if min(colour_l.shape[1:]) < factor * photometric.MIN_COARSE_SIDE:
-        return colour_r
+        return None
     small_l = photometric.box_down(colour_l, factor)
     small_r = photometric.box_down(colour_r, factor)
     if small_l.shape[2] == 1:  # gray: one channel, the intensity
@@ -399,7 +398,61 @@ def _aligned_right(colour_l, colour_r, params):
         fill=False,
     )
     result, _ = _run_threads(small_l, small_r, coarse, False)
-    return photometric.align_right(colour_l, colour_r, result.disparity, factor)
+    return result.disparity
+
+
+def _aligned_views(luma_l, luma_r, colour_l, colour_r, params):
+    """Return the right view's intensity and channels after ``row_alignment`` and ``photometric``.
+
+    Both read the coarse pass (:func:`_coarse_pass`, run once for the two). With
+    ``row_alignment="estimated"``, the right view's rows are moved onto the left's
+    (:func:`~dcstereo.costs.row_offsets.shift_rows`) by the field
+    :func:`~dcstereo.costs.row_offsets.estimate_from` measures, where it reaches
+    :data:`~dcstereo.costs.row_offsets.MIN_OFFSET` somewhere; with
+    ``photometric="matched"``, the right view's channels are then mapped onto the left's
+    (:func:`dcstereo.costs.photometric.align_right`). A pair too small for the coarse pass
+    keeps its right view.
+    """
+    if params.row_alignment is None and params.photometric is None:
+        return luma_r, colour_r
+    coarse = _coarse_pass(colour_l, colour_r, params)
+    if coarse is None:
+        return luma_r, colour_r
+    factor = photometric.COARSE_FACTOR
+    if params.row_alignment == "estimated":
+        field = row_offsets.estimate_from(
+            luma_l / SIGNAL_STEPS, luma_r / SIGNAL_STEPS, coarse, factor
+        )
+        if field is not None and field.largest() >= row_offsets.MIN_OFFSET:
+            offsets = field.offsets()
+            luma_r = row_offsets.shift_rows(luma_r, offsets)
+            colour_r = row_offsets.shift_rows(colour_r, offsets)
+    if params.photometric == "matched":
+        colour_r = photometric.align_right(colour_l, colour_r, coarse, factor)
+    return luma_r, colour_r
+
+
+def sgm_row_field(left: np.ndarray, right: np.ndarray, params: MatchParams):
+    """Return how far the right view's rows lie from the left's (a ``RowField``).
+
+    The :class:`~dcstereo.costs.row_offsets.RowField` that ``row_alignment="estimated"``
+    measures before it moves the rows (it moves them where the field's
+    :meth:`~dcstereo.costs.row_offsets.RowField.largest` offset reaches
+    :data:`~dcstereo.costs.row_offsets.MIN_OFFSET`), over ``params``' disparity range: a
+    check of a rig's rectification. None for a pair too small for the coarse pass or
+    without a patch to measure.
+    """
+    with threads_with_cores():
+        colour_l, colour_r = colour_channels(left, right)
+        coarse = _coarse_pass(colour_l, colour_r, params)
+        if coarse is None:
+            return None
+        return row_offsets.estimate_from(
+            padded_signal(left, 0) / SIGNAL_STEPS,
+            padded_signal(right, 0) / SIGNAL_STEPS,
+            coarse,
+            photometric.COARSE_FACTOR,
+        )
 
 
 def _run_threads(left, right, params, want_confidence):
@@ -412,12 +465,11 @@ def _run_threads(left, right, params, want_confidence):
     codes_l = np.empty((height, width), dtype=kind)
     codes_r = np.empty((height, width), dtype=kind)
     luma_l = padded_signal(left, 0)
+    colour_l, colour_r = colour_channels(left, right)
+    luma_r, colour_r = _aligned_views(luma_l, padded_signal(right, 0), colour_l, colour_r, params)
     sigma = params.census_smoothing
     _census(smooth_signal(luma_l, sigma), rows, cols, codes_l, params.census_step)
-    _census(smooth_signal(padded_signal(right, 0), sigma), rows, cols, codes_r, params.census_step)
-    colour_l, colour_r = colour_channels(left, right)
-    if params.photometric == "matched":
-        colour_r = _aligned_right(colour_l, colour_r, params)
+    _census(smooth_signal(luma_r, sigma), rows, cols, codes_r, params.census_step)
     guide = colour_l if params.aggregation is not None else None
     guide_r = colour_r if params.aggregation == "cross-both" else None
     if params.cost == "census":
@@ -517,6 +569,7 @@ class SGMParams(MethodParams):
     census_step: int = option("census_step")
     census_smoothing: float = option("census_smoothing")
     photometric: str | None = option("photometric")
+    row_alignment: str | None = option("row_alignment")
 
 
 METHOD = Method(

@@ -1,0 +1,378 @@
+"""The right view's rows moved onto the left's, where a pair is not quite rectified.
+
+Stereo matching searches along rows: a left pixel's match is sought in the same row of the
+right view. Where the rectification is off (a camera turned a little, focal lengths that
+differ, a calibration of last month), the match lies a fraction of a row above or below,
+and every cost compares pixels of slightly different scene points; weak texture suffers
+first. Middlebury's 2014 pairs are given with such an imperfect rectification, and the
+KITTI 2012 pairs of the development set are off by up to about a pixel and a half in
+their corners.
+
+:func:`estimate_from` measures it (:func:`dcstereo.methods.sgm.sgm_row_field` runs it on a
+pair, with its coarse pass). On a grid of left pixels with vertical texture,
+a patch is matched in the right view around the disparity of a coarse pass (the
+census alone, :data:`~dcstereo.costs.photometric.COARSE_FACTOR` times smaller each way,
+as ``photometric`` uses), over offsets of a fraction of a row (the right view
+interpolated between its rows, :func:`patch_curves`). Per tile of a
+:data:`GRID` x :data:`GRID` grid of the right view, the summed costs give the tile's
+offset, and a smooth field through the tiles (:class:`RowField`) gives each right pixel
+its own: ``a + b u + c v + e u v + f v^2`` with ``u``, ``v`` the pixel's place across
+and down the image (from -0.5 to 0.5), the terms a small turn of one camera about each
+axis and a difference of scale make. :func:`shift_rows` then moves the right view's
+signals by it (linear interpolation between rows) before the costs.
+"""
+
+from dataclasses import dataclass
+
+import numba as nb
+import numpy as np
+
+#: The tiles across and down the right view, each giving one offset to the field.
+GRID = 6
+
+#: Half the side of a matched patch (9 x 9 pixels).
+PATCH_RADIUS = 4
+
+#: How far (pixels) a patch's match is sought on either side of the coarse disparity.
+X_REACH = 3
+
+#: The whole offsets tried first (rows of the right view): -4 to 4.
+WHOLE_OFFSETS = np.arange(-4, 5, dtype=np.float64)
+
+#: The offsets tried then around each tile's best whole one: -1 to 1 by a quarter.
+FINE_OFFSETS = np.arange(-4, 5) / 4.0
+
+#: The spacing (pixels) of the grid of left pixels the patches are taken from.
+SAMPLE_STEP = 4
+
+#: The most patches a tile measures (those of most vertical texture).
+TILE_PATCHES = 64
+
+#: The fewest patches a tile needs to give an offset.
+MIN_PATCHES = 12
+
+#: The least mean absolute difference between neighbouring rows (gray levels) of a patch
+#: that is measured: flat patches say nothing about rows.
+MIN_TEXTURE = 1.0
+
+#: The largest offset (rows, over the image) below which the views are left as they are:
+#: the interpolation's smoothing costs about what so small a correction gains.
+MIN_OFFSET = 0.25
+
+#: The most a tile's distance from a field counts when fields are compared (rows).
+OUTLIER = 0.5
+
+
+@nb.njit(cache=True)
+def _rows_at(view, top, x0, side, span, out):
+    """Write ``side`` rows of ``span`` columns of ``view`` into ``out``; False if beyond it.
+
+    From row ``top`` (a fraction: linearly interpolated between rows) and column ``x0``.
+    """
+    height, width = view.shape
+    r0 = int(np.floor(top))
+    frac = top - r0
+    if r0 < 0 or r0 + side >= height or x0 < 0 or x0 + span > width:
+        return False
+    for a in range(side):
+        for c in range(span):
+            out[a, c] = (1.0 - frac) * view[r0 + a, x0 + c] + frac * view[r0 + a + 1, x0 + c]
+    return True
+
+
+@nb.njit(cache=True)
+def patch_curves(left, right, ys, xs, xr, centres, offsets, radius, reach, out):
+    """Write each patch's cost at each vertical offset into ``out`` (``(N, len(offsets))``).
+
+    ``left`` and ``right`` are the views' intensities (float64, ``(H, W)``). At offset
+    ``o = centres[i] + offsets[j]``, patch ``i`` is the ``(2 radius + 1)^2`` left pixels
+    around row ``ys[i] - o / 2`` and column ``xs[i]``, matched against the right pixels
+    around row ``ys[i] + o / 2`` and column ``xr[i] + dx`` for every ``dx`` in
+    ``-reach..reach``; both views are interpolated linearly between their rows, by the
+    same fraction, so that neither patch is smoother than the other (interpolating one
+    view alone favours whole rows). The cost is the sum of the absolute differences of the
+    two patches with their means taken away, the least over ``dx``, lowered to the vertex
+    of the V through it and its two neighbours (``b - |a - c| / 2``: the cost at the best
+    fraction of a column, so that a slanted edge does not trade a fraction of a column for
+    one of a row); ``inf`` where a patch leaves a view.
+    """
+    side = 2 * radius + 1
+    size = side * side
+    span = side + 2 * reach  # the right columns the patches at every dx read
+    patch = np.empty((side, side))
+    rows = np.empty((side, span))
+    column_sums = np.empty(span)
+    sads = np.empty(2 * reach + 1)
+    for i in range(ys.size):
+        for j in range(offsets.size):
+            out[i, j] = np.inf
+            half = 0.5 * (centres[i] + offsets[j])
+            x0 = xr[i] - reach - radius
+            if not _rows_at(left, ys[i] - radius - half, xs[i] - radius, side, side, patch):
+                continue
+            if not _rows_at(right, ys[i] - radius + half, x0, side, span, rows):
+                continue
+            mean = patch.sum() / size
+            for c in range(span):
+                column_sums[c] = rows[:, c].sum()
+            for dx in range(2 * reach + 1):
+                rmean = column_sums[dx : dx + side].sum() / size
+                total = 0.0
+                for a in range(side):
+                    for b in range(side):
+                        total += abs((patch[a, b] - mean) - (rows[a, dx + b] - rmean))
+                sads[dx] = total
+            k = np.argmin(sads)
+            best = sads[k]
+            if 0 < k < 2 * reach:
+                best -= 0.5 * abs(sads[k - 1] - sads[k + 1])  # the V through the three
+            out[i, j] = best
+
+
+@nb.njit(cache=True)
+def row_texture(luma, ys, xs, radius):
+    """Return each patch's mean absolute difference between neighbouring rows.
+
+    The ``(2 radius + 1)^2`` patch around ``(ys[i], xs[i])`` of ``luma``: the mean of
+    ``|luma[y + 1, x] - luma[y, x]|`` over its ``2 radius`` pairs of rows and its columns.
+    """
+    side = 2 * radius + 1
+    out = np.empty(ys.size)
+    for i in range(ys.size):
+        total = 0.0
+        for a in range(-radius, radius):
+            for b in range(-radius, radius + 1):
+                total += abs(luma[ys[i] + a + 1, xs[i] + b] - luma[ys[i] + a, xs[i] + b])
+        out[i] = total / (side * (side - 1))
+    return out
+
+
+@dataclass(frozen=True)
+class RowField:
+    """Where each pixel of the left view's rows lies in the right view: a smooth field.
+
+    ``offset(x, y) = a + b u + c v + e u v + f v^2`` rows, ``u = x / W - 0.5`` and
+    ``v = y / H - 0.5`` for a right pixel ``(x, y)`` of a ``W x H`` view, ``u`` and ``v``
+    held within the measured tiles' centres (no extrapolation past them): the right view's
+    row ``y + offset`` shows what the left's row ``y`` shows.
+
+    Attributes
+    ----------
+    coefficients : ndarray of float64, shape (5,)
+        ``(a, b, c, e, f)``, rows.
+    tiles : ndarray of float64, shape (T, 4)
+        The tiles measured: the mean row and column (right view) of their patches, their
+        offset and their number of patches.
+    width, height : int
+        The views' size.
+    """
+
+    coefficients: np.ndarray
+    tiles: np.ndarray
+    width: int
+    height: int
+
+    def offsets(self) -> np.ndarray:
+        """Return the offset of every right pixel, rows: float64 ``(H, W)``."""
+        u = np.arange(self.width, dtype=np.float64) / self.width - 0.5
+        v = np.arange(self.height, dtype=np.float64) / self.height - 0.5
+        tile_u, tile_v = self.tiles[:, 1] / self.width - 0.5, self.tiles[:, 0] / self.height - 0.5
+        u = np.clip(u, tile_u.min(), tile_u.max())[np.newaxis, :]
+        v = np.clip(v, tile_v.min(), tile_v.max())[:, np.newaxis]
+        a, b, c, e, f = self.coefficients
+        return a + b * u + c * v + e * u * v + f * v * v
+
+    def largest(self) -> float:
+        """Return the largest absolute offset over the view (rows)."""
+        return float(np.abs(self.offsets()).max())
+
+
+def _terms(u, v, count):
+    """Return the field's first ``count`` terms at ``u``, ``v``, as columns."""
+    return np.stack([np.ones_like(u), u, v, u * v, v * v][:count], axis=1)
+
+
+def _robust_fit(terms, offsets, weights):
+    """Weighted least squares, twice: the second without the tiles far from the first fit.
+
+    Far: more than ``max(0.25, 2.5 x the median distance)`` rows. Returns the coefficients
+    and the tiles kept.
+    """
+    keep = np.ones(len(offsets), dtype=bool)
+    for _ in range(2):
+        coefficients = np.linalg.lstsq(
+            terms[keep] * weights[keep, None], offsets[keep] * weights[keep], rcond=None
+        )[0]
+        residual = np.abs(terms @ coefficients - offsets)
+        far = residual > max(0.25, 2.5 * float(np.median(residual)))
+        if len(offsets) - far.sum() < terms.shape[1] + 2:
+            break
+        keep = ~far
+    return coefficients, keep
+
+
+def fit_field(tiles: np.ndarray, width: int, height: int) -> RowField:
+    """Return the field through the ``tiles`` (rows ``(y, x, offset, patches)``).
+
+    Of the fields of one, three (``a + b u + c v``) and five terms, each fitted by
+    :func:`_robust_fit` (each tile weighing the square root of its patches) where there are
+    at least two tiles more than its terms, the one of least Bayesian information criterion
+    ``n log(E / n) + k log(n)`` over all ``n`` tiles, ``E`` the weighted sum of the squared
+    distances of the tiles from the field, each at most :data:`OUTLIER` rows: a term must
+    pay for itself, and a tile no field explains counts alike for all.
+    """
+    u = tiles[:, 1] / width - 0.5
+    v = tiles[:, 0] / height - 0.5
+    weights = np.sqrt(tiles[:, 3])
+    offsets = tiles[:, 2]
+    n = len(tiles)
+    best, chosen = np.inf, None
+    for count in (1, 3, 5):
+        if count > 1 and n < count + 2:
+            break
+        terms = _terms(u, v, count)
+        coefficients, _ = _robust_fit(terms, offsets, weights)
+        distance = np.minimum(np.abs(terms @ coefficients - offsets), OUTLIER)
+        error = max(float(np.sum(weights**2 * distance**2)), 1e-12)
+        score = n * np.log(error / n) + count * np.log(n)
+        if score < best:
+            best, chosen = score, (count, coefficients)
+    full = np.zeros(5)
+    full[: chosen[0]] = chosen[1]
+    return RowField(full, tiles, width, height)
+
+
+def tile_of(ys, xr, width, height):
+    """Return the tile (``row * GRID + column``) of right pixels ``(ys, xr)``."""
+    column = np.clip(xr, 0, width - 1) * GRID // width
+    return np.minimum(ys * GRID // height, GRID - 1) * GRID + column
+
+
+def tile_minima(curves, tiles, offsets, refine):
+    """Return each tile's least summed cost: ``{tile: (offset, patches)}``.
+
+    Each curve (a row of ``curves``, over ``offsets``) is divided by its median, so that
+    every patch counts alike whatever its contrast; a tile's curves are summed. A tile with
+    fewer than :data:`MIN_PATCHES` patches, or whose least lies at an end of ``offsets``,
+    gives none. With ``refine``, the least is moved to the vertex of the parabola through
+    it and its two neighbours.
+    """
+    scaled = curves / np.maximum(np.median(curves, axis=1, keepdims=True), 1e-9)
+    step = offsets[1] - offsets[0]
+    out = {}
+    for tile in np.unique(tiles):
+        here = tiles == tile
+        if here.sum() < MIN_PATCHES:
+            continue
+        total = scaled[here].sum(axis=0)
+        j = int(np.argmin(total))
+        if j == 0 or j == len(offsets) - 1:
+            continue
+        shift = 0.0
+        if refine:
+            below, least, above = total[j - 1], total[j], total[j + 1]
+            bend = below - 2.0 * least + above
+            shift = 0.5 * (below - above) / bend if bend > 0 else 0.0
+        out[int(tile)] = (offsets[j] + shift * step, int(here.sum()))
+    return out
+
+
+def pick_patches(luma_l, coarse, factor):
+    """Return the left pixels measured and the (rounded) coarse disparity there: ``(ys, xs, d)``.
+
+    ``luma_l``: the left intensity, gray levels (float64); ``coarse``: the coarse pass's
+    disparities (``factor`` times smaller each way, NaN: none). On a grid of
+    :data:`SAMPLE_STEP` pixels, inside the view by a patch and a row, where the coarse pass
+    kept an estimate and the patch's :func:`row_texture` reaches :data:`MIN_TEXTURE`; per
+    tile of the right view the :data:`TILE_PATCHES` of most such texture.
+    """
+    height, width = luma_l.shape
+    r = PATCH_RADIUS
+    ys, xs = np.mgrid[r + 1 : height - r - 1 : SAMPLE_STEP, r : width - r : SAMPLE_STEP]
+    ys, xs = ys.ravel(), xs.ravel()
+    cy = np.minimum(ys // factor, coarse.shape[0] - 1)
+    cx = np.minimum(xs // factor, coarse.shape[1] - 1)
+    d = coarse[cy, cx] * factor
+    known = np.isfinite(d)
+    ys, xs, d = ys[known], xs[known], np.rint(d[known]).astype(np.int64)
+    texture = row_texture(luma_l, ys, xs, r)
+    good = texture >= MIN_TEXTURE
+    ys, xs, d, texture = ys[good], xs[good], d[good], texture[good]
+    tile = tile_of(ys, xs - d, width, height)
+    order = np.lexsort((-texture, tile))  # by tile, the most texture first
+    first = np.searchsorted(tile[order], np.arange(GRID * GRID))
+    keep = np.zeros(order.size, dtype=bool)
+    for a, b in zip(first, np.append(first[1:], order.size), strict=True):
+        keep[order[a : min(b, a + TILE_PATCHES)]] = True
+    return ys[keep], xs[keep], d[keep]
+
+
+def estimate_from(luma_l, luma_r, coarse, factor):
+    """Return the :class:`RowField` of two intensities (gray levels) and a coarse disparity.
+
+    ``coarse``: a left disparity map ``factor`` times smaller each way (NaN: none). The
+    patches (:func:`pick_patches`) are matched at the whole offsets
+    :data:`WHOLE_OFFSETS` first; each tile's least summed cost (:func:`tile_minima`) gives
+    the centre of its :data:`FINE_OFFSETS`, whose least, refined by a parabola, is the
+    tile's offset; :func:`fit_field` fits the field through the tiles. None where no tile
+    could be measured.
+    """
+    left = np.ascontiguousarray(luma_l, dtype=np.float64)
+    right = np.ascontiguousarray(luma_r, dtype=np.float64)
+    height, width = left.shape
+    ys, xs, d = pick_patches(left, coarse, factor)
+    xr = xs - d
+    tiles = tile_of(ys, xr, width, height)
+    centres = np.zeros(ys.size)
+    whole = np.empty((ys.size, WHOLE_OFFSETS.size))
+    patch_curves(left, right, ys, xs, xr, centres, WHOLE_OFFSETS, PATCH_RADIUS, X_REACH, whole)
+    measured = np.all(np.isfinite(whole), axis=1)
+    coarse_best = tile_minima(whole[measured], tiles[measured], WHOLE_OFFSETS, False)
+    chosen = np.isin(tiles, list(coarse_best))
+    ys, xs, xr, tiles = ys[chosen], xs[chosen], xr[chosen], tiles[chosen]
+    centres = np.array([coarse_best[t][0] for t in tiles], dtype=np.float64)
+    fine = np.empty((ys.size, FINE_OFFSETS.size))
+    patch_curves(left, right, ys, xs, xr, centres, FINE_OFFSETS, PATCH_RADIUS, X_REACH, fine)
+    measured = np.all(np.isfinite(fine), axis=1)
+    rows = []
+    for tile, (offset, count) in tile_minima(
+        fine[measured], tiles[measured], FINE_OFFSETS, True
+    ).items():
+        here = measured & (tiles == tile)
+        rows.append((ys[here].mean(), xr[here].mean(), coarse_best[tile][0] + offset, count))
+    if not rows:
+        return None
+    return fit_field(np.array(rows, dtype=np.float64), width, height)
+
+
+@nb.njit(cache=True)
+def _shift_rows(signal, offsets, out):
+    channels, height, width = signal.shape
+    for y in range(height):
+        for x in range(width):
+            source = y + offsets[y, x]
+            r0 = int(np.floor(source))
+            frac = source - r0
+            if r0 < 0:
+                r0, frac = 0, 0.0
+            elif r0 >= height - 1:
+                r0, frac = height - 1, 0.0
+            r1 = min(r0 + 1, height - 1)
+            for c in range(channels):
+                value = (1.0 - frac) * signal[c, r0, x] + frac * signal[c, r1, x]
+                out[c, y, x] = np.floor(value + 0.5)
+
+
+def shift_rows(signal: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Return ``signal`` with each pixel taken ``offsets`` rows lower (linearly interpolated).
+
+    ``signal``: ``(H, W)`` or ``(C, H, W)`` integers (an intensity, colour channels);
+    ``offsets``: ``(H, W)`` rows (:meth:`RowField.offsets`). Pixel ``(y, x)`` takes the
+    value at row ``y + offsets[y, x]`` of its column, rounded half up; rows beyond the
+    view repeat its first or last row. The dtype is kept.
+    """
+    array = np.asarray(signal)
+    planes = array[np.newaxis] if array.ndim == 2 else array
+    out = np.empty(planes.shape, dtype=array.dtype)
+    _shift_rows(np.ascontiguousarray(planes), np.asarray(offsets, dtype=np.float64), out)
+    return out[0] if array.ndim == 2 else out
