@@ -215,7 +215,7 @@ def fit_field(tiles: np.ndarray, width: int, height: int) -> RowField:
     """Return the field through the ``tiles`` (rows ``(y, x, offset, patches)``).
 
     Of the fields of one, three (``a + b u + c v``) and five terms, each fitted by
-    :func:`_robust_fit` (each tile weighing the square root of its patches) where there are
+    ``_robust_fit`` (each tile weighing the square root of its patches) where there are
     at least two tiles more than its terms, the one of least Bayesian information criterion
     ``n log(E / n) + k log(n)`` over all ``n`` tiles, ``E`` the weighted sum of the squared
     distances of the tiles from the field, each at most :data:`OUTLIER` rows: a term must
