@@ -16,7 +16,8 @@ own: its bands read :data:`dcstereo.methods.sgm.STRIP_MARGIN` more rows of conte
 (as its own strips do, :mod:`dcstereo.methods.sgm`), and the result equals the whole-image one
 where a band's context reaches the image's edges, and differs slightly near the seams
 otherwise. Its fill (which searches across rows) and then its median run once on the
-stitched map.
+stitched map. Its ``row_alignment`` measures the rows' offsets once, on the whole pair
+(:func:`dcstereo.methods.sgm.sgm_row_field`), and the bands match the right view so moved.
 """
 
 from dataclasses import dataclass, replace
@@ -25,8 +26,9 @@ import numpy as np
 
 from dcstereo._checks import is_integer
 from dcstereo.api import match
+from dcstereo.costs.row_offsets import MIN_OFFSET, shift_image_rows
 from dcstereo.methods._pipeline import median_post_filter
-from dcstereo.methods.sgm import STRIP_MARGIN
+from dcstereo.methods.sgm import STRIP_MARGIN, sgm_row_field
 from dcstereo.params import MatchParams
 from dcstereo.refine.consistency import fill_inconsistent
 from dcstereo.result import DisparityResult
@@ -158,6 +160,11 @@ def match_tiled(
     bands = row_bands(height, tile_rows, params.window, context)
     if params.median or across:  # read rows of the neighbouring bands: once, on the whole
         match_kwargs = {**match_kwargs, "median": 0, "fill": False}
+    if across and params.row_alignment == "estimated":  # one field for the whole pair
+        field = sgm_row_field(left, right, params)
+        if field is not None and field.largest() >= MIN_OFFSET:
+            right = shift_image_rows(right, field.offsets())
+        match_kwargs = {**match_kwargs, "row_alignment": None}
     if client is None:
         parts = [
             match(

@@ -18,8 +18,8 @@ interpolated between its rows, :func:`patch_curves`). Per tile of a
 offset, and a smooth field through the tiles (:class:`RowField`) gives each right pixel
 its own: ``a + b u + c v + e u v + f v^2`` with ``u``, ``v`` the pixel's place across
 and down the image (from -0.5 to 0.5), the terms a small turn of one camera about each
-axis and a difference of scale make. :func:`shift_rows` then moves the right view's
-signals by it (linear interpolation between rows) before the costs.
+axis and a difference of scale make. :func:`shift_image_rows` then moves the right view by it
+(linear interpolation between rows) before the costs.
 """
 
 from dataclasses import dataclass
@@ -346,7 +346,7 @@ def estimate_from(luma_l, luma_r, coarse, factor):
 
 
 @nb.njit(cache=True)
-def _shift_rows(signal, offsets, out):
+def _shift_rows(signal, offsets, rounded, out):
     channels, height, width = signal.shape
     for y in range(height):
         for x in range(width):
@@ -360,19 +360,34 @@ def _shift_rows(signal, offsets, out):
             r1 = min(r0 + 1, height - 1)
             for c in range(channels):
                 value = (1.0 - frac) * signal[c, r0, x] + frac * signal[c, r1, x]
-                out[c, y, x] = np.floor(value + 0.5)
+                out[c, y, x] = np.floor(value + 0.5) if rounded else value
 
 
 def shift_rows(signal: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     """Return ``signal`` with each pixel taken ``offsets`` rows lower (linearly interpolated).
 
-    ``signal``: ``(H, W)`` or ``(C, H, W)`` integers (an intensity, colour channels);
+    ``signal``: ``(H, W)`` or ``(C, H, W)`` numbers (an intensity, colour channels);
     ``offsets``: ``(H, W)`` rows (:meth:`RowField.offsets`). Pixel ``(y, x)`` takes the
-    value at row ``y + offsets[y, x]`` of its column, rounded half up; rows beyond the
-    view repeat its first or last row. The dtype is kept.
+    value at row ``y + offsets[y, x]`` of its column, rounded half up for an integer dtype;
+    rows beyond the view repeat its first or last row. The dtype is kept (a value between
+    two of the dtype's lies within its range).
     """
     array = np.asarray(signal)
     planes = array[np.newaxis] if array.ndim == 2 else array
     out = np.empty(planes.shape, dtype=array.dtype)
-    _shift_rows(np.ascontiguousarray(planes), np.asarray(offsets, dtype=np.float64), out)
+    rounded = bool(np.issubdtype(array.dtype, np.integer))
+    _shift_rows(np.ascontiguousarray(planes), np.asarray(offsets, dtype=np.float64), rounded, out)
     return out[0] if array.ndim == 2 else out
+
+
+def shift_image_rows(image: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Return an image (``(H, W)`` or ``(H, W, C)``) moved by :func:`shift_rows`.
+
+    The right view as ``row_alignment`` matches it, for any method or another matcher:
+    ``shift_image_rows(right, field.offsets())`` with the field of
+    :func:`dcstereo.methods.sgm.sgm_row_field`. The dtype is kept.
+    """
+    array = np.asarray(image)
+    if array.ndim == 2:
+        return shift_rows(array, offsets)
+    return np.moveaxis(shift_rows(np.moveaxis(array, 2, 0), offsets), 0, 2)

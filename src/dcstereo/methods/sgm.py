@@ -401,12 +401,12 @@ def _coarse_pass(colour_l, colour_r, params):
     return result.disparity
 
 
-def _aligned_views(luma_l, luma_r, colour_l, colour_r, params):
-    """Return the right view's intensity and channels after ``row_alignment`` and ``photometric``.
+def _aligned_views(left, right, luma_l, colour_l, colour_r, params):
+    """Return the right view and its channels after ``row_alignment`` and ``photometric``.
 
     Both read the coarse pass (:func:`_coarse_pass`, run once for the two). With
     ``row_alignment="estimated"``, the right view's rows are moved onto the left's
-    (:func:`~dcstereo.costs.row_offsets.shift_rows`) by the field
+    (:func:`~dcstereo.costs.row_offsets.shift_image_rows`) by the field
     :func:`~dcstereo.costs.row_offsets.estimate_from` measures, where it reaches
     :data:`~dcstereo.costs.row_offsets.MIN_OFFSET` somewhere; with
     ``photometric="matched"``, the right view's channels are then mapped onto the left's
@@ -414,22 +414,21 @@ def _aligned_views(luma_l, luma_r, colour_l, colour_r, params):
     keeps its right view.
     """
     if params.row_alignment is None and params.photometric is None:
-        return luma_r, colour_r
+        return right, colour_r
     coarse = _coarse_pass(colour_l, colour_r, params)
     if coarse is None:
-        return luma_r, colour_r
+        return right, colour_r
     factor = photometric.COARSE_FACTOR
     if params.row_alignment == "estimated":
         field = row_offsets.estimate_from(
-            luma_l / SIGNAL_STEPS, luma_r / SIGNAL_STEPS, coarse, factor
+            luma_l / SIGNAL_STEPS, padded_signal(right, 0) / SIGNAL_STEPS, coarse, factor
         )
         if field is not None and field.largest() >= row_offsets.MIN_OFFSET:
-            offsets = field.offsets()
-            luma_r = row_offsets.shift_rows(luma_r, offsets)
-            colour_r = row_offsets.shift_rows(colour_r, offsets)
+            right = row_offsets.shift_image_rows(right, field.offsets())
+            colour_r = colour_channels(left, right)[1]
     if params.photometric == "matched":
         colour_r = photometric.align_right(colour_l, colour_r, coarse, factor)
-    return luma_r, colour_r
+    return right, colour_r
 
 
 def sgm_row_field(left: np.ndarray, right: np.ndarray, params: MatchParams):
@@ -466,10 +465,10 @@ def _run_threads(left, right, params, want_confidence):
     codes_r = np.empty((height, width), dtype=kind)
     luma_l = padded_signal(left, 0)
     colour_l, colour_r = colour_channels(left, right)
-    luma_r, colour_r = _aligned_views(luma_l, padded_signal(right, 0), colour_l, colour_r, params)
+    right, colour_r = _aligned_views(left, right, luma_l, colour_l, colour_r, params)
     sigma = params.census_smoothing
     _census(smooth_signal(luma_l, sigma), rows, cols, codes_l, params.census_step)
-    _census(smooth_signal(luma_r, sigma), rows, cols, codes_r, params.census_step)
+    _census(smooth_signal(padded_signal(right, 0), sigma), rows, cols, codes_r, params.census_step)
     guide = colour_l if params.aggregation is not None else None
     guide_r = colour_r if params.aggregation == "cross-both" else None
     if params.cost == "census":
