@@ -106,6 +106,7 @@ OTHER_VALUES = {
     "census_step": 2,
     "census_smoothing": 1.0,
     "photometric": "matched",
+    "row_alignment": "estimated",
     "aggregation": "cross",
     "cross_limit": 9,
     "cross_tau": 12,

@@ -796,7 +796,7 @@ def test_stage_options_are_assumed_off_in_older_folders(pairs_dir, tmp_path):
     run_batch(pairs, out, max_disparity=MAX_DISPARITY, method="dc")
     recorded = json.loads((out / "batch.json").read_text())
     stages = ("planes", "aggregation", "cross_limit", "cross_tau", "cross_iterations",
-              "census_step", "photometric", "census_smoothing")  # fmt: skip
+              "census_step", "photometric", "census_smoothing", "row_alignment")  # fmt: skip
     for name in stages:
         assert recorded[name] == ASSUMED_OPTIONS[name], name
         del recorded[name]
@@ -805,3 +805,5 @@ def test_stage_options_are_assumed_off_in_older_folders(pairs_dir, tmp_path):
     assert skipped == [p.name for p in pairs]
     with pytest.raises(ValueError, match=r"census_smoothing 0.0 \(now 1.2\)"):
         run_batch(pairs, out, max_disparity=MAX_DISPARITY, census_smoothing=1.2)
+    with pytest.raises(ValueError, match=r"row_alignment None \(now estimated\)"):
+        run_batch(pairs, out, max_disparity=MAX_DISPARITY, row_alignment="estimated")
