@@ -436,6 +436,47 @@ def test_estimate_from_finds_a_known_field(truth, wrong):
     assert np.all(field.tiles[:, 1] < width) and np.all(field.tiles[:, 0] < height)
 
 
+# Measured (seed 1, the views' noise seed 5): the mean offset's error for noise of sigma 10
+# (5, 20) at true offsets 0, 0.3 and 0.6: at most 0.037 (0.026, 0.066) with the smoothing,
+# 0.167 (0.077, 0.370) without it: interpolating between rows averages two rows' noise, and
+# the costs lean towards the offsets halfway between rows.
+NOISY_BOUND = 0.06
+
+
+@pytest.mark.parametrize("truth", [0.0, 0.3, 0.6])
+def test_estimate_from_a_noisy_pair_does_not_lean_towards_half_rows(truth, monkeypatch):
+    height, width, disparity = 240, 320, 12
+    left, right = moved_pair(waves(1, 80), height, width, disparity, five_terms(truth, 0, 0, 0, 0))
+    rng = np.random.default_rng(5)
+    left = left + rng.normal(0.0, 10.0, left.shape)
+    right = right + rng.normal(0.0, 10.0, right.shape)
+    coarse = np.full((height // 4, width // 4), disparity / 4, dtype=np.float32)
+    field = row_offsets.estimate_from(left, right, coarse, 4)
+    assert abs(field.offsets().mean() - truth) < NOISY_BOUND
+    if truth == 0.6:  # without the smoothing, the bound fails: it measures the smoothing
+        monkeypatch.setattr(row_offsets, "SMOOTHING", 0.0)
+        field = row_offsets.estimate_from(left, right, coarse, 4)
+        assert abs(field.offsets().mean() - truth) > NOISY_BOUND
+
+
+def test_gaussian_smooth_equals_a_plain_convolution():
+    rng = np.random.default_rng(2)
+    image = rng.uniform(0, 255, (9, 11))
+    sigma = 0.8
+    radius = 3
+    taps = np.exp(-0.5 * (np.arange(-radius, radius + 1) / sigma) ** 2)
+    taps /= taps.sum()
+    padded = np.pad(image, radius, mode="edge")
+    expected = np.zeros_like(image)
+    for y in range(9):
+        for x in range(11):
+            window = padded[y : y + 2 * radius + 1, x : x + 2 * radius + 1]
+            expected[y, x] = taps @ window @ taps
+    assert np.allclose(row_offsets.gaussian_smooth(image, sigma), expected, rtol=1e-12)
+    assert row_offsets.gaussian_smooth(image, 0.0) is not None
+    assert np.array_equal(row_offsets.gaussian_smooth(image, 0.0), image)
+
+
 def test_estimate_from_an_aligned_pair_is_near_zero_and_none_without_patches():
     height, width = 128, 192
     left, right = moved_pair(waves(2, 80), height, width, 8, five_terms(0, 0, 0, 0, 0))
@@ -561,16 +602,18 @@ PIPELINE = {"photometric": "matched", "planes": True, "median": "weighted-planes
 @pytest.mark.dataset
 def test_row_alignment_keeps_its_measured_accuracy_on_playtable(middlebury_root):
     # Middlebury 2014's Playtable (quarter size) is given imperfectly rectified: 16.689
-    # without the alignment (10.486 when the intensities were moved rather than the image)
+    # without the alignment (10.486 with the intensities moved rather than the image and
+    # no smoothing before the patches, 10.857 with the image moved as uint8)
     if not (middlebury_root / "Playtable").is_dir():
         pytest.skip("Playtable not found")
     bad = middlebury_bad1(middlebury_root, "Playtable", row_alignment="estimated", **PIPELINE)
-    assert bad <= 10.857 + 0.01, f"Playtable: bad-1.0 {bad:.3f} % > 10.857"
+    assert bad <= 9.431 + 0.01, f"Playtable: bad-1.0 {bad:.3f} % > 9.431"
 
 
 @pytest.mark.slow
 @pytest.mark.dataset
 def test_row_alignment_keeps_its_measured_d1_outdoors():
     d1 = kitti_d1("kitti2012_000030_10", row_alignment="estimated", **PIPELINE)
-    # 3.236 without the alignment (0.666 when the intensities were moved, not the image)
-    assert d1 <= 0.704 + 0.01, f"D1 {d1:.3f} % > 0.704"
+    # 3.236 without the alignment (0.666 with the intensities moved and no smoothing before
+    # the patches, 0.704 with the image moved as uint8)
+    assert d1 <= 0.657 + 0.01, f"D1 {d1:.3f} % > 0.657"

@@ -26,7 +26,7 @@ import numpy as np
 
 from dcstereo._checks import is_integer
 from dcstereo.api import match
-from dcstereo.costs.row_offsets import MIN_OFFSET, shift_image_rows
+from dcstereo.costs.row_offsets import MIN_OFFSET, moved_view
 from dcstereo.methods._pipeline import median_post_filter
 from dcstereo.methods.sgm import STRIP_MARGIN, sgm_row_field
 from dcstereo.params import MatchParams
@@ -163,7 +163,7 @@ def match_tiled(
     if across and params.row_alignment == "estimated":  # one field for the whole pair
         field = sgm_row_field(left, right, params)
         if field is not None and field.largest() >= MIN_OFFSET:
-            right = shift_image_rows(right, field.offsets())
+            right = moved_view(right, field.offsets())
         match_kwargs = {**match_kwargs, "row_alignment": None}
     if client is None:
         parts = [

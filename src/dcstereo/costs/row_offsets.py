@@ -62,6 +62,31 @@ MIN_OFFSET = 0.25
 #: The most a tile's distance from a field counts when fields are compared (rows).
 OUTLIER = 0.5
 
+#: The sigma (pixels) of the Gaussian that smooths both intensities before the patches are
+#: matched. Between rows, interpolation averages two rows' noise, so that without it a
+#: noisy pair's costs are least at the offsets that interpolate most (halfway between
+#: rows) and the tiles' offsets lean towards them; smoothed first, the noise of
+#: neighbouring rows is alike and their average hardly less noisy.
+SMOOTHING = 1.0
+
+
+def gaussian_smooth(image: np.ndarray, sigma: float) -> np.ndarray:
+    """Return ``image`` (float64, ``(H, W)``) smoothed by a Gaussian of ``sigma`` pixels.
+
+    Separable, truncated at ``3 sigma`` (at least one pixel), the edges repeated; ``sigma``
+    0 returns the image as it is.
+    """
+    if sigma == 0:
+        return np.ascontiguousarray(image)
+    radius = max(1, int(np.ceil(3 * sigma)))
+    taps = np.exp(-0.5 * (np.arange(-radius, radius + 1) / sigma) ** 2)
+    taps /= taps.sum()
+    padded = np.pad(image, radius, mode="edge")
+    rows = sum(w * padded[k : k + image.shape[0], :] for k, w in enumerate(taps))
+    return np.ascontiguousarray(
+        sum(w * rows[:, k : k + image.shape[1]] for k, w in enumerate(taps))
+    )
+
 
 @nb.njit(cache=True)
 def _rows_at(view, top, x0, side, span, out):
@@ -92,9 +117,9 @@ def patch_curves(left, right, ys, xs, xr, centres, offsets, radius, reach, out):
     same fraction, so that neither patch is smoother than the other (interpolating one
     view alone favours whole rows). The cost is the sum of the absolute differences of the
     two patches with their means taken away, the least over ``dx``, lowered to the vertex
-    of the V through it and its two neighbours (``b - |a - c| / 2``: the cost at the best
-    fraction of a column, so that a slanted edge does not trade a fraction of a column for
-    one of a row); ``inf`` where a patch leaves a view.
+    of the V through it and its two neighbours (``b - |a - c| / 2``, at least 0: the cost at
+    the best fraction of a column, so that a slanted edge does not trade a fraction of a
+    column for one of a row); ``inf`` where a patch, or the row after it, leaves a view.
     """
     side = 2 * radius + 1
     size = side * side
@@ -125,7 +150,7 @@ def patch_curves(left, right, ys, xs, xr, centres, offsets, radius, reach, out):
             k = np.argmin(sads)
             best = sads[k]
             if 0 < k < 2 * reach:
-                best -= 0.5 * abs(sads[k - 1] - sads[k + 1])  # the V through the three
+                best = max(best - 0.5 * abs(sads[k - 1] - sads[k + 1]), 0.0)  # the V
             out[i, j] = best
 
 
@@ -161,8 +186,9 @@ class RowField:
     coefficients : ndarray of float64, shape (5,)
         ``(a, b, c, e, f)``, rows.
     tiles : ndarray of float64, shape (T, 4)
-        The tiles measured: the mean row and column (right view) of their patches, their
-        offset and their number of patches.
+        The tiles measured: the mean row of their patches (the left view's), the mean
+        column of their matches in the right view, their offset and their number of
+        patches.
     width, height : int
         The views' size.
     """
@@ -310,17 +336,18 @@ def pick_patches(luma_l, coarse, factor):
 def estimate_from(luma_l, luma_r, coarse, factor):
     """Return the :class:`RowField` of two intensities (gray levels) and a coarse disparity.
 
-    ``coarse``: a left disparity map ``factor`` times smaller each way (NaN: none). The
-    patches (:func:`pick_patches`) are matched at the whole offsets
+    ``coarse``: a left disparity map ``factor`` times smaller each way (NaN: none). Both
+    intensities are smoothed (:data:`SMOOTHING`); the patches (:func:`pick_patches`, chosen
+    on the left intensity as given) are matched at the whole offsets
     :data:`WHOLE_OFFSETS` first; each tile's least summed cost (:func:`tile_minima`) gives
     the centre of its :data:`FINE_OFFSETS`, whose least, refined by a parabola, is the
     tile's offset; :func:`fit_field` fits the field through the tiles. None where no tile
     could be measured.
     """
-    left = np.ascontiguousarray(luma_l, dtype=np.float64)
-    right = np.ascontiguousarray(luma_r, dtype=np.float64)
+    left = gaussian_smooth(np.asarray(luma_l, dtype=np.float64), SMOOTHING)
+    right = gaussian_smooth(np.asarray(luma_r, dtype=np.float64), SMOOTHING)
     height, width = left.shape
-    ys, xs, d = pick_patches(left, coarse, factor)
+    ys, xs, d = pick_patches(np.asarray(luma_l, dtype=np.float64), coarse, factor)
     xr = xs - d
     tiles = tile_of(ys, xr, width, height)
     centres = np.zeros(ys.size)
@@ -378,6 +405,21 @@ def shift_rows(signal: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     rounded = bool(np.issubdtype(array.dtype, np.integer))
     _shift_rows(np.ascontiguousarray(planes), np.asarray(offsets, dtype=np.float64), rounded, out)
     return out[0] if array.ndim == 2 else out
+
+
+def moved_view(image: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Return the view ``row_alignment`` matches: the image moved, as float32 in [0, 1].
+
+    :func:`shift_image_rows` of the image's values on the [0, 1] scale (uint8 over 255,
+    uint16 over 65535, floats as they are), so that the interpolated values keep their
+    fractions: the intensity that ``sgm`` computes from it is then exact to its 1/16 of a
+    gray level (the image moved as uint8 and rounded lost 0.37 points of bad-1.0 on
+    Playtable).
+    """
+    array = np.asarray(image)
+    if np.issubdtype(array.dtype, np.integer):
+        array = array.astype(np.float32) / np.float32(np.iinfo(array.dtype).max)
+    return shift_image_rows(array.astype(np.float32, copy=False), offsets)
 
 
 def shift_image_rows(image: np.ndarray, offsets: np.ndarray) -> np.ndarray:

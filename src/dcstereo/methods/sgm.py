@@ -406,7 +406,7 @@ def _aligned_views(left, right, luma_l, colour_l, colour_r, params):
 
     Both read the coarse pass (:func:`_coarse_pass`, run once for the two). With
     ``row_alignment="estimated"``, the right view's rows are moved onto the left's
-    (:func:`~dcstereo.costs.row_offsets.shift_image_rows`) by the field
+    (:func:`~dcstereo.costs.row_offsets.moved_view`) by the field
     :func:`~dcstereo.costs.row_offsets.estimate_from` measures, where it reaches
     :data:`~dcstereo.costs.row_offsets.MIN_OFFSET` somewhere; with
     ``photometric="matched"``, the right view's channels are then mapped onto the left's
@@ -424,7 +424,7 @@ def _aligned_views(left, right, luma_l, colour_l, colour_r, params):
             luma_l / SIGNAL_STEPS, padded_signal(right, 0) / SIGNAL_STEPS, coarse, factor
         )
         if field is not None and field.largest() >= row_offsets.MIN_OFFSET:
-            right = row_offsets.shift_image_rows(right, field.offsets())
+            right = row_offsets.moved_view(right, field.offsets())
             colour_r = colour_channels(left, right)[1]
     if params.photometric == "matched":
         colour_r = photometric.align_right(colour_l, colour_r, coarse, factor)
