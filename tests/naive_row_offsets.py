@@ -50,7 +50,8 @@ def patch_curves(left, right, ys, xs, xr, centres, offsets, radius, reach):
     At ``o = centres[i] + offsets[j]``: the left patch around row ``ys[i] - o / 2``, column
     ``xs[i]``; the right patches around row ``ys[i] + o / 2``, columns ``xr[i] + dx``,
     ``dx`` in ``-reach..reach``; the least cost over ``dx``, lowered by half the difference
-    of its two neighbours' costs when it has both (the vertex of the V through the three).
+    of its two neighbours' costs when it has both (the vertex of the V through the three),
+    but not below 0.
     Any patch, at any ``dx``, leaving its view gives ``inf``.
     """
     out = np.full((len(ys), len(offsets)), np.inf)
@@ -68,7 +69,7 @@ def patch_curves(left, right, ys, xs, xr, centres, offsets, radius, reach):
             k = min(range(len(costs)), key=lambda n: (costs[n], n))  # the first least
             best = costs[k]
             if 0 < k < len(costs) - 1:
-                best -= abs(costs[k - 1] - costs[k + 1]) / 2
+                best = max(best - abs(costs[k - 1] - costs[k + 1]) / 2, 0.0)
             out[i, j] = best
     return out
 

@@ -162,8 +162,9 @@ def match_tiled(
         match_kwargs = {**match_kwargs, "median": 0, "fill": False}
     if across and params.row_alignment == "estimated":  # one field for the whole pair
         field = sgm_row_field(left, right, params)
-        if field is not None and field.largest() >= MIN_OFFSET:
-            right = moved_view(right, field.offsets())
+        offsets = None if field is None else field.offsets()
+        if offsets is not None and np.abs(offsets).max() >= MIN_OFFSET:
+            right = moved_view(right, offsets)
         match_kwargs = {**match_kwargs, "row_alignment": None}
     if client is None:
         parts = [

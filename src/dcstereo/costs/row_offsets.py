@@ -71,21 +71,39 @@ SMOOTHING = 1.0
 
 
 def gaussian_smooth(image: np.ndarray, sigma: float) -> np.ndarray:
-    """Return ``image`` (float64, ``(H, W)``) smoothed by a Gaussian of ``sigma`` pixels.
+    """Return ``image`` (``(H, W)``) smoothed by a Gaussian of ``sigma`` pixels, float64.
 
-    Separable, truncated at ``3 sigma`` (at least one pixel), the edges repeated; ``sigma``
-    0 returns the image as it is.
+    Separable (down the columns, then along the rows), truncated at ``3 sigma`` (at least
+    one pixel), the edges repeated; ``sigma`` 0 returns the image as it is (as float64).
     """
+    array = np.ascontiguousarray(image, dtype=np.float64)
     if sigma == 0:
-        return np.ascontiguousarray(image)
+        return array
     radius = max(1, int(np.ceil(3 * sigma)))
     taps = np.exp(-0.5 * (np.arange(-radius, radius + 1) / sigma) ** 2)
-    taps /= taps.sum()
-    padded = np.pad(image, radius, mode="edge")
-    rows = sum(w * padded[k : k + image.shape[0], :] for k, w in enumerate(taps))
-    return np.ascontiguousarray(
-        sum(w * rows[:, k : k + image.shape[1]] for k, w in enumerate(taps))
-    )
+    out = np.empty_like(array)
+    _separable(array, taps / taps.sum(), out)
+    return out
+
+
+@nb.njit(cache=True)
+def _separable(image, taps, out):
+    height, width = image.shape
+    radius = taps.size // 2
+    columns = np.empty((height, width))
+    for y in range(height):
+        for x in range(width):
+            columns[y, x] = 0.0
+        for k in range(taps.size):
+            row = min(max(y + k - radius, 0), height - 1)
+            for x in range(width):
+                columns[y, x] += taps[k] * image[row, x]
+    for y in range(height):
+        for x in range(width):
+            total = 0.0
+            for k in range(taps.size):
+                total += taps[k] * columns[y, min(max(x + k - radius, 0), width - 1)]
+            out[y, x] = total
 
 
 @nb.njit(cache=True)
@@ -139,13 +157,21 @@ def patch_curves(left, right, ys, xs, xr, centres, offsets, radius, reach, out):
                 continue
             mean = patch.sum() / size
             for c in range(span):
-                column_sums[c] = rows[:, c].sum()
+                column_sums[c] = 0.0
+            for a in range(side):
+                for c in range(span):
+                    column_sums[c] += rows[a, c]
             for dx in range(2 * reach + 1):
-                rmean = column_sums[dx : dx + side].sum() / size
+                sads[dx] = 0.0
+            for dx in range(2 * reach + 1):
+                rmean = 0.0
+                for b in range(side):
+                    rmean += column_sums[dx + b]
+                lift = rmean / size - mean  # the right patch's mean over the left's
                 total = 0.0
                 for a in range(side):
                     for b in range(side):
-                        total += abs((patch[a, b] - mean) - (rows[a, dx + b] - rmean))
+                        total += abs(patch[a, b] - rows[a, dx + b] + lift)
                 sads[dx] = total
             k = np.argmin(sads)
             best = sads[k]
@@ -310,7 +336,8 @@ def pick_patches(luma_l, coarse, factor):
     disparities (``factor`` times smaller each way, NaN: none). On a grid of
     :data:`SAMPLE_STEP` pixels, inside the view by a patch and a row, where the coarse pass
     kept an estimate and the patch's :func:`row_texture` reaches :data:`MIN_TEXTURE`; per
-    tile of the right view the :data:`TILE_PATCHES` of most such texture.
+    tile of the right view the :data:`TILE_PATCHES` of most such texture, by tile
+    (:func:`tile_of`) and within a tile the most textured first.
     """
     height, width = luma_l.shape
     r = PATCH_RADIUS
@@ -326,11 +353,9 @@ def pick_patches(luma_l, coarse, factor):
     ys, xs, d, texture = ys[good], xs[good], d[good], texture[good]
     tile = tile_of(ys, xs - d, width, height)
     order = np.lexsort((-texture, tile))  # by tile, the most texture first
-    first = np.searchsorted(tile[order], np.arange(GRID * GRID))
-    keep = np.zeros(order.size, dtype=bool)
-    for a, b in zip(first, np.append(first[1:], order.size), strict=True):
-        keep[order[a : min(b, a + TILE_PATCHES)]] = True
-    return ys[keep], xs[keep], d[keep]
+    rank = np.arange(order.size) - np.searchsorted(tile[order], tile[order])
+    order = order[rank < TILE_PATCHES]
+    return ys[order], xs[order], d[order]
 
 
 def estimate_from(luma_l, luma_r, coarse, factor):
@@ -338,9 +363,9 @@ def estimate_from(luma_l, luma_r, coarse, factor):
 
     ``coarse``: a left disparity map ``factor`` times smaller each way (NaN: none). Both
     intensities are smoothed (:data:`SMOOTHING`); the patches (:func:`pick_patches`, chosen
-    on the left intensity as given) are matched at the whole offsets
-    :data:`WHOLE_OFFSETS` first; each tile's least summed cost (:func:`tile_minima`) gives
-    the centre of its :data:`FINE_OFFSETS`, whose least, refined by a parabola, is the
+    on the left intensity as given) are matched at the whole offsets :data:`WHOLE_OFFSETS`
+    first; each tile's least summed cost (:func:`tile_minima`) gives the centre of its
+    :data:`FINE_OFFSETS`, whose least, refined by a parabola, is the
     tile's offset; :func:`fit_field` fits the field through the tiles. None where no tile
     could be measured.
     """
@@ -350,9 +375,10 @@ def estimate_from(luma_l, luma_r, coarse, factor):
     ys, xs, d = pick_patches(np.asarray(luma_l, dtype=np.float64), coarse, factor)
     xr = xs - d
     tiles = tile_of(ys, xr, width, height)
-    centres = np.zeros(ys.size)
     whole = np.empty((ys.size, WHOLE_OFFSETS.size))
-    patch_curves(left, right, ys, xs, xr, centres, WHOLE_OFFSETS, PATCH_RADIUS, X_REACH, whole)
+    patch_curves(
+        left, right, ys, xs, xr, np.zeros(ys.size), WHOLE_OFFSETS, PATCH_RADIUS, X_REACH, whole
+    )
     measured = np.all(np.isfinite(whole), axis=1)
     coarse_best = tile_minima(whole[measured], tiles[measured], WHOLE_OFFSETS, False)
     chosen = np.isin(tiles, list(coarse_best))
@@ -417,9 +443,29 @@ def moved_view(image: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     Playtable).
     """
     array = np.asarray(image)
-    if np.issubdtype(array.dtype, np.integer):
-        array = array.astype(np.float32) / np.float32(np.iinfo(array.dtype).max)
-    return shift_image_rows(array.astype(np.float32, copy=False), offsets)
+    scale = 1.0 / np.iinfo(array.dtype).max if np.issubdtype(array.dtype, np.integer) else 1.0
+    planes = array[:, :, np.newaxis] if array.ndim == 2 else array
+    out = np.empty(planes.shape, dtype=np.float32)
+    _move_image(planes, np.asarray(offsets, dtype=np.float64), scale, out)
+    return out[:, :, 0] if array.ndim == 2 else out
+
+
+@nb.njit(cache=True)
+def _move_image(image, offsets, scale, out):
+    height, width, channels = image.shape
+    for y in range(height):
+        for x in range(width):
+            source = y + offsets[y, x]
+            r0 = int(np.floor(source))
+            frac = source - r0
+            if r0 < 0:
+                r0, frac = 0, 0.0
+            elif r0 >= height - 1:
+                r0, frac = height - 1, 0.0
+            r1 = min(r0 + 1, height - 1)
+            for c in range(channels):
+                value = (1.0 - frac) * image[r0, x, c] + frac * image[r1, x, c]
+                out[y, x, c] = value * scale
 
 
 def shift_image_rows(image: np.ndarray, offsets: np.ndarray) -> np.ndarray:

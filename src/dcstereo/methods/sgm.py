@@ -423,8 +423,9 @@ def _aligned_views(left, right, luma_l, colour_l, colour_r, params):
         field = row_offsets.estimate_from(
             luma_l / SIGNAL_STEPS, padded_signal(right, 0) / SIGNAL_STEPS, coarse, factor
         )
-        if field is not None and field.largest() >= row_offsets.MIN_OFFSET:
-            right = row_offsets.moved_view(right, field.offsets())
+        offsets = None if field is None else field.offsets()
+        if offsets is not None and np.abs(offsets).max() >= row_offsets.MIN_OFFSET:
+            right = row_offsets.moved_view(right, offsets)
             colour_r = colour_channels(left, right)[1]
     if params.photometric == "matched":
         colour_r = photometric.align_right(colour_l, colour_r, coarse, factor)
