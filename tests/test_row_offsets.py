@@ -473,7 +473,6 @@ def test_gaussian_smooth_equals_a_plain_convolution():
             window = padded[y : y + 2 * radius + 1, x : x + 2 * radius + 1]
             expected[y, x] = taps @ window @ taps
     assert np.allclose(row_offsets.gaussian_smooth(image, sigma), expected, rtol=1e-12)
-    assert row_offsets.gaussian_smooth(image, 0.0) is not None
     assert np.array_equal(row_offsets.gaussian_smooth(image, 0.0), image)
 
 
@@ -544,18 +543,86 @@ def test_a_pair_too_small_for_the_coarse_pass_keeps_its_right_view():
     assert aligned.disparity.tobytes() == plain.disparity.tobytes()
 
 
-def test_tiles_measure_one_field_on_the_whole_pair():
-    # match_tiled measures the field once and gives its bands the moved right view: with
-    # bands whose context reaches both edges of the 64 rows, the whole pair's map
+def test_tiles_measure_one_field_on_the_whole_pair(monkeypatch):
+    # match_tiled measures the field once, on the whole pair, and gives its bands the moved
+    # right view: 192 rows in bands of 32 (each reads 32 + 2 x 32 rows, not the whole)
+    from dcstereo.batch import tiling
+
+    left, right = oblique_pair(0.75, height=192)
+    calls = []
+
+    def counted(*args):
+        calls.append(args)
+        return sgm_row_field(*args)
+
+    monkeypatch.setattr(tiling, "sgm_row_field", counted)
+    options = {"max_disparity": 16, "row_alignment": "estimated"}
+    tiled = tiling.match_tiled(left, right, tile_rows=32, **options)
+    assert len(calls) == 1 and tiled.params.row_alignment == "estimated"
+    moved = row_offsets.moved_view(
+        right, sgm_row_field(left, right, MatchParams(**options)).to_move()
+    )
+    given = tiling.match_tiled(left, moved, tile_rows=32, max_disparity=16)
+    assert tiled.disparity.tobytes() == given.disparity.tobytes()
+    assert tiled.flags.tobytes() == given.flags.tobytes()
+    assert bad_1(tiled) < 1
+
+
+@pytest.mark.parametrize("photometric", [None, "matched"])
+def test_tiles_equal_the_whole_pair_where_their_context_covers_it(photometric):
+    # 64 rows in bands of 32: each band reads the whole image, so tiled equals whole; with
+    # photometric too, the coarse pass of the moved view maps the colours in both
     from dcstereo.batch.tiling import match_tiled
 
     left, right = oblique_pair(0.75, height=64)
-    options = {"max_disparity": 16, "row_alignment": "estimated"}
+    options = {"max_disparity": 16, "row_alignment": "estimated", "photometric": photometric}
     tiled = match_tiled(left, right, tile_rows=32, **options)
     whole = dcstereo.match(left, right, **options)
-    assert tiled.params.row_alignment == "estimated"
     assert tiled.disparity.tobytes() == whole.disparity.tobytes()
     assert bad_1(tiled) < 1
+
+
+def test_moved_view_is_the_image_on_the_unit_scale_moved():
+    rng = np.random.default_rng(4)
+    image = rng.integers(0, 256, (7, 5, 3), dtype=np.uint8)
+    offsets = rng.uniform(-1.5, 1.5, (7, 5))
+    moved = row_offsets.moved_view(image, offsets)
+    assert moved.dtype == np.float32 and moved.shape == image.shape
+    expected = naive.shift_rows(np.moveaxis(image / 255.0, 2, 0), offsets)
+    assert np.allclose(moved, np.moveaxis(expected, 0, 2), rtol=0, atol=1e-6)
+    # the same view from uint16 (x 257) and float images; a gray image stays 2-D
+    assert np.array_equal(moved, row_offsets.moved_view(image.astype(np.uint16) * 257, offsets))
+    assert np.allclose(moved, row_offsets.moved_view(image / 255.0, offsets), atol=1e-7)
+    assert row_offsets.moved_view(image[:, :, 0], offsets).shape == (7, 5)
+    # shift_image_rows keeps the dtype and rounds: the uint8 image moved
+    rounded = row_offsets.shift_image_rows(image, offsets)
+    assert rounded.dtype == np.uint8
+    assert np.array_equal(
+        rounded, np.moveaxis(naive.shift_rows(np.moveaxis(image, 2, 0), offsets), 0, 2)
+    )
+
+
+@pytest.mark.parametrize("dtype", [np.float16, np.longdouble])
+def test_row_alignment_takes_every_float_dtype(dtype):
+    # float16 and longdouble are read as float64 (as padded_signal reads them)
+    left, right = oblique_pair(0.75)
+    left, right = (left / 255.0).astype(dtype), (right / 255.0).astype(dtype)
+    options = {"max_disparity": 16, "row_alignment": "estimated"}
+    result = dcstereo.match(left, right, **options)
+    as_float64 = dcstereo.match(left.astype(np.float64), right.astype(np.float64), **options)
+    assert result.disparity.tobytes() == as_float64.disparity.tobytes()
+    assert bad_1(result) < 1
+
+
+def test_a_field_moves_the_view_only_from_enough_tiles_and_a_quarter_row():
+    def field(offset, count):
+        tiles = np.array([[10.0 + 20 * k, 10.0 + 20 * k, offset, 20] for k in range(count)])
+        return RowField(np.array([offset, 0, 0, 0, 0.0]), tiles, 100, 100)
+
+    assert np.array_equal(field(0.3, 4).to_move(), np.full((100, 100), 0.3))
+    assert field(0.3, 3).to_move() is None  # too few tiles to tell an outlier
+    assert field(0.2, 4).to_move() is None  # under MIN_OFFSET everywhere
+    assert np.array_equal(field(-0.25, 5).to_move(), np.full((100, 100), -0.25))
 
 
 def test_row_alignment_refuses_what_it_cannot_do():
@@ -603,11 +670,12 @@ PIPELINE = {"photometric": "matched", "planes": True, "median": "weighted-planes
 def test_row_alignment_keeps_its_measured_accuracy_on_playtable(middlebury_root):
     # Middlebury 2014's Playtable (quarter size) is given imperfectly rectified: 16.689
     # without the alignment (10.486 with the intensities moved rather than the image and
-    # no smoothing before the patches, 10.857 with the image moved as uint8)
+    # no smoothing before the patches, 10.857 with the image moved as uint8, 9.431 with
+    # photometric's histograms from the coarse pass of the unmoved views)
     if not (middlebury_root / "Playtable").is_dir():
         pytest.skip("Playtable not found")
     bad = middlebury_bad1(middlebury_root, "Playtable", row_alignment="estimated", **PIPELINE)
-    assert bad <= 9.431 + 0.01, f"Playtable: bad-1.0 {bad:.3f} % > 9.431"
+    assert bad <= 9.580 + 0.01, f"Playtable: bad-1.0 {bad:.3f} % > 9.580"
 
 
 @pytest.mark.slow
@@ -615,5 +683,6 @@ def test_row_alignment_keeps_its_measured_accuracy_on_playtable(middlebury_root)
 def test_row_alignment_keeps_its_measured_d1_outdoors():
     d1 = kitti_d1("kitti2012_000030_10", row_alignment="estimated", **PIPELINE)
     # 3.236 without the alignment (0.666 with the intensities moved and no smoothing before
-    # the patches, 0.704 with the image moved as uint8)
-    assert d1 <= 0.657 + 0.01, f"D1 {d1:.3f} % > 0.657"
+    # the patches, 0.704 with the image moved as uint8, 0.657 with photometric's histograms
+    # from the coarse pass of the unmoved views)
+    assert d1 <= 0.645 + 0.01, f"D1 {d1:.3f} % > 0.645"

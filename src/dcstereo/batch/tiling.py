@@ -26,7 +26,7 @@ import numpy as np
 
 from dcstereo._checks import is_integer
 from dcstereo.api import match
-from dcstereo.costs.row_offsets import MIN_OFFSET, moved_view
+from dcstereo.costs.row_offsets import moved_view
 from dcstereo.methods._pipeline import median_post_filter
 from dcstereo.methods.sgm import STRIP_MARGIN, sgm_row_field
 from dcstereo.params import MatchParams
@@ -162,8 +162,8 @@ def match_tiled(
         match_kwargs = {**match_kwargs, "median": 0, "fill": False}
     if across and params.row_alignment == "estimated":  # one field for the whole pair
         field = sgm_row_field(left, right, params)
-        offsets = None if field is None else field.offsets()
-        if offsets is not None and np.abs(offsets).max() >= MIN_OFFSET:
+        offsets = None if field is None else field.to_move()
+        if offsets is not None:
             right = moved_view(right, offsets)
         match_kwargs = {**match_kwargs, "row_alignment": None}
     if client is None:

@@ -62,6 +62,10 @@ MIN_OFFSET = 0.25
 #: The most a tile's distance from a field counts when fields are compared (rows).
 OUTLIER = 0.5
 
+#: The fewest tiles whose field moves a view: a field through fewer has no tile to tell
+#: an outlier by (its robust fit needs three), and the view is left as it is.
+MIN_TILES = 4
+
 #: The sigma (pixels) of the Gaussian that smooths both intensities before the patches are
 #: matched. Between rows, interpolation averages two rows' noise, so that without it a
 #: noisy pair's costs are least at the offsets that interpolate most (halfway between
@@ -238,6 +242,17 @@ class RowField:
         """Return the largest absolute offset over the view (rows)."""
         return float(np.abs(self.offsets()).max())
 
+    def to_move(self) -> np.ndarray | None:
+        """Return :meth:`offsets` where ``row_alignment`` moves the view by them, else None.
+
+        It moves it where the field comes from at least :data:`MIN_TILES` tiles and its
+        largest offset reaches :data:`MIN_OFFSET`.
+        """
+        if len(self.tiles) < MIN_TILES:
+            return None
+        offsets = self.offsets()
+        return offsets if np.abs(offsets).max() >= MIN_OFFSET else None
+
 
 def _terms(u, v, count):
     """Return the field's first ``count`` terms at ``u``, ``v``, as columns."""
@@ -267,7 +282,7 @@ def fit_field(tiles: np.ndarray, width: int, height: int) -> RowField:
     """Return the field through the ``tiles`` (rows ``(y, x, offset, patches)``).
 
     Of the fields of one, three (``a + b u + c v``) and five terms, each fitted by
-    ``_robust_fit`` (each tile weighing the square root of its patches) where there are
+    ``_robust_fit`` (each tile's squared distance weighing its number of patches) where there are
     at least two tiles more than its terms, the one of least Bayesian information criterion
     ``n log(E / n) + k log(n)`` over all ``n`` tiles, ``E`` the weighted sum of the squared
     distances of the tiles from the field, each at most :data:`OUTLIER` rows: a term must
@@ -399,59 +414,13 @@ def estimate_from(luma_l, luma_r, coarse, factor):
 
 
 @nb.njit(cache=True)
-def _shift_rows(signal, offsets, rounded, out):
-    channels, height, width = signal.shape
-    for y in range(height):
-        for x in range(width):
-            source = y + offsets[y, x]
-            r0 = int(np.floor(source))
-            frac = source - r0
-            if r0 < 0:
-                r0, frac = 0, 0.0
-            elif r0 >= height - 1:
-                r0, frac = height - 1, 0.0
-            r1 = min(r0 + 1, height - 1)
-            for c in range(channels):
-                value = (1.0 - frac) * signal[c, r0, x] + frac * signal[c, r1, x]
-                out[c, y, x] = np.floor(value + 0.5) if rounded else value
+def _move_rows(image, offsets, scale, rounded, out):
+    """Write ``image`` (``(H, W, C)``) moved by ``offsets`` rows, times ``scale``, to ``out``.
 
-
-def shift_rows(signal: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """Return ``signal`` with each pixel taken ``offsets`` rows lower (linearly interpolated).
-
-    ``signal``: ``(H, W)`` or ``(C, H, W)`` numbers (an intensity, colour channels);
-    ``offsets``: ``(H, W)`` rows (:meth:`RowField.offsets`). Pixel ``(y, x)`` takes the
-    value at row ``y + offsets[y, x]`` of its column, rounded half up for an integer dtype;
-    rows beyond the view repeat its first or last row. The dtype is kept (a value between
-    two of the dtype's lies within its range).
+    Pixel ``(y, x)`` takes the value at row ``y + offsets[y, x]`` of its column, linearly
+    interpolated, rows beyond the image its first or last; rounded half up with
+    ``rounded``.
     """
-    array = np.asarray(signal)
-    planes = array[np.newaxis] if array.ndim == 2 else array
-    out = np.empty(planes.shape, dtype=array.dtype)
-    rounded = bool(np.issubdtype(array.dtype, np.integer))
-    _shift_rows(np.ascontiguousarray(planes), np.asarray(offsets, dtype=np.float64), rounded, out)
-    return out[0] if array.ndim == 2 else out
-
-
-def moved_view(image: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """Return the view ``row_alignment`` matches: the image moved, as float32 in [0, 1].
-
-    :func:`shift_image_rows` of the image's values on the [0, 1] scale (uint8 over 255,
-    uint16 over 65535, floats as they are), so that the interpolated values keep their
-    fractions: the intensity that ``sgm`` computes from it is then exact to its 1/16 of a
-    gray level (the image moved as uint8 and rounded lost 0.37 points of bad-1.0 on
-    Playtable).
-    """
-    array = np.asarray(image)
-    scale = 1.0 / np.iinfo(array.dtype).max if np.issubdtype(array.dtype, np.integer) else 1.0
-    planes = array[:, :, np.newaxis] if array.ndim == 2 else array
-    out = np.empty(planes.shape, dtype=np.float32)
-    _move_image(planes, np.asarray(offsets, dtype=np.float64), scale, out)
-    return out[:, :, 0] if array.ndim == 2 else out
-
-
-@nb.njit(cache=True)
-def _move_image(image, offsets, scale, out):
     height, width, channels = image.shape
     for y in range(height):
         for x in range(width):
@@ -464,18 +433,63 @@ def _move_image(image, offsets, scale, out):
                 r0, frac = height - 1, 0.0
             r1 = min(r0 + 1, height - 1)
             for c in range(channels):
-                value = (1.0 - frac) * image[r0, x, c] + frac * image[r1, x, c]
-                out[y, x, c] = value * scale
+                value = ((1.0 - frac) * image[r0, x, c] + frac * image[r1, x, c]) * scale
+                out[y, x, c] = np.floor(value + 0.5) if rounded else value
+
+
+def _moved(image, offsets, scale, dtype, rounded):
+    """:func:`_move_rows` of a ``(H, W)`` or ``(H, W, C)`` array into a new one of ``dtype``.
+
+    Floats other than float32 and float64 (float16, longdouble) are read as float64.
+    """
+    array = np.asarray(image)
+    if array.dtype.kind == "f" and array.dtype not in (np.float32, np.float64):
+        array = array.astype(np.float64)
+    planes = array[:, :, np.newaxis] if array.ndim == 2 else array
+    out = np.empty(planes.shape, dtype=np.float64 if dtype.kind == "f" else dtype)
+    _move_rows(
+        np.ascontiguousarray(planes), np.asarray(offsets, dtype=np.float64), scale, rounded, out
+    )
+    out = out.astype(dtype, copy=False)
+    return out[:, :, 0] if array.ndim == 2 else out
+
+
+def shift_rows(signal: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Return ``signal`` with each pixel taken ``offsets`` rows lower (linearly interpolated).
+
+    ``signal``: ``(H, W)`` or ``(C, H, W)`` numbers (an intensity, colour channels);
+    ``offsets``: ``(H, W)`` rows (:meth:`RowField.offsets`). Pixel ``(y, x)`` takes the
+    value at row ``y + offsets[y, x]`` of its column, rounded half up for an integer dtype;
+    rows beyond the view repeat its first or last row. The dtype is kept (a value between
+    two of the dtype's lies within its range).
+    """
+    array = np.asarray(signal)
+    if array.ndim == 2:
+        return shift_image_rows(array, offsets)
+    return np.moveaxis(shift_image_rows(np.moveaxis(array, 0, 2), offsets), 2, 0)
 
 
 def shift_image_rows(image: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """Return an image (``(H, W)`` or ``(H, W, C)``) moved by :func:`shift_rows`.
+    """Return an image (``(H, W)`` or ``(H, W, C)``) moved as :func:`shift_rows` moves it.
 
-    The right view as ``row_alignment`` matches it, for any method or another matcher:
-    ``shift_image_rows(right, field.offsets())`` with the field of
-    :func:`dcstereo.methods.sgm.sgm_row_field`. The dtype is kept.
+    The dtype is kept, integers rounded half up: for a matcher that takes the image's own
+    dtype (OpenCV's). ``row_alignment`` itself matches :func:`moved_view`, which keeps the
+    fractions.
     """
     array = np.asarray(image)
-    if array.ndim == 2:
-        return shift_rows(array, offsets)
-    return np.moveaxis(shift_rows(np.moveaxis(array, 2, 0), offsets), 0, 2)
+    return _moved(array, offsets, 1.0, array.dtype, np.issubdtype(array.dtype, np.integer))
+
+
+def moved_view(image: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Return the view ``row_alignment`` matches: the image moved, as float32 in [0, 1].
+
+    :func:`shift_image_rows` of the image's values on the [0, 1] scale (uint8 over 255,
+    uint16 over 65535, floats as they are), not rounded, so that the interpolated values
+    keep their fractions: the intensity ``sgm`` computes from it is exact to its 1/16 of a
+    gray level (the image moved as uint8 and rounded lost 0.37 points of bad-1.0 on
+    Playtable). For any of dcstereo's methods: ``match(left, moved_view(right, offsets))``.
+    """
+    array = np.asarray(image)
+    integer = np.issubdtype(array.dtype, np.integer)
+    scale = 1.0 / np.iinfo(array.dtype).max if integer else 1.0
+    return _moved(array, offsets, scale, np.dtype(np.float32), False)

@@ -74,7 +74,7 @@ from dcstereo.params import MatchParams
 from dcstereo.refine.consistency import fill_with_colour
 from dcstereo.refine.planes import refine_planes
 from dcstereo.result import DisparityResult
-from dcstereo.signal import SIGNAL_STEPS, colour_channels, padded_signal
+from dcstereo.signal import SIGNAL_STEPS, check_pair, colour_channels, padded_signal
 
 #: Rows (and columns) of context on each side of a tile of a large image.
 STRIP_MARGIN = 32
@@ -401,16 +401,31 @@ def _coarse_pass(colour_l, colour_r, params):
     return result.disparity
 
 
+def _row_field(luma_l, right, coarse):
+    """Return the :class:`~dcstereo.costs.row_offsets.RowField` of a pair and its coarse pass.
+
+    ``luma_l``: the left view's :func:`~dcstereo.signal.padded_signal` (radius 0).
+    """
+    return row_offsets.estimate_from(
+        luma_l / SIGNAL_STEPS,
+        padded_signal(right, 0) / SIGNAL_STEPS,
+        coarse,
+        photometric.COARSE_FACTOR,
+    )
+
+
 def _aligned_views(left, right, luma_l, colour_l, colour_r, params):
     """Return the right view and its channels after ``row_alignment`` and ``photometric``.
 
-    Both read the coarse pass (:func:`_coarse_pass`, run once for the two). With
-    ``row_alignment="estimated"``, the right view's rows are moved onto the left's
-    (:func:`~dcstereo.costs.row_offsets.moved_view`) by the field
-    :func:`~dcstereo.costs.row_offsets.estimate_from` measures, where it reaches
-    :data:`~dcstereo.costs.row_offsets.MIN_OFFSET` somewhere; with
+    Both read the coarse pass (:func:`_coarse_pass`). With ``row_alignment="estimated"``,
+    the right view is moved onto the left's rows
+    (:func:`~dcstereo.costs.row_offsets.moved_view`) by the field the coarse pass gives
+    (:func:`~dcstereo.costs.row_offsets.estimate_from`), where
+    :meth:`~dcstereo.costs.row_offsets.RowField.to_move` says so; with
     ``photometric="matched"``, the right view's channels are then mapped onto the left's
-    (:func:`dcstereo.costs.photometric.align_right`). A pair too small for the coarse pass
+    (:func:`dcstereo.costs.photometric.align_right`) through the coarse pass of the views
+    as they are then (run again when the view moved, so that a band of ``match_tiled``,
+    given the moved view, maps its colours alike). A pair too small for the coarse pass
     keeps its right view.
     """
     if params.row_alignment is None and params.photometric is None:
@@ -418,41 +433,39 @@ def _aligned_views(left, right, luma_l, colour_l, colour_r, params):
     coarse = _coarse_pass(colour_l, colour_r, params)
     if coarse is None:
         return right, colour_r
-    factor = photometric.COARSE_FACTOR
     if params.row_alignment == "estimated":
-        field = row_offsets.estimate_from(
-            luma_l / SIGNAL_STEPS, padded_signal(right, 0) / SIGNAL_STEPS, coarse, factor
-        )
-        offsets = None if field is None else field.offsets()
-        if offsets is not None and np.abs(offsets).max() >= row_offsets.MIN_OFFSET:
+        field = _row_field(luma_l, right, coarse)
+        offsets = None if field is None else field.to_move()
+        if offsets is not None:
             right = row_offsets.moved_view(right, offsets)
             colour_r = colour_channels(left, right)[1]
+            if params.photometric == "matched":
+                coarse = _coarse_pass(colour_l, colour_r, params)
     if params.photometric == "matched":
-        colour_r = photometric.align_right(colour_l, colour_r, coarse, factor)
+        colour_r = photometric.align_right(colour_l, colour_r, coarse, photometric.COARSE_FACTOR)
     return right, colour_r
 
 
-def sgm_row_field(left: np.ndarray, right: np.ndarray, params: MatchParams):
+def sgm_row_field(
+    left: np.ndarray, right: np.ndarray, params: MatchParams
+) -> row_offsets.RowField | None:
     """Return how far the right view's rows lie from the left's (a ``RowField``).
 
     The :class:`~dcstereo.costs.row_offsets.RowField` that ``row_alignment="estimated"``
-    measures before it moves the rows (it moves them where the field's
-    :meth:`~dcstereo.costs.row_offsets.RowField.largest` offset reaches
-    :data:`~dcstereo.costs.row_offsets.MIN_OFFSET`), over ``params``' disparity range: a
-    check of a rig's rectification. None for a pair too small for the coarse pass or
+    measures before it moves the rows (it moves them where
+    :meth:`~dcstereo.costs.row_offsets.RowField.to_move` says so), over ``params``'
+    disparity range: a check of a rig's rectification. The pair is checked as
+    :func:`dcstereo.match` checks it. None for a pair too small for the coarse pass or
     without a patch to measure.
     """
+    left, right = check_pair(left, right)
+    params.check_image_size(*left.shape[:2])
     with threads_with_cores():
         colour_l, colour_r = colour_channels(left, right)
         coarse = _coarse_pass(colour_l, colour_r, params)
         if coarse is None:
             return None
-        return row_offsets.estimate_from(
-            padded_signal(left, 0) / SIGNAL_STEPS,
-            padded_signal(right, 0) / SIGNAL_STEPS,
-            coarse,
-            photometric.COARSE_FACTOR,
-        )
+        return _row_field(padded_signal(left, 0), right, coarse)
 
 
 def _run_threads(left, right, params, want_confidence):
