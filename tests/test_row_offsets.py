@@ -6,6 +6,8 @@ evaluated exactly at any fraction of a row); the option through ``match``, the C
 batch folders and the speed benchmark; pins on development scenes.
 """
 
+import json
+
 import numpy as np
 import pytest
 from PIL import Image
@@ -623,6 +625,38 @@ def test_a_field_moves_the_view_only_from_enough_tiles_and_a_quarter_row():
     assert field(0.3, 3).to_move() is None  # too few tiles to tell an outlier
     assert field(0.2, 4).to_move() is None  # under MIN_OFFSET everywhere
     assert np.array_equal(field(-0.25, 5).to_move(), np.full((100, 100), -0.25))
+
+
+def test_a_sequence_measures_one_field_for_all_its_frames(tmp_path, monkeypatch):
+    # video: one rig, one field, measured on the first frame matched and used for all
+    from dcstereo.batch import video
+
+    for side in ("left", "right"):
+        (tmp_path / side).mkdir()
+    pairs = [oblique_pair(0.75, disparity=d) for d in (8, 10, 12)]
+    for i, pair in enumerate(pairs):
+        for side, image in zip(("left", "right"), pair, strict=True):
+            Image.fromarray(image).save(tmp_path / side / f"img{i:03d}.png")
+    calls = []
+
+    def counted(*args):
+        calls.append(args)
+        return sgm_row_field(*args)
+
+    monkeypatch.setattr(video, "sgm_row_field", counted)
+    sequence = video.open_sequence(tmp_path / "left", tmp_path / "right")
+    options = {"max_disparity": 16, "row_alignment": "estimated"}
+    report = video.match_sequence(sequence, tmp_path / "out", **options)
+    assert len(report.done) == 3 and len(calls) == 1
+    offsets = sgm_row_field(*pairs[0], MatchParams(**options)).to_move()
+    assert offsets is not None
+    for i, (left, right) in enumerate(pairs):
+        expected = dcstereo.match(left, row_offsets.moved_view(right, offsets), max_disparity=16)
+        written = io.read_pfm(tmp_path / "out" / f"frame{i:05d}.pfm")
+        assert np.array_equal(
+            written, np.where(np.isnan(expected.disparity), np.inf, expected.disparity)
+        )
+    assert json.loads((tmp_path / "out" / "batch.json").read_text())["row_alignment"] == "estimated"
 
 
 def test_row_alignment_refuses_what_it_cannot_do():

@@ -42,6 +42,8 @@ from dcstereo.batch.folders import (
     write_companions,
     write_failures,
 )
+from dcstereo.costs.row_offsets import moved_view
+from dcstereo.methods.sgm import sgm_row_field
 from dcstereo.params import MatchParams
 from dcstereo.refine.confidence import confidence as confidence_map
 
@@ -499,7 +501,11 @@ def match_sequence(
         ``calibration``, the camera, the depth and the point cloud. Frames skipped on
         resume are not logged (``resume=False`` logs every frame).
     **options
-        The other options of :func:`dcstereo.match`.
+        The other options of :func:`dcstereo.match`. ``row_alignment="estimated"`` (``sgm``)
+        measures the rows' offsets once, on the first frame this call matches
+        (:func:`dcstereo.methods.sgm.sgm_row_field`), and moves every frame's right view by
+        them (:func:`dcstereo.costs.row_offsets.moved_view`): one rig, one field, so that
+        frames do not flicker between moved and not and pay for it once.
 
     Returns
     -------
@@ -548,6 +554,20 @@ def match_sequence(
         assumed={**ASSUMED_OPTIONS, **WRITE_OPTIONS},
     )
     match_kwargs = {"max_disparity": max_disparity, **options}
+    align_once = params.method == "sgm" and params.row_alignment == "estimated"
+    if align_once:  # measured on the first frame matched, for all (by frame size)
+        match_kwargs["row_alignment"] = None
+    fields = {}
+
+    def aligned(left, right):
+        if not align_once:
+            return right
+        size = left.shape[:2]
+        if size not in fields:
+            field = sgm_row_field(left, right, params)
+            fields[size] = None if field is None else field.to_move()
+        return right if fields[size] is None else moved_view(right, fields[size])
+
     report = SequenceReport()
     # the viewer gets each frame's confidence, and its left view for the picture and colours
     sure_wanted = confidence or recording is not None
@@ -616,6 +636,7 @@ def match_sequence(
                 continue
             try:
                 left, right = frame.load()
+                right = aligned(left, right)
             except ValueError as exc:
                 finish(frame, (None, None, str(exc), None))
                 continue
