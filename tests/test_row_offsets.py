@@ -71,6 +71,23 @@ def test_patch_curves_equals_its_twin(radius, reach, seed):
     np.testing.assert_allclose(got[finite], want[finite], rtol=1e-9, atol=1e-9)
 
 
+def test_patch_curves_are_the_same_at_any_thread_count():
+    rng = np.random.default_rng(9)
+    left, right = rng.uniform(0, 255, (2, 40, 60))
+    ys, xs = rng.integers(6, 34, 100), rng.integers(8, 52, 100)
+    xr = xs - rng.integers(0, 4, 100)
+    offsets = np.arange(-4, 5) / 4.0
+    outs = []
+    for threads in (1, 3, 8):
+        out = np.empty((100, offsets.size))
+        row_offsets.patch_curves(
+            left, right, ys, xs, xr, np.zeros(100), offsets, 3, 2, out, threads
+        )
+        outs.append(out)
+    assert np.array_equal(outs[0], outs[1]) and np.array_equal(outs[0], outs[2])
+    assert np.isfinite(outs[0]).any()
+
+
 def test_patch_curves_by_hand():
     # 7 x 5 left view: rows h = 0 0 0 12 0 0 0 plus columns g; the right view is the
     # left moved down one row (R[y] = L[y - 1]). One patch, radius 1, reach 1, at row 3,

@@ -27,6 +27,8 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
+from dcstereo._vector.sgm import next_task
+
 #: The tiles across and down the right view, each giving one offset to the field.
 GRID = 6
 
@@ -47,6 +49,9 @@ SAMPLE_STEP = 4
 
 #: The most patches a tile measures (those of most vertical texture).
 TILE_PATCHES = 64
+
+#: The patches a thread of :func:`patch_curves` takes at a time.
+TASK_PATCHES = 32
 
 #: The fewest patches a tile needs to give an offset.
 MIN_PATCHES = 12
@@ -127,8 +132,8 @@ def _rows_at(view, top, x0, side, span, out):
     return True
 
 
-@nb.njit(cache=True)
-def patch_curves(left, right, ys, xs, xr, centres, offsets, radius, reach, out):
+@nb.njit(cache=True, parallel=True)
+def patch_curves(left, right, ys, xs, xr, centres, offsets, radius, reach, out, threads=1):
     """Write each patch's cost at each vertical offset into ``out`` (``(N, len(offsets))``).
 
     ``left`` and ``right`` are the views' intensities (float64, ``(H, W)``). At offset
@@ -142,46 +147,66 @@ def patch_curves(left, right, ys, xs, xr, centres, offsets, radius, reach, out):
     of the V through it and its two neighbours (``b - |a - c| / 2``, at least 0: the cost at
     the best fraction of a column, so that a slanted edge does not trade a fraction of a
     column for one of a row); ``inf`` where a patch, or the row after it, leaves a view.
+
+    ``threads``: numba's thread count; the patches are handed out :data:`TASK_PATCHES` at a
+    time to whichever thread is free.
     """
     side = 2 * radius + 1
-    size = side * side
     span = side + 2 * reach  # the right columns the patches at every dx read
-    patch = np.empty((side, side))
-    rows = np.empty((side, span))
-    column_sums = np.empty(span)
-    sads = np.empty(2 * reach + 1)
-    for i in range(ys.size):
-        for j in range(offsets.size):
-            out[i, j] = np.inf
-            half = 0.5 * (centres[i] + offsets[j])
-            x0 = xr[i] - reach - radius
-            if not _rows_at(left, ys[i] - radius - half, xs[i] - radius, side, side, patch):
-                continue
-            if not _rows_at(right, ys[i] - radius + half, x0, side, span, rows):
-                continue
-            mean = patch.sum() / size
+    tasks = (ys.size + TASK_PATCHES - 1) // TASK_PATCHES
+    counter = np.zeros(1, dtype=np.int64)
+    for _ in nb.prange(max(1, min(threads, tasks))):
+        patch = np.empty((side, side))
+        rows = np.empty((side, span))
+        column_sums = np.empty(span)
+        sads = np.empty(2 * reach + 1)
+        task = next_task(counter)
+        while task < tasks:
+            for i in range(task * TASK_PATCHES, min((task + 1) * TASK_PATCHES, ys.size)):
+                _patch_curve(
+                    left, right, ys[i], xs[i], xr[i], centres[i], offsets, radius, reach,
+                    patch, rows, column_sums, sads, out[i],
+                )  # fmt: skip
+            task = next_task(counter)
+
+
+@nb.njit(cache=True)
+def _patch_curve(
+    left, right, y, x, xr, centre, offsets, radius, reach, patch, rows, column_sums, sads, out
+):  # fmt: skip
+    """One patch of :func:`patch_curves` into ``out`` (its row), with the buffers given."""
+    side = 2 * radius + 1
+    size = side * side
+    span = side + 2 * reach
+    for j in range(offsets.size):
+        out[j] = np.inf
+        half = 0.5 * (centre + offsets[j])
+        x0 = xr - reach - radius
+        if not _rows_at(left, y - radius - half, x - radius, side, side, patch):
+            continue
+        if not _rows_at(right, y - radius + half, x0, side, span, rows):
+            continue
+        mean = patch.sum() / size
+        for c in range(span):
+            column_sums[c] = 0.0
+        for a in range(side):
             for c in range(span):
-                column_sums[c] = 0.0
+                column_sums[c] += rows[a, c]
+        for dx in range(2 * reach + 1):
+            rmean = 0.0
+            for b in range(side):
+                rmean += column_sums[dx + b]
+            lift = rmean / size - mean  # the right patch's mean over the left's
+            total = 0.0
             for a in range(side):
-                for c in range(span):
-                    column_sums[c] += rows[a, c]
-            for dx in range(2 * reach + 1):
-                sads[dx] = 0.0
-            for dx in range(2 * reach + 1):
-                rmean = 0.0
                 for b in range(side):
-                    rmean += column_sums[dx + b]
-                lift = rmean / size - mean  # the right patch's mean over the left's
-                total = 0.0
-                for a in range(side):
-                    for b in range(side):
-                        total += abs(patch[a, b] - rows[a, dx + b] + lift)
-                sads[dx] = total
-            k = np.argmin(sads)
-            best = sads[k]
-            if 0 < k < 2 * reach:
-                best = max(best - 0.5 * abs(sads[k - 1] - sads[k + 1]), 0.0)  # the V
-            out[i, j] = best
+                    total += abs(patch[a, b] - rows[a, dx + b] + lift)
+            sads[dx] = total
+        k = np.argmin(sads)
+        best = sads[k]
+        if 0 < k < 2 * reach:
+            best = max(best - 0.5 * abs(sads[k - 1] - sads[k + 1]), 0.0)  # the V
+        out[j] = best
 
 
 @nb.njit(cache=True)
@@ -391,16 +416,20 @@ def estimate_from(luma_l, luma_r, coarse, factor):
     xr = xs - d
     tiles = tile_of(ys, xr, width, height)
     whole = np.empty((ys.size, WHOLE_OFFSETS.size))
+    threads = nb.get_num_threads()
     patch_curves(
-        left, right, ys, xs, xr, np.zeros(ys.size), WHOLE_OFFSETS, PATCH_RADIUS, X_REACH, whole
-    )
+        left, right, ys, xs, xr, np.zeros(ys.size), WHOLE_OFFSETS, PATCH_RADIUS, X_REACH, whole,
+        threads,
+    )  # fmt: skip
     measured = np.all(np.isfinite(whole), axis=1)
     coarse_best = tile_minima(whole[measured], tiles[measured], WHOLE_OFFSETS, False)
     chosen = np.isin(tiles, list(coarse_best))
     ys, xs, xr, tiles = ys[chosen], xs[chosen], xr[chosen], tiles[chosen]
     centres = np.array([coarse_best[t][0] for t in tiles], dtype=np.float64)
     fine = np.empty((ys.size, FINE_OFFSETS.size))
-    patch_curves(left, right, ys, xs, xr, centres, FINE_OFFSETS, PATCH_RADIUS, X_REACH, fine)
+    patch_curves(
+        left, right, ys, xs, xr, centres, FINE_OFFSETS, PATCH_RADIUS, X_REACH, fine, threads
+    )
     measured = np.all(np.isfinite(fine), axis=1)
     rows = []
     for tile, (offset, count) in tile_minima(
