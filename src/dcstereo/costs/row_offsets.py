@@ -9,17 +9,18 @@ KITTI 2012 pairs of the development set are off by up to about a pixel and a hal
 their corners.
 
 :func:`estimate_from` measures it (:func:`dcstereo.methods.sgm.sgm_row_field` runs it on a
-pair, with its coarse pass). On a grid of left pixels with vertical texture,
-a patch is matched in the right view around the disparity of a coarse pass (the
-census alone, :data:`~dcstereo.costs.photometric.COARSE_FACTOR` times smaller each way,
-as ``photometric`` uses), over offsets of a fraction of a row (the right view
-interpolated between its rows, :func:`patch_curves`). Per tile of a
-:data:`GRID` x :data:`GRID` grid of the right view, the summed costs give the tile's
-offset, and a smooth field through the tiles (:class:`RowField`) gives each right pixel
-its own: ``a + b u + c v + e u v + f v^2`` with ``u``, ``v`` the pixel's place across
-and down the image (from -0.5 to 0.5), the terms a small turn of one camera about each
-axis and a difference of scale make. :func:`shift_image_rows` then moves the right view by it
-(linear interpolation between rows) before the costs.
+pair, with its coarse pass). On a grid of left pixels with vertical texture, a patch is
+matched in the right view around the disparity of a coarse pass (the census alone,
+:data:`~dcstereo.costs.photometric.COARSE_FACTOR` times smaller each way, as
+``photometric`` uses), over offsets of a fraction of a row (both views smoothed and
+interpolated between their rows, :func:`patch_curves`). Per tile of a :data:`GRID` x
+:data:`GRID` grid of the right view, the summed costs give the tile's offset, and a smooth
+field through the tiles (:class:`RowField`) gives each right pixel its own: ``a + b u + c v
++ e u v + f v^2`` with ``u``, ``v`` the pixel's place across and down the image (from -0.5
+to 0.5), the terms a small turn of one camera about each axis and a difference of scale
+make. :func:`moved_view` then moves the right view by it (linear interpolation between
+rows) before the costs; :func:`shift_image_rows` does the same keeping the image's dtype,
+for other matchers.
 """
 
 from dataclasses import dataclass
