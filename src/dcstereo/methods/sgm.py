@@ -29,6 +29,10 @@ With ``photometric="matched"`` (off by default), before 1: the right view's colo
 onto the left's through the colours of the pixels a coarse pass matched
 (:mod:`dcstereo.costs.photometric`).
 
+With ``row_alignment="estimated"`` (off by default), before 1: the right view's rows moved
+onto the left's by the vertical offsets measured around the coarse pass's matches, where
+the pair is not quite rectified (:mod:`dcstereo.costs.row_offsets`).
+
 With ``planes`` (off by default), between 4 and 5: a robust plane per superpixel of the left
 image for the mismatches and the unsure estimates (:func:`dcstereo.refine.planes.refine_planes`).
 
