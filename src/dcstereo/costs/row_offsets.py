@@ -179,10 +179,10 @@ def _patch_curve(
     side = 2 * radius + 1
     size = side * side
     span = side + 2 * reach
+    x0 = xr - reach - radius  # the first right column the patches read
     for j in range(offsets.size):
         out[j] = np.inf
         half = 0.5 * (centre + offsets[j])
-        x0 = xr - reach - radius
         if not _rows_at(left, y - radius - half, x - radius, side, side, patch):
             continue
         if not _rows_at(right, y - radius + half, x0, side, span, rows):
@@ -410,10 +410,11 @@ def estimate_from(luma_l, luma_r, coarse, factor):
     tile's offset; :func:`fit_field` fits the field through the tiles. None where no tile
     could be measured.
     """
-    left = gaussian_smooth(np.asarray(luma_l, dtype=np.float64), SMOOTHING)
-    right = gaussian_smooth(np.asarray(luma_r, dtype=np.float64), SMOOTHING)
+    luma_l = np.asarray(luma_l, dtype=np.float64)
+    left = gaussian_smooth(luma_l, SMOOTHING)
+    right = gaussian_smooth(luma_r, SMOOTHING)
     height, width = left.shape
-    ys, xs, d = pick_patches(np.asarray(luma_l, dtype=np.float64), coarse, factor)
+    ys, xs, d = pick_patches(luma_l, coarse, factor)
     xr = xs - d
     tiles = tile_of(ys, xr, width, height)
     whole = np.empty((ys.size, WHOLE_OFFSETS.size))

@@ -405,21 +405,21 @@ def _coarse_pass(colour_l, colour_r, params):
     return result.disparity
 
 
-def _row_field(luma_l, right, coarse):
+def _row_field(luma_l, luma_r, coarse):
     """Return the :class:`~dcstereo.costs.row_offsets.RowField` of a pair and its coarse pass.
 
-    ``luma_l``: the left view's :func:`~dcstereo.signal.padded_signal` (radius 0).
+    ``luma_l``, ``luma_r``: the views' :func:`~dcstereo.signal.padded_signal` (radius 0).
     """
     return row_offsets.estimate_from(
-        luma_l / SIGNAL_STEPS,
-        padded_signal(right, 0) / SIGNAL_STEPS,
-        coarse,
-        photometric.COARSE_FACTOR,
+        luma_l / SIGNAL_STEPS, luma_r / SIGNAL_STEPS, coarse, photometric.COARSE_FACTOR
     )
 
 
-def _aligned_views(left, right, luma_l, colour_l, colour_r, params):
-    """Return the right view and its channels after ``row_alignment`` and ``photometric``.
+def _aligned_views(left, right, luma_l, luma_r, colour_l, colour_r, params):
+    """Return the right view's intensity and channels after ``row_alignment`` and ``photometric``.
+
+    ``luma_l``, ``luma_r``: the views' :func:`~dcstereo.signal.padded_signal` (radius 0),
+    ``colour_l``, ``colour_r`` their :func:`~dcstereo.signal.colour_channels`.
 
     Both read the coarse pass (:func:`_coarse_pass`). With ``row_alignment="estimated"``,
     the right view is moved onto the left's rows
@@ -433,21 +433,22 @@ def _aligned_views(left, right, luma_l, colour_l, colour_r, params):
     keeps its right view.
     """
     if params.row_alignment is None and params.photometric is None:
-        return right, colour_r
+        return luma_r, colour_r
     coarse = _coarse_pass(colour_l, colour_r, params)
     if coarse is None:
-        return right, colour_r
+        return luma_r, colour_r
     if params.row_alignment == "estimated":
-        field = _row_field(luma_l, right, coarse)
+        field = _row_field(luma_l, luma_r, coarse)
         offsets = None if field is None else field.to_move()
         if offsets is not None:
             right = row_offsets.moved_view(right, offsets)
+            luma_r = padded_signal(right, 0)
             colour_r = colour_channels(left, right)[1]
             if params.photometric == "matched":
                 coarse = _coarse_pass(colour_l, colour_r, params)
     if params.photometric == "matched":
         colour_r = photometric.align_right(colour_l, colour_r, coarse, photometric.COARSE_FACTOR)
-    return right, colour_r
+    return luma_r, colour_r
 
 
 def sgm_row_field(
@@ -469,7 +470,7 @@ def sgm_row_field(
         coarse = _coarse_pass(colour_l, colour_r, params)
         if coarse is None:
             return None
-        return _row_field(padded_signal(left, 0), right, coarse)
+        return _row_field(padded_signal(left, 0), padded_signal(right, 0), coarse)
 
 
 def _run_threads(left, right, params, want_confidence):
@@ -483,10 +484,12 @@ def _run_threads(left, right, params, want_confidence):
     codes_r = np.empty((height, width), dtype=kind)
     luma_l = padded_signal(left, 0)
     colour_l, colour_r = colour_channels(left, right)
-    right, colour_r = _aligned_views(left, right, luma_l, colour_l, colour_r, params)
+    luma_r, colour_r = _aligned_views(
+        left, right, luma_l, padded_signal(right, 0), colour_l, colour_r, params
+    )
     sigma = params.census_smoothing
     _census(smooth_signal(luma_l, sigma), rows, cols, codes_l, params.census_step)
-    _census(smooth_signal(padded_signal(right, 0), sigma), rows, cols, codes_r, params.census_step)
+    _census(smooth_signal(luma_r, sigma), rows, cols, codes_r, params.census_step)
     guide = colour_l if params.aggregation is not None else None
     guide_r = colour_r if params.aggregation == "cross-both" else None
     if params.cost == "census":
