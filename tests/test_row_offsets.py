@@ -47,9 +47,10 @@ def curves(left, right, ys, xs, xr, centres, offsets, radius, reach):
 
 @pytest.mark.parametrize(
     ("radius", "reach", "seed"),
-    [(1, 1, 0), (1, 3, 1), (2, 2, 2), (3, 1, 3), (4, 3, 4), (4, 1, 5)],
+    [(1, 1, 0), (1, 3, 1), (2, 2, 2), (3, 1, 3), (4, 3, 4), (4, 1, 5), (2, 4, 6), (1, 5, 7)],
 )
 def test_patch_curves_equals_its_twin(radius, reach, seed):
+    # reach 4 and 5: more shifts than the kernel's register of 8 (its plain loop)
     rng = np.random.default_rng(seed)
     height, width = 26, 31
     left = rng.uniform(0, 255, (height, width))
@@ -478,17 +479,18 @@ def test_estimate_from_a_noisy_pair_does_not_lean_towards_half_rows(truth, monke
         assert abs(field.offsets().mean() - truth) > NOISY_BOUND
 
 
-def test_gaussian_smooth_equals_a_plain_convolution():
+@pytest.mark.parametrize("shape", [(9, 11), (4, 2), (1, 7)])  # narrower than the taps too
+def test_gaussian_smooth_equals_a_plain_convolution(shape):
     rng = np.random.default_rng(2)
-    image = rng.uniform(0, 255, (9, 11))
+    image = rng.uniform(0, 255, shape)
     sigma = 0.8
     radius = 3
     taps = np.exp(-0.5 * (np.arange(-radius, radius + 1) / sigma) ** 2)
     taps /= taps.sum()
     padded = np.pad(image, radius, mode="edge")
     expected = np.zeros_like(image)
-    for y in range(9):
-        for x in range(11):
+    for y in range(shape[0]):
+        for x in range(shape[1]):
             window = padded[y : y + 2 * radius + 1, x : x + 2 * radius + 1]
             expected[y, x] = taps @ window @ taps
     assert np.allclose(row_offsets.gaussian_smooth(image, sigma), expected, rtol=1e-12)
