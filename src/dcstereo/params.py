@@ -105,6 +105,11 @@ PHOTOMETRIC = ("matched",)
 #: not at all; ``"estimated"``: by the field :mod:`dcstereo.costs.row_offsets` measures).
 ROW_ALIGNMENTS = ("estimated",)
 
+#: ``sgm``: how the pixels near the map's depth edges are decided again after the median
+#: (None: not at all; ``"support-weights"``: by adaptive support weights,
+#: :mod:`dcstereo.refine.edges`).
+EDGES = ("support-weights",)
+
 #: ``sgm``: the largest census window (its bits, one per pixel but the centre, fill 64).
 MAX_CENSUS_BITS = 64
 
@@ -165,6 +170,7 @@ METHOD_OPTIONS = {
     "census_smoothing": ("sgm",),
     "photometric": ("sgm",),
     "row_alignment": ("sgm",),
+    "edges": ("sgm",),
 }
 
 
@@ -422,6 +428,12 @@ class MatchParams:
         coarse pass's disparities (:mod:`dcstereo.costs.row_offsets`); a pair whose field
         stays under :data:`~dcstereo.costs.row_offsets.MIN_OFFSET` rows everywhere is left
         as it is.
+    edges : str or None
+        ``sgm`` only, off (None) by default. ``"support-weights"``: after the median, each
+        pixel near a depth edge of the map compares its value with the farther values
+        just past the jumps around it by an adaptive-support-weight matching cost and takes
+        one that is clearly cheaper, against the foreground's windows pulling it over the
+        background (:mod:`dcstereo.refine.edges`).
     """
 
     max_disparity: int
@@ -464,6 +476,7 @@ class MatchParams:
     census_smoothing: float = DEFAULT_CENSUS_SMOOTHING
     photometric: str | None = None
     row_alignment: str | None = None
+    edges: str | None = None
 
     def __post_init__(self):
         for field in fields(self):  # numpy scalars (np.int64(4), np.True_): the Python value
@@ -625,6 +638,8 @@ class MatchParams:
                 f"row_alignment must be None or one of {', '.join(ROW_ALIGNMENTS)}, "
                 f"got {self.row_alignment!r}"
             )
+        if self.edges is not None and self.edges not in EDGES:
+            raise ValueError(f"edges must be None or one of {', '.join(EDGES)}, got {self.edges!r}")
         sigma = self.census_smoothing
         if not is_number(sigma) or not math.isfinite(sigma):
             raise ValueError(f"census_smoothing must be a number of pixels, got {sigma!r}")

@@ -36,6 +36,11 @@ the pair is not quite rectified (:mod:`dcstereo.costs.row_offsets`).
 With ``planes`` (off by default), between 4 and 5: a robust plane per superpixel of the left
 image for the mismatches and the unsure estimates (:func:`dcstereo.refine.planes.refine_planes`).
 
+With ``edges="support-weights"`` (off by default), after 6: the pixels near the map's depth
+edges decided again between their value and the farther ones past the jumps around them,
+by adaptive support weights over the views as the costs saw them
+(:mod:`dcstereo.refine.edges`).
+
 Memory of a call on a ``W x H`` pair searching ``D`` disparities (``Dp``: ``D`` rounded up to
 a multiple of 16): the volumes (the costs and two sums of paths, int16) of one tile,
 ``6 * tile pixels * Dp`` bytes, at most :data:`VOLUME_BYTES` (768 MiB): the whole image when
@@ -58,6 +63,7 @@ whichever thread is free, so a thread that waits for a core (other work on the m
 holds back one task.
 """
 
+import contextvars
 import threading
 import time
 from dataclasses import dataclass
@@ -73,9 +79,10 @@ from dcstereo.costs import census as census_kernels
 from dcstereo.costs import photometric, row_offsets
 from dcstereo.costs.census_sparse import census_sparse
 from dcstereo.costs.smoothing import smooth_signal
-from dcstereo.methods._pipeline import FILL, MEDIAN, Method, MethodParams, core, option
+from dcstereo.methods._pipeline import FILL, MEDIAN, Method, MethodParams, Stage, core, option
 from dcstereo.params import MatchParams
 from dcstereo.refine.consistency import fill_with_colour
+from dcstereo.refine.edges import refine_edges
 from dcstereo.refine.planes import refine_planes
 from dcstereo.result import DisparityResult
 from dcstereo.signal import SIGNAL_STEPS, check_pair, colour_channels, padded_signal
@@ -487,6 +494,8 @@ def _run_threads(left, right, params, want_confidence):
     luma_r, colour_r = _aligned_views(
         left, right, luma_l, padded_signal(right, 0), colour_l, colour_r, params
     )
+    if params.edges is not None:  # for the edges stage after the median (_edges)
+        _VIEWS.set((left, right, colour_l, colour_r))
     sigma = params.census_smoothing
     _census(smooth_signal(luma_l, sigma), rows, cols, codes_l, params.census_step)
     _census(smooth_signal(luma_r, sigma), rows, cols, codes_r, params.census_step)
@@ -566,6 +575,48 @@ def _run_threads(left, right, params, want_confidence):
     return result, margin
 
 
+#: The views as the costs compared them (the right one after ``row_alignment`` and
+#: ``photometric``), kept by the costs of a call with ``edges`` for its edges stage, which
+#: runs after the median: ``(left, right, colour_l, colour_r)``, the images as given.
+_VIEWS = contextvars.ContextVar("sgm_views", default=None)
+
+
+def sgm_views(left: np.ndarray, right: np.ndarray, params: MatchParams):
+    """Return the views' channels as ``sgm``'s costs compare them: ``(colour_l, colour_r)``.
+
+    :func:`dcstereo.signal.colour_channels`, the right view's after ``row_alignment`` and
+    ``photometric`` (their coarse pass run again); the pair checked.
+    """
+    left, right = check_pair(left, right)
+    with threads_with_cores():
+        colour_l, colour_r = colour_channels(left, right)
+        _, colour_r = _aligned_views(
+            left, right, padded_signal(left, 0), padded_signal(right, 0), colour_l, colour_r,
+            params,
+        )  # fmt: skip
+    return colour_l, colour_r
+
+
+def _edges(left, right, params, result):
+    """Run :func:`~dcstereo.refine.edges.refine_edges` over the views the costs saw (the stage).
+
+    Kept by this call's costs (:data:`_VIEWS`); made again (:func:`sgm_views`) when they
+    were not (the stage run on its own).
+    """
+    kept = _VIEWS.get()
+    _VIEWS.set(None)
+    if kept is not None and kept[0] is left and kept[1] is right:
+        colour_l, colour_r = kept[2], kept[3]
+    else:
+        colour_l, colour_r = sgm_views(left, right, params)
+    with threads_with_cores():
+        return refine_edges(result, colour_l, colour_r)
+
+
+#: The edges stage (``edges``), after the median.
+EDGES = Stage("edges", _edges, when=lambda params: params.edges is not None)
+
+
 @dataclass(frozen=True, kw_only=True)
 class SGMParams(MethodParams):
     """``sgm``'s parameters: census window, colour truncation, penalties, paths, tolerance.
@@ -590,6 +641,7 @@ class SGMParams(MethodParams):
     census_smoothing: float = option("census_smoothing")
     photometric: str | None = option("photometric")
     row_alignment: str | None = option("row_alignment")
+    edges: str | None = option("edges")
 
 
 METHOD = Method(
@@ -602,6 +654,7 @@ METHOD = Method(
             "left-right check, colour fill",
         ),
         MEDIAN,
+        EDGES,
         FILL,
     ),
     "the default: census, semi-global matching, left-right check, fill, median, sub-pixel",
