@@ -103,7 +103,8 @@ BUSY_LOOP = "while True: pass"
 #: ``+wmedian`` its median weighted by the colours (``median="weighted"``), ``+wplanes`` that
 #: median and the local planes (``median="weighted-planes"``), ``+smooth`` its
 #: census on intensities smoothed by a Gaussian of 1.2 pixels (``census_smoothing=1.2``),
-#: ``+rows`` the right view's rows moved onto the left's (``row_alignment="estimated"``).
+#: ``+rows`` the right view's rows moved onto the left's (``row_alignment="estimated"``),
+#: ``+edges`` its depth edges decided again after the median (``edges="support-weights"``).
 STAGE_SUFFIXES = {
     "+photometric": {"photometric": "matched"},
     "+planes": {"planes": True},
@@ -111,6 +112,7 @@ STAGE_SUFFIXES = {
     "+wplanes": {"median": "weighted-planes"},
     "+smooth": {"census_smoothing": 1.2},
     "+rows": {"row_alignment": "estimated"},
+    "+edges": {"edges": "support-weights"},
 }
 
 

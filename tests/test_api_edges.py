@@ -107,6 +107,7 @@ OTHER_VALUES = {
     "census_smoothing": 1.0,
     "photometric": "matched",
     "row_alignment": "estimated",
+    "edges": "support-weights",
     "aggregation": "cross",
     "cross_limit": 9,
     "cross_tau": 12,

@@ -796,7 +796,8 @@ def test_stage_options_are_assumed_off_in_older_folders(pairs_dir, tmp_path):
     run_batch(pairs, out, max_disparity=MAX_DISPARITY, method="dc")
     recorded = json.loads((out / "batch.json").read_text())
     stages = ("planes", "aggregation", "cross_limit", "cross_tau", "cross_iterations",
-              "census_step", "photometric", "census_smoothing", "row_alignment")  # fmt: skip
+              "census_step", "photometric", "census_smoothing", "row_alignment",
+              "edges")  # fmt: skip
     for name in stages:
         assert recorded[name] == ASSUMED_OPTIONS[name], name
         del recorded[name]
@@ -807,3 +808,5 @@ def test_stage_options_are_assumed_off_in_older_folders(pairs_dir, tmp_path):
         run_batch(pairs, out, max_disparity=MAX_DISPARITY, census_smoothing=1.2)
     with pytest.raises(ValueError, match=r"row_alignment None \(now estimated\)"):
         run_batch(pairs, out, max_disparity=MAX_DISPARITY, row_alignment="estimated")
+    with pytest.raises(ValueError, match=r"edges None \(now support-weights\)"):
+        run_batch(pairs, out, max_disparity=MAX_DISPARITY, edges="support-weights")

@@ -333,6 +333,7 @@ def test_stage_suffixes_run_sgm_with_its_stages(bench, tmp_path, capsys):
     assert bench.stage_options("sgm+wmedian") == ("sgm", {"median": "weighted"})
     assert bench.stage_options("sgm+smooth") == ("sgm", {"census_smoothing": 1.2})
     assert bench.stage_options("sgm+rows") == ("sgm", {"row_alignment": "estimated"})
+    assert bench.stage_options("sgm+edges") == ("sgm", {"edges": "support-weights"})
     assert bench.stage_options("sgm+wplanes") == ("sgm", {"median": "weighted-planes"})
     assert bench.stage_options("sgm+planes+photometric") == (
         "sgm",

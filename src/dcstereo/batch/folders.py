@@ -76,6 +76,7 @@ ASSUMED_OPTIONS = {
     "photometric": None,
     "census_smoothing": _params.DEFAULT_CENSUS_SMOOTHING,
     "row_alignment": None,
+    "edges": None,
 }
 #: Longest pair name, in bytes of UTF-8: the temporary name of its output
 #: (:data:`dcstereo.io.TEMPORARY_NAME_EXTRA` more than ``<name>.pfm``) must fit the 255

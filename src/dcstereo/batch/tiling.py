@@ -18,6 +18,8 @@ where a band's context reaches the image's edges, and differs slightly near the 
 otherwise. Its fill (which searches across rows) and then its median run once on the
 stitched map. Its ``row_alignment`` measures the rows' offsets once, on the whole pair
 (:func:`dcstereo.methods.sgm.sgm_row_field`), and the bands match the right view so moved.
+Its ``edges`` stage runs after the median, on the stitched map, over the whole views as the
+bands' costs saw them (:func:`dcstereo.methods.sgm.sgm_views`).
 """
 
 from dataclasses import dataclass, replace
@@ -28,9 +30,10 @@ from dcstereo._checks import is_integer
 from dcstereo.api import match
 from dcstereo.costs.row_offsets import moved_view
 from dcstereo.methods._pipeline import median_post_filter
-from dcstereo.methods.sgm import STRIP_MARGIN, sgm_row_field
+from dcstereo.methods.sgm import STRIP_MARGIN, sgm_row_field, sgm_views
 from dcstereo.params import MatchParams
 from dcstereo.refine.consistency import fill_inconsistent
+from dcstereo.refine.edges import refine_edges
 from dcstereo.result import DisparityResult
 from dcstereo.signal import check_pair
 
@@ -160,6 +163,8 @@ def match_tiled(
     bands = row_bands(height, tile_rows, params.window, context)
     if params.median or across:  # read rows of the neighbouring bands: once, on the whole
         match_kwargs = {**match_kwargs, "median": 0, "fill": False}
+    if params.edges is not None:  # after the median: once, on the stitched map
+        match_kwargs = {**match_kwargs, "edges": None}
     if across and params.row_alignment == "estimated":  # one field for the whole pair
         field = sgm_row_field(left, right, params)
         offsets = None if field is None else field.to_move()
@@ -187,6 +192,9 @@ def match_tiled(
             result = fill_inconsistent(result, left)
         if params.median:
             result = median_post_filter(result, left, params.median)
+        if params.edges is not None:  # over the views as the bands' costs saw them
+            views = sgm_views(left, right, MatchParams(**{**match_kwargs, "median": params.median}))
+            result = refine_edges(result, *views)
     elif params.median:
         result = median_post_filter(result, left, params.median)
         if params.fill:

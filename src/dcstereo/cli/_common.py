@@ -206,6 +206,13 @@ _METHOD_OPTION_TABLE = {
         "rectification is a little off. Default: none.",
         {"type": click.Choice(list(_params.ROW_ALIGNMENTS))},
     ),
+    "edges": (
+        "After the median: support-weights decides the pixels near the map's depth edges "
+        "again, between their value and the farther ones past the jumps around them, by "
+        "adaptive support weights (indoor scenes gain, driving scenes lose a little). "
+        "Default: none.",
+        {"type": click.Choice(list(_params.EDGES))},
+    ),
     "aggregation": (
         "A stage between the costs and the semi-global paths: cross (the costs averaged "
         "over cross-based support regions of the left view, ADCensus) or cross-both (over "
