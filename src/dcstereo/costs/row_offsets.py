@@ -176,7 +176,7 @@ def patch_curves(left, right, ys, xs, xr, centres, offsets, radius, reach, out, 
             task = next_task(counter)
 
 
-#: The shifts of a patch whose sums run side by side (:func:`_sads`): a register of 8 float64.
+#: The shifts of a patch whose sums run side by side (``_sads``): a register of 8 float64.
 LANES = 8
 
 
