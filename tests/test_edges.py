@@ -150,6 +150,42 @@ def test_kernel_equals_its_twin(seed):
     assert not np.array_equal(got, estimate, equal_nan=True)  # some pixels moved
 
 
+def test_support_cost_equals_its_twin():
+    rng = np.random.default_rng(7)
+    left, right, _, _ = square_scene(seed=7)
+    left3 = (left[None].astype(np.int16) + rng.integers(-3, 4, (3, 1, 1))).clip(0, 255)
+    left3 = left3.astype(np.int16)
+    right3 = (right[None] + rng.normal(0, 3, (3, *right.shape))).clip(0, 255).astype(np.float32)
+    codes_l, codes_r = edges._census(left3), edges._census(right3)
+    twin_l = naive.census(left3.astype(np.float32).mean(axis=0), edges.CENSUS_RADIUS)
+    twin_r = naive.census(right3.astype(np.float32).mean(axis=0), edges.CENSUS_RADIUS)
+    colour, space = edges.support_weight_tables()
+    points = [(0, 0, 0.0), (0, 79, 3.25), (39, 79, 79.0), (39, 5, 5.5), (20, 3, 3.75),
+              (20, 2, 4.0), (20, 46, 12.0), (20, 46, 4.0), (11, 30, 11.6),
+              (27, 47, 4.9)]  # fmt: skip
+    points += [(int(rng.integers(0, 40)), int(rng.integers(0, 80)), float(rng.uniform(0, 16)))
+               for _ in range(30)]  # fmt: skip
+    for y, x, d in points:
+        got = kernels.support_cost(left3, right3, codes_l, codes_r, y, x, d, edges.RADIUS,
+                                   colour, space, edges.TRUNCATION, edges.CENSUS_SCALE,
+                                   edges.COLOUR_COST_SCALE)  # fmt: skip
+        want = naive.cost(left3, right3, twin_l, twin_r, y, x, d, CONSTANTS)
+        assert got == pytest.approx(want, rel=1e-12) or got == want == math.inf, (y, x, d)
+
+
+def test_refine_edges_checks_its_channels():
+    left, right, truth, estimate = square_scene()
+    result = result_of(estimate)
+    as_int16 = edges.refine_edges(result, left[None].astype(np.int16), right[None]).disparity
+    assert np.array_equal(as_int16, truth)  # uint8 and int16 channels alike
+    with pytest.raises(ValueError, match="guide_l must be"):
+        edges.refine_edges(result, left, right[None])
+    with pytest.raises(ValueError, match="guide_r must hold finite levels"):
+        edges.refine_edges(result, left[None], right[None] * 2.0)
+    with pytest.raises(TypeError, match="guide_r must be a real array"):
+        edges.refine_edges(result, left[None], right[None].astype(complex))
+
+
 def test_gray_views_count_as_three_equal_channels():
     left, right, truth, estimate = square_scene()
     gray = edges.edge_refinement(result_of(estimate), left, right).disparity
@@ -163,7 +199,7 @@ def test_refuses_bad_arguments():
     left, right, _, estimate = square_scene()
     with pytest.raises(TypeError, match="DisparityResult"):
         edges.edge_refinement(estimate, left, right)
-    with pytest.raises(ValueError, match="shape"):
+    with pytest.raises(ValueError, match="not the pair matched"):
         edges.edge_refinement(result_of(estimate), left[:, :40], right[:, :40])
     with pytest.raises(ValueError, match="edges must be None or one of support-weights"):
         dcstereo.match(left, right, max_disparity=16, edges="asw")
@@ -174,29 +210,74 @@ def test_refuses_bad_arguments():
 # ---------------------------------------------------------------------- through match
 
 
-def test_match_runs_it_after_the_median_over_the_views_the_costs_saw():
-    from dcstereo.methods.sgm import METHOD, sgm_views
+def big_scene():
+    """The square scene at 96 x 160 (large enough for the coarse pass), the right view brighter."""
+    rng = np.random.default_rng(5)
+    wall = rng.integers(90, 110, (96, 160)).astype(np.uint8)
+    left, truth = np.roll(wall, 4, axis=1), np.full((96, 160), 4, np.float32)
+    square = rng.integers(190, 210, (32, 32)).astype(np.uint8)
+    left[32:64, 60:92], truth[32:64, 60:92] = square, 12
+    right = wall.copy()
+    right[32:64, 48:80] = square
+    right = np.clip(right * 1.15 + 10, 0, 255).astype(np.uint8)
+    return left, right, truth
 
-    assert METHOD.stage_names() == ("sgm", "median", "edges", "fill")
-    left, right, truth, _ = square_scene(seed=3)
+
+def test_match_runs_it_after_the_median_over_the_views_the_costs_saw(monkeypatch):
+    from dcstereo.methods import sgm
+    from dcstereo.signal import colour_channels
+
+    assert sgm.METHOD.stage_names() == ("sgm", "median", "edges", "fill")
+    left, right, truth = big_scene()
     options = dict(max_disparity=16, photometric="matched", median="weighted-planes")
-    before = dcstereo.match(left, right, **options)
-    after = dcstereo.match(left, right, edges="support-weights", **options)
-    # the stage run on its own (the views made again) gives what the call gave
     params = MatchParams(edges="support-weights", **options)
-    again = edges.refine_edges(before, *sgm_views(left, right, params))
+    views = sgm.sgm_views(left, right, params)
+    assert not np.array_equal(views[1], colour_channels(left, right)[1])  # mapped colours
+    before = dcstereo.match(left, right, **options)
+
+    def refuse(*args):
+        raise AssertionError("the call's own views are kept, not made again")
+
+    seen = []
+
+    def refine(result, guide_l, guide_r):
+        seen.append((guide_l, guide_r))
+        return edges.refine_edges(result, guide_l, guide_r)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(sgm, "sgm_views", refuse)
+        patch.setattr(sgm, "refine_edges", refine)
+        after = dcstereo.match(left, right, edges="support-weights", **options)
+    assert sgm._VIEWS.get() is None  # the stage cleared them
+    ((guide_l, guide_r),) = seen  # the stage ran once, over the mapped right view
+    assert np.array_equal(guide_l, views[0]) and np.array_equal(guide_r, views[1])
+    # the same as the stage over the views made again, and as the stage run on its own
+    again = edges.refine_edges(before, *views)
     assert np.array_equal(after.disparity, again.disparity, equal_nan=True)
+    alone = sgm._edges(left, right, params, before)
+    assert np.array_equal(after.disparity, alone.disparity, equal_nan=True)
     bad = lambda r: np.mean(np.abs(r.disparity - truth) > 1)  # noqa: E731
     assert bad(after) <= bad(before)
 
 
-def test_tiled_match_with_one_band_equals_the_whole():
+def test_the_views_are_not_kept_by_a_call_without_the_stage():
+    # sgm_confidence runs the costs with the result's params (edges included) and no stage
+    # after them: nothing may stay behind
+    from dcstereo.methods import sgm
+
+    left, right, _ = big_scene()
+    params = MatchParams(max_disparity=16, edges="support-weights")
+    sgm.sgm_confidence(left, right, params)
+    assert sgm._VIEWS.get() is None
+
+
+def test_tiled_match_equals_the_whole():
     from dcstereo.batch.tiling import match_tiled
 
     left, right, _, _ = square_scene(seed=2)
     options = dict(max_disparity=16, median="weighted-planes", edges="support-weights")
     whole = dcstereo.match(left, right, **options)
-    tiled = match_tiled(left, right, tile_rows=64, **options)
+    tiled = match_tiled(left, right, tile_rows=12, **options)  # 4 bands
     assert np.array_equal(whole.disparity, tiled.disparity, equal_nan=True)
 
 

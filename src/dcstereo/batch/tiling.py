@@ -18,8 +18,9 @@ where a band's context reaches the image's edges, and differs slightly near the 
 otherwise. Its fill (which searches across rows) and then its median run once on the
 stitched map. Its ``row_alignment`` measures the rows' offsets once, on the whole pair
 (:func:`dcstereo.methods.sgm.sgm_row_field`), and the bands match the right view so moved.
-Its ``edges`` stage runs after the median, on the stitched map, over the whole views as the
-bands' costs saw them (:func:`dcstereo.methods.sgm.sgm_views`).
+Its ``edges`` stage runs after the median, on the stitched map, over the whole views
+(:func:`dcstereo.methods.sgm.sgm_views`, the right view moved as the bands' was; with
+``photometric``, its colours mapped over the whole pair, where each band maps its own).
 """
 
 from dataclasses import dataclass, replace
@@ -192,8 +193,8 @@ def match_tiled(
             result = fill_inconsistent(result, left)
         if params.median:
             result = median_post_filter(result, left, params.median)
-        if params.edges is not None:  # over the views as the bands' costs saw them
-            views = sgm_views(left, right, MatchParams(**{**match_kwargs, "median": params.median}))
+        if params.edges is not None:  # the right view moved as the bands' was
+            views = sgm_views(left, right, replace(params, row_alignment=None))
             result = refine_edges(result, *views)
     elif params.median:
         result = median_post_filter(result, left, params.median)

@@ -494,8 +494,8 @@ def _run_threads(left, right, params, want_confidence):
     luma_r, colour_r = _aligned_views(
         left, right, luma_l, padded_signal(right, 0), colour_l, colour_r, params
     )
-    if params.edges is not None:  # for the edges stage after the median (_edges)
-        _VIEWS.set((left, right, colour_l, colour_r))
+    if params.edges is not None and not want_confidence:  # for the edges stage (_edges)
+        _VIEWS.set((left, right, _view_options(params), colour_l, colour_r))
     sigma = params.census_smoothing
     _census(smooth_signal(luma_l, sigma), rows, cols, codes_l, params.census_step)
     _census(smooth_signal(luma_r, sigma), rows, cols, codes_r, params.census_step)
@@ -577,8 +577,13 @@ def _run_threads(left, right, params, want_confidence):
 
 #: The views as the costs compared them (the right one after ``row_alignment`` and
 #: ``photometric``), kept by the costs of a call with ``edges`` for its edges stage, which
-#: runs after the median: ``(left, right, colour_l, colour_r)``, the images as given.
+#: runs after the median and clears it: ``(left, right, options, colour_l, colour_r)``,
+#: the images as given and the options that change the views (:func:`_view_options`).
 _VIEWS = contextvars.ContextVar("sgm_views", default=None)
+
+
+def _view_options(params):
+    return (params.photometric, params.row_alignment, params.min_disparity, params.max_disparity)
 
 
 def sgm_views(left: np.ndarray, right: np.ndarray, params: MatchParams):
@@ -605,8 +610,9 @@ def _edges(left, right, params, result):
     """
     kept = _VIEWS.get()
     _VIEWS.set(None)
-    if kept is not None and kept[0] is left and kept[1] is right:
-        colour_l, colour_r = kept[2], kept[3]
+    same = kept is not None and kept[0] is left and kept[1] is right
+    if same and kept[2] == _view_options(params):
+        colour_l, colour_r = kept[3], kept[4]
     else:
         colour_l, colour_r = sgm_views(left, right, params)
     with threads_with_cores():

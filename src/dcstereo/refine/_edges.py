@@ -162,7 +162,8 @@ def edge_rows(disparity, flags, left, right, codes_l, codes_r, zone, jump, reach
     A pixel with an estimate whose ``(2 zone + 1)^2`` window (the edges repeated; the
     estimates alone) spans more than ``jump`` takes the candidate of
     :func:`edge_candidates` of least :func:`support_cost` when that is below ``1 -
-    margin`` times its own value's; every other pixel keeps its value.
+    margin`` times its own value's (any finite one, where its own value's match leaves the
+    right view); every other pixel keeps its value.
     """
     height, width = disparity.shape
     for y in nb.prange(height):
@@ -177,8 +178,10 @@ def edge_rows(disparity, flags, left, right, codes_l, codes_r, zone, jump, reach
                 yy = min(max(y + dy, 0), height - 1)
                 for dx in range(-zone, zone + 1):
                     v = disparity[yy, min(max(x + dx, 0), width - 1)]
-                    low = min(low, v)  # NaN: neither
-                    high = max(high, v)
+                    if v < low:  # NaN: neither
+                        low = v
+                    if v > high:
+                        high = v
             if not high - low > jump:
                 continue
             count = edge_candidates(disparity, left, flags, y, x, reach, colour_limit, candidates)

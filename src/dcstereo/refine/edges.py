@@ -30,7 +30,7 @@ import numpy as np
 from dcstereo.refine import _edges as kernels
 from dcstereo.refine.postfilter import _inside
 from dcstereo.refine.weighted_median import kernel_guide
-from dcstereo.result import DisparityResult
+from dcstereo.result import DisparityResult, check_result_pair
 from dcstereo.signal import colour_channels
 
 __all__ = ["edge_refinement", "refine_edges", "support_weight_tables"]
@@ -88,9 +88,10 @@ def edge_refinement(
         The map to refine, best after the median stage; its flags mark the pixels whose
         values may not be taken (any flag: occluded, filled, mismatched...).
     left, right : ndarray
-        The pair as the matcher compared it (gray or colour, any of the library's input
-        types; for ``sgm`` with ``photometric`` or ``row_alignment``, the right view after
-        them), of the map's shape.
+        The pair the map belongs to (gray or colour, any of the library's input types), of
+        the map's shape. ``sgm`` with ``photometric`` or ``row_alignment`` compares a right
+        view changed by them; :func:`refine_edges` takes those channels
+        (:func:`dcstereo.methods.sgm.sgm_views`).
 
     Returns
     -------
@@ -106,7 +107,7 @@ def edge_refinement(
     >>> import numpy as np
     >>> from dcstereo.params import MatchParams
     >>> from dcstereo.refine.edges import edge_refinement
-    >>> from dcstereo.result import DisparityResult
+    >>> from dcstereo.result import DisparityResult, check_result_pair
     >>> rng = np.random.default_rng(1)
     >>> wall = rng.integers(90, 110, (40, 80)).astype(np.uint8)
     >>> left, truth = np.roll(wall, 4, axis=1), np.full((40, 80), 4, np.float32)
@@ -121,27 +122,43 @@ def edge_refinement(
     >>> bool(np.array_equal(edge_refinement(result, left, right).disparity, truth))
     True
     """
-    if not isinstance(result, DisparityResult):
-        raise TypeError(f"result must be a DisparityResult, got {type(result).__name__}")
+    left, right = check_result_pair(result, left, right)
     guide_l, guide_r = colour_channels(left, right)
-    if guide_l.shape[1:] != result.disparity.shape or guide_r.shape != guide_l.shape:
-        raise ValueError(
-            f"left and right must both have the disparity map's shape "
-            f"{result.disparity.shape}, got {guide_l.shape[1:]} and {guide_r.shape[1:]}"
-        )
     return refine_edges(result, guide_l, guide_r)
 
 
 def refine_edges(
     result: DisparityResult, guide_l: np.ndarray, guide_r: np.ndarray
 ) -> DisparityResult:
-    """Return :func:`edge_refinement` of the views' channels (``(C, H, W)``, levels 0..255).
+    """Return :func:`edge_refinement` of the views' channels.
 
-    As :func:`dcstereo.signal.colour_channels` gives them, one or three channels each (a
-    gray view as three equal ones), of the map's shape (not checked here).
+    ``guide_l``, ``guide_r``: ``(C, H, W)`` arrays of levels 0..255, one or three channels
+    each (a gray view counts as three equal ones), of the map's shape, as
+    :func:`dcstereo.signal.colour_channels` gives them (any real dtype; the left view's
+    levels are rounded to whole ones). For ``sgm``'s own views after ``row_alignment`` and
+    ``photometric``: ``refine_edges(result, *dcstereo.methods.sgm.sgm_views(left, right,
+    result.params))``. Raises TypeError or ValueError naming the argument.
     """
-    guide_l = kernel_guide(guide_l)
-    guide_r = np.ascontiguousarray(kernel_guide(guide_r), dtype=np.float32)
+    if not isinstance(result, DisparityResult):
+        raise TypeError(f"result must be a DisparityResult, got {type(result).__name__}")
+    shape = result.disparity.shape
+    checked = []
+    for name, guide in (("guide_l", guide_l), ("guide_r", guide_r)):
+        guide = np.asarray(guide)
+        if guide.ndim != 3 or guide.shape[0] not in (1, 3) or guide.shape[1:] != shape:
+            raise ValueError(
+                f"{name} must be (1 or 3, {shape[0]}, {shape[1]}) channels, got shape {guide.shape}"
+            )
+        if guide.dtype.kind not in "biuf":
+            raise TypeError(f"{name} must be a real array, got {guide.dtype}")
+        guide = guide.astype(np.float32)
+        if not (
+            np.isfinite(guide).all() and guide.min(initial=0) >= 0 and guide.max(initial=0) <= 255
+        ):
+            raise ValueError(f"{name} must hold finite levels 0..255")
+        checked.append(guide)
+    guide_l = kernel_guide(np.rint(checked[0]).astype(np.int16))
+    guide_r = np.ascontiguousarray(kernel_guide(checked[1]), dtype=np.float32)
     codes_l = _census(guide_l)
     codes_r = _census(guide_r)
     disparity = np.ascontiguousarray(result.disparity, dtype=np.float32)
