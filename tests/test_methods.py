@@ -19,7 +19,7 @@ def test_every_method_has_an_entry_and_starts_with_its_own_stage():
 
 def test_sgm_lists_its_stages_and_fits_its_own_subpixel():
     stages = REGISTRY["sgm"].stage_names()
-    assert stages == ("sgm", "median", "fill")
+    assert stages == ("sgm", "median", "edges", "fill")
     assert "semi-global paths" in REGISTRY["sgm"].stages[0].steps
     assert REGISTRY["dsi5"].stage_names() == ("dsi5", "subpixel", "median", "fill")
 
