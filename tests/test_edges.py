@@ -19,15 +19,22 @@ CONSTANTS = {name: getattr(edges, name) for name in (
 )}  # fmt: skip
 
 
-def square_scene(seed=1, fat=2):
-    """A square (disparity 12) before a wall (4), faint texture; its estimates ``fat`` px wider."""
+def scene(seed, height, width, top, col, side):
+    """A square (disparity 12, ``side`` px at ``(top, col)``) before a wall (4), faint texture."""
     rng = np.random.default_rng(seed)
-    wall = rng.integers(90, 110, (40, 80)).astype(np.uint8)
-    left, truth = np.roll(wall, 4, axis=1), np.full((40, 80), 4, np.float32)
-    square = rng.integers(190, 210, (16, 16)).astype(np.uint8)
-    left[12:28, 30:46], truth[12:28, 30:46] = square, 12
+    wall = rng.integers(90, 110, (height, width)).astype(np.uint8)
+    left, truth = np.roll(wall, 4, axis=1), np.full((height, width), 4, np.float32)
+    square = rng.integers(190, 210, (side, side)).astype(np.uint8)
+    left[top : top + side, col : col + side] = square
+    truth[top : top + side, col : col + side] = 12
     right = wall.copy()
-    right[12:28, 18:34] = square
+    right[top : top + side, col - 12 : col - 12 + side] = square
+    return left, right, truth
+
+
+def square_scene(seed=1, fat=2):
+    """The square scene at 40 x 80; its estimates ``fat`` px wider to the right."""
+    left, right, truth = scene(seed, 40, 80, 12, 30, 16)
     estimate = truth.copy()
     estimate[12:28, 46 : 46 + fat] = 12
     return left, right, truth, estimate
@@ -212,15 +219,8 @@ def test_refuses_bad_arguments():
 
 def big_scene():
     """The square scene at 96 x 160 (large enough for the coarse pass), the right view brighter."""
-    rng = np.random.default_rng(5)
-    wall = rng.integers(90, 110, (96, 160)).astype(np.uint8)
-    left, truth = np.roll(wall, 4, axis=1), np.full((96, 160), 4, np.float32)
-    square = rng.integers(190, 210, (32, 32)).astype(np.uint8)
-    left[32:64, 60:92], truth[32:64, 60:92] = square, 12
-    right = wall.copy()
-    right[32:64, 48:80] = square
-    right = np.clip(right * 1.15 + 10, 0, 255).astype(np.uint8)
-    return left, right, truth
+    left, right, truth = scene(5, 96, 160, 32, 60, 32)
+    return left, np.clip(right * 1.15 + 10, 0, 255).astype(np.uint8), truth
 
 
 def test_match_runs_it_after_the_median_over_the_views_the_costs_saw(monkeypatch):
