@@ -7,6 +7,7 @@ import pytest
 
 import dcstereo
 import naive_edges as naive
+from dcstereo.costs.census import census_transform
 from dcstereo.params import MatchParams
 from dcstereo.refine import _edges as kernels
 from dcstereo.refine import edges
@@ -82,12 +83,14 @@ def test_support_cost_by_hand():
     )
 
 
-def test_census_codes_by_hand():
+def test_census_of_a_float_intensity_by_hand():
+    # the stage's census: costs.census.census_transform of the views' mean intensity
+    # (float32), a bit where a neighbour is darker than the centre, the first highest
     intensity = np.array([[1, 5, 2], [3, 4, 9], [0, 7, 4]], np.float32)
-    codes = np.empty((3, 3), np.uint64)
-    kernels.census_codes(intensity, 1, codes)
-    # the centre (4): neighbours in row order 1 5 2 3 9 0 7 4 -> less: 1, 2, 3, 0 (bits 0 2 3 5)
-    assert int(codes[1, 1]) == 0b101101
+    codes = np.empty((1, 1), np.uint32)
+    census_transform(intensity, 3, 3, codes)
+    # the centre (4): neighbours in row order 1 5 2 3 9 0 7 4 -> darker: 1, 2, 3, 0
+    assert int(codes[0, 0]) == 0b10110100
 
 
 def test_candidates_by_hand():
@@ -225,6 +228,7 @@ def big_scene():
 
 def test_match_runs_it_after_the_median_over_the_views_the_costs_saw(monkeypatch):
     from dcstereo.methods import sgm
+    from dcstereo.methods._pipeline import run_shared
     from dcstereo.signal import colour_channels
 
     assert sgm.METHOD.stage_names() == ("sgm", "median", "edges", "fill")
@@ -241,15 +245,16 @@ def test_match_runs_it_after_the_median_over_the_views_the_costs_saw(monkeypatch
     seen = []
 
     def refine(result, guide_l, guide_r):
-        seen.append((guide_l, guide_r))
+        seen.append((guide_l, guide_r, dict(run_shared())))
         return edges.refine_edges(result, guide_l, guide_r)
 
     with monkeypatch.context() as patch:
         patch.setattr(sgm, "sgm_views", refuse)
         patch.setattr(sgm, "refine_edges", refine)
         after = dcstereo.match(left, right, edges="support-weights", **options)
-    assert sgm._VIEWS.get() is None  # the stage cleared them
-    ((guide_l, guide_r),) = seen  # the stage ran once, over the mapped right view
+    assert run_shared() is None  # nothing of the run stays behind
+    ((guide_l, guide_r, shared),) = seen  # the stage ran once, over the mapped right view
+    assert shared == {}  # and took the views from the run's store
     assert np.array_equal(guide_l, views[0]) and np.array_equal(guide_r, views[1])
     # the same as the stage over the views made again, and as the stage run on its own
     again = edges.refine_edges(before, *views)
@@ -264,11 +269,12 @@ def test_the_views_are_not_kept_by_a_call_without_the_stage():
     # sgm_confidence runs the costs with the result's params (edges included) and no stage
     # after them: nothing may stay behind
     from dcstereo.methods import sgm
+    from dcstereo.methods._pipeline import run_shared
 
     left, right, _ = big_scene()
     params = MatchParams(max_disparity=16, edges="support-weights")
     sgm.sgm_confidence(left, right, params)
-    assert sgm._VIEWS.get() is None
+    assert run_shared() is None
 
 
 def test_tiled_match_equals_the_whole():

@@ -48,6 +48,32 @@ def test_stages_whose_option_is_off_are_skipped():
     assert str(method) == "toy: first -> off -> last"
 
 
+def test_the_stages_of_a_run_share_a_store_that_ends_with_it():
+    from dcstereo.methods._pipeline import run_shared
+
+    seen = []
+
+    def put(left, right, params, result):
+        run_shared()["value"] = 7
+        return result
+
+    def take(left, right, params, result):
+        seen.append(run_shared().pop("value", None))
+        return result
+
+    method = Method("toy", (Stage("put", put), Stage("take", take)))
+    params = P.MatchParams(max_disparity=2, method="dsi5")
+    assert run_shared() is None
+    method.run(np.zeros((3, 3)), np.zeros((3, 3)), params)
+    method.run(np.zeros((3, 3)), np.zeros((3, 3)), params)
+    assert seen == [7, 7] and run_shared() is None
+    # a failing run leaves nothing behind either
+    method = Method("toy", (Stage("put", put), Stage("fail", lambda *args: 1 / 0)))
+    with pytest.raises(ZeroDivisionError):
+        method.run(np.zeros((3, 3)), np.zeros((3, 3)), params)
+    assert run_shared() is None
+
+
 def test_a_new_method_of_existing_stages_is_a_few_lines():
     """dsi5 without its median: the same map as dsi5 with median=0."""
     from dcstereo.methods.dsi import _match_dsi

@@ -50,7 +50,7 @@ def curves(left, right, ys, xs, xr, centres, offsets, radius, reach):
     [(1, 1, 0), (1, 3, 1), (2, 2, 2), (3, 1, 3), (4, 3, 4), (4, 1, 5), (2, 4, 6), (1, 5, 7)],
 )
 def test_patch_curves_equals_its_twin(radius, reach, seed):
-    # reach 4 and 5: more shifts than the kernel's register of 8 (its plain loop)
+    # reach 4 and 5: 9 and 11 shifts summed side by side
     rng = np.random.default_rng(seed)
     height, width = 26, 31
     left = rng.uniform(0, 255, (height, width))

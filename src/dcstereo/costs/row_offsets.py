@@ -161,11 +161,10 @@ def patch_curves(left, right, ys, xs, xr, centres, offsets, radius, reach, out, 
     counter = np.zeros(1, dtype=np.int64)
     for _ in nb.prange(max(1, min(threads, tasks))):
         patch = np.empty((side, side))
-        # the columns and shifts past the patch's are read by _sads and not used
-        rows = np.zeros((side, max(span, side + LANES - 1)))
+        rows = np.empty((side, span))
         column_sums = np.empty(span)
-        sads = np.zeros(max(2 * reach + 1, LANES))
-        lifts = np.zeros(max(2 * reach + 1, LANES))
+        sads = np.empty(2 * reach + 1)
+        lifts = np.empty(2 * reach + 1)
         task = next_task(counter)
         while task < tasks:
             for i in range(task * TASK_PATCHES, min((task + 1) * TASK_PATCHES, ys.size)):
@@ -174,38 +173,6 @@ def patch_curves(left, right, ys, xs, xr, centres, offsets, radius, reach, out, 
                     patch, rows, column_sums, sads, lifts, out[i],
                 )  # fmt: skip
             task = next_task(counter)
-
-
-#: The shifts of a patch whose sums run side by side (``_sads``): a register of 8 float64.
-LANES = 8
-
-
-@nb.njit(cache=True, inline="always")
-def _sads(patch, rows, lifts, side, sads):
-    """Add to ``sads[dx]`` each shift's sum of ``|patch - rows[:, dx:] + lifts[dx]|``, dx < 8.
-
-    The sums of all :data:`LANES` shifts side by side in registers (``rows`` has ``side + 7``
-    columns or more, ``lifts`` and ``sads`` 8 entries; the shifts beyond the patch's are
-    computed and not read), each in the order of the plain loop: rows, then columns.
-    """
-    s0, s1, s2, s3 = sads[0], sads[1], sads[2], sads[3]
-    s4, s5, s6, s7 = sads[4], sads[5], sads[6], sads[7]
-    l0, l1, l2, l3 = lifts[0], lifts[1], lifts[2], lifts[3]
-    l4, l5, l6, l7 = lifts[4], lifts[5], lifts[6], lifts[7]
-    for a in range(side):
-        for b in range(side):
-            v = patch[a, b]
-            w = rows[a, b : b + LANES]
-            s0 += abs(v - w[0] + l0)
-            s1 += abs(v - w[1] + l1)
-            s2 += abs(v - w[2] + l2)
-            s3 += abs(v - w[3] + l3)
-            s4 += abs(v - w[4] + l4)
-            s5 += abs(v - w[5] + l5)
-            s6 += abs(v - w[6] + l6)
-            s7 += abs(v - w[7] + l7)
-    sads[0], sads[1], sads[2], sads[3] = s0, s1, s2, s3
-    sads[4], sads[5], sads[6], sads[7] = s4, s5, s6, s7
 
 
 @nb.njit(cache=True)
@@ -218,6 +185,7 @@ def _patch_curve(
     size = side * side
     span = side + 2 * reach
     x0 = xr - reach - radius  # the first right column the patches read
+    shifts = 2 * reach + 1
     for j in range(offsets.size):
         out[j] = np.inf
         half = 0.5 * (centre + offsets[j])
@@ -231,22 +199,19 @@ def _patch_curve(
         for a in range(side):
             for c in range(span):
                 column_sums[c] += rows[a, c]
-        shifts = 2 * reach + 1
         for dx in range(shifts):
             rmean = 0.0
             for b in range(side):
                 rmean += column_sums[dx + b]
             lifts[dx] = rmean / size - mean  # the right patch's mean over the left's
             sads[dx] = 0.0
-        if shifts <= LANES:
-            sads[shifts:] = 0.0
-            _sads(patch, rows, lifts, side, sads)
-        else:
-            for a in range(side):
-                for b in range(side):
-                    for dx in range(shifts):
-                        sads[dx] += abs(patch[a, b] - rows[a, dx + b] + lifts[dx])
-        k = np.argmin(sads[:shifts])
+        # each shift's sum in the plain order (rows, then columns), the shifts side by side
+        for a in range(side):
+            for b in range(side):
+                value = patch[a, b]
+                for dx in range(shifts):
+                    sads[dx] += abs(value - rows[a, dx + b] + lifts[dx])
+        k = np.argmin(sads)
         best = sads[k]
         if 0 < k < 2 * reach:
             best = max(best - 0.5 * abs(sads[k - 1] - sads[k + 1]), 0.0)  # the V

@@ -4,13 +4,17 @@ Every stage takes the pair, the validated :class:`~dcstereo.params.MatchParams` 
 result of the stages before it (None for the first) and returns the new result. A stage
 whose option is off (``when``) is skipped. A fused stage runs several steps of the data
 path in one pass (``sgm``'s costs, paths, choice and left-right check share one sweep over
-the volume); its name lists them, and its tests compare it with the plain steps.
+the volume); its name lists them, and its tests compare it with the plain steps. A stage
+that needs an intermediate of an earlier one, not the result (``sgm``'s edges stage, the
+views its costs compared), finds it in the store the stages of a run share
+(:func:`run_shared`), which ends with the run.
 
 >>> from dcstereo.methods import REGISTRY
 >>> print(REGISTRY["dsi5"])
 dsi5: dsi5 [costs (SAD or BT, eq. 4) + five-step DP (eq. 5)] -> subpixel -> median -> fill
 """
 
+import contextvars
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, fields
 
@@ -31,6 +35,17 @@ StageFunction = Callable[
 
 def _always(params: MatchParams) -> bool:
     return True
+
+
+#: What the stages of the :meth:`Method.run` in progress share (a dict, None outside a
+#: run): a stage that needs an intermediate of an earlier one (``sgm``'s edges stage, the
+#: views its costs compared) finds it here, and it goes when the run ends.
+_RUN = contextvars.ContextVar("dcstereo_run", default=None)
+
+
+def run_shared() -> dict | None:
+    """Return the values the stages of the current :meth:`Method.run` share (None outside)."""
+    return _RUN.get()
 
 
 @dataclass(frozen=True)
@@ -102,12 +117,19 @@ class Method:
     params: type | None = None
 
     def run(self, left: np.ndarray, right: np.ndarray, params: MatchParams) -> DisparityResult:
-        """Run the stages whose options are on; the pair and ``params`` already validated."""
-        result = None
-        for stage in self.stages:
-            if stage.when(params):
-                result = stage.run(left, right, params, result)
-        return result
+        """Run the stages whose options are on; the pair and ``params`` already validated.
+
+        The stages share a fresh :func:`run_shared` dict, dropped when the run ends.
+        """
+        token = _RUN.set({})
+        try:
+            result = None
+            for stage in self.stages:
+                if stage.when(params):
+                    result = stage.run(left, right, params, result)
+            return result
+        finally:
+            _RUN.reset(token)
 
     def stage_names(self) -> tuple[str, ...]:
         """Return the names of the stages, in order."""

@@ -63,7 +63,6 @@ whichever thread is free, so a thread that waits for a core (other work on the m
 holds back one task.
 """
 
-import contextvars
 import threading
 import time
 from dataclasses import dataclass
@@ -79,7 +78,16 @@ from dcstereo.costs import census as census_kernels
 from dcstereo.costs import photometric, row_offsets
 from dcstereo.costs.census_sparse import census_sparse
 from dcstereo.costs.smoothing import smooth_signal
-from dcstereo.methods._pipeline import FILL, MEDIAN, Method, MethodParams, Stage, core, option
+from dcstereo.methods._pipeline import (
+    FILL,
+    MEDIAN,
+    Method,
+    MethodParams,
+    Stage,
+    core,
+    option,
+    run_shared,
+)
 from dcstereo.params import MatchParams
 from dcstereo.refine.consistency import fill_with_colour
 from dcstereo.refine.edges import refine_edges
@@ -494,8 +502,9 @@ def _run_threads(left, right, params, want_confidence):
     luma_r, colour_r = _aligned_views(
         left, right, luma_l, padded_signal(right, 0), colour_l, colour_r, params
     )
-    if params.edges is not None and not want_confidence:  # for the edges stage (_edges)
-        _VIEWS.set((left, right, _view_options(params), colour_l, colour_r))
+    shared = run_shared()
+    if params.edges is not None and shared is not None:  # for this run's edges stage
+        shared[_VIEWS] = (colour_l, colour_r)
     sigma = params.census_smoothing
     _census(smooth_signal(luma_l, sigma), rows, cols, codes_l, params.census_step)
     _census(smooth_signal(luma_r, sigma), rows, cols, codes_r, params.census_step)
@@ -575,15 +584,10 @@ def _run_threads(left, right, params, want_confidence):
     return result, margin
 
 
-#: The views as the costs compared them (the right one after ``row_alignment`` and
-#: ``photometric``), kept by the costs of a call with ``edges`` for its edges stage, which
-#: runs after the median and clears it: ``(left, right, options, colour_l, colour_r)``,
-#: the images as given and the options that change the views (:func:`_view_options`).
-_VIEWS = contextvars.ContextVar("sgm_views", default=None)
-
-
-def _view_options(params):
-    return (params.photometric, params.row_alignment, params.min_disparity, params.max_disparity)
+#: The key of :func:`~dcstereo.methods._pipeline.run_shared` under which the costs of a run
+#: with ``edges`` leave the views as they compared them (the right one after
+#: ``row_alignment`` and ``photometric``): ``(colour_l, colour_r)``, for the edges stage.
+_VIEWS = "sgm views"
 
 
 def sgm_views(left: np.ndarray, right: np.ndarray, params: MatchParams):
@@ -605,16 +609,11 @@ def sgm_views(left: np.ndarray, right: np.ndarray, params: MatchParams):
 def _edges(left, right, params, result):
     """Run :func:`~dcstereo.refine.edges.refine_edges` over the views the costs saw (the stage).
 
-    Kept by this call's costs (:data:`_VIEWS`); made again (:func:`sgm_views`) when they
-    were not (the stage run on its own).
+    Left by this run's costs (:data:`_VIEWS`); made again (:func:`sgm_views`) for the
+    stage run on its own.
     """
-    kept = _VIEWS.get()
-    _VIEWS.set(None)
-    same = kept is not None and kept[0] is left and kept[1] is right
-    if same and kept[2] == _view_options(params):
-        colour_l, colour_r = kept[3], kept[4]
-    else:
-        colour_l, colour_r = sgm_views(left, right, params)
+    views = (run_shared() or {}).pop(_VIEWS, None)
+    colour_l, colour_r = sgm_views(left, right, params) if views is None else views
     with threads_with_cores():
         return refine_edges(result, colour_l, colour_r)
 

@@ -9,43 +9,11 @@ own value's by a margin.
 import numba as nb
 import numpy as np
 
+from dcstereo.costs.census import popcount
+
 #: The directions a pixel looks along for another surface, ``(dy, dx)``: all but those to
 #: its left, where the pixels near a depth edge are the occluded ones.
 DIRECTIONS = np.array([(-1, 0), (-1, 1), (0, 1), (1, 0), (1, 1)], dtype=np.int64)
-
-
-@nb.njit(cache=True, inline="always")
-def _popcount(value):
-    count = 0
-    while value:
-        value &= value - np.uint64(1)
-        count += 1
-    return count
-
-
-@nb.njit(cache=True, parallel=True)
-def census_codes(intensity, radius, out):
-    """Write into ``out`` (uint64) each pixel's census code of ``(2 radius + 1)^2`` - 1 bits.
-
-    Bit ``k`` (the window's pixels in row order, the centre left out) is set where that
-    pixel of ``intensity`` (float32) is less than the centre's; the edges are repeated.
-    """
-    height, width = intensity.shape
-    for y in nb.prange(height):
-        for x in range(width):
-            centre = intensity[y, x]
-            code = np.uint64(0)
-            bit = np.uint64(0)
-            for dy in range(-radius, radius + 1):
-                yy = min(max(y + dy, 0), height - 1)
-                for dx in range(-radius, radius + 1):
-                    if dy == 0 and dx == 0:
-                        continue
-                    xx = min(max(x + dx, 0), width - 1)
-                    if intensity[yy, xx] < centre:
-                        code |= np.uint64(1) << bit
-                    bit += np.uint64(1)
-            out[y, x] = code
 
 
 @nb.njit(cache=True)
@@ -70,6 +38,11 @@ def support_cost(left, right, codes_l, codes_r, y, x, d, radius, colour_weight, 
         return np.inf
     g = xc - j0
     j1 = min(j0 + 1, width - 1)
+    centre = (  # the centre's match in the right view, per channel
+        (1 - g) * right[0, y, j0] + g * right[0, y, j1],
+        (1 - g) * right[1, y, j0] + g * right[1, y, j1],
+        (1 - g) * right[2, y, j0] + g * right[2, y, j1],
+    )
     total = 0.0
     weights = 0.0
     for dy in range(-radius, radius + 1):
@@ -93,11 +66,10 @@ def support_cost(left, right, codes_l, codes_r, y, x, d, radius, colour_weight, 
                 a = left[c, yy, xx]
                 g_left = max(g_left, abs(a - left[c, y, x]))
                 b = (1 - f) * right[c, yy, i0] + f * right[c, yy, i1]
-                centre = (1 - g) * right[c, y, j0] + g * right[c, y, j1]
-                g_right = max(g_right, abs(b - centre))
+                g_right = max(g_right, abs(b - centre[c]))
                 colour += abs(a - b)
             colour = min(colour, truncation) / 3
-            hamming = (1 - f) * _popcount(codes_l[yy, xx] ^ codes_r[yy, i0]) + f * _popcount(
+            hamming = (1 - f) * popcount(codes_l[yy, xx] ^ codes_r[yy, i0]) + f * popcount(
                 codes_l[yy, xx] ^ codes_r[yy, i1]
             )
             cost = 2.0 - np.exp(-hamming / census_scale) - np.exp(-colour / colour_scale)

@@ -27,6 +27,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from dcstereo.costs.census import census_transform
 from dcstereo.refine import _edges as kernels
 from dcstereo.refine.postfilter import _inside
 from dcstereo.refine.weighted_median import kernel_guide
@@ -174,7 +175,8 @@ def refine_edges(
 
 def _census(guide: np.ndarray) -> np.ndarray:
     """Return the :data:`CENSUS_RADIUS` census codes of a guide's mean intensity (float32)."""
-    intensity = np.ascontiguousarray(guide.astype(np.float32).mean(axis=0))
-    codes = np.empty(intensity.shape, dtype=np.uint64)
-    kernels.census_codes(intensity, CENSUS_RADIUS, codes)
+    intensity = guide.astype(np.float32, copy=False).mean(axis=0)
+    side = 2 * CENSUS_RADIUS + 1
+    codes = np.empty(intensity.shape, dtype=np.uint32 if side * side - 1 <= 32 else np.uint64)
+    census_transform(np.pad(intensity, CENSUS_RADIUS, mode="edge"), side, side, codes)
     return codes
