@@ -7,7 +7,7 @@ path in one pass (``sgm``'s costs, paths, choice and left-right check share one 
 the volume); its name lists them, and its tests compare it with the plain steps. A stage
 that needs an intermediate of an earlier one, not the result (``sgm``'s edges stage, the
 views its costs compared), finds it in the store the stages of a run share
-(:func:`run_shared`), which ends with the run.
+(``run_shared()``), which ends with the run.
 
 >>> from dcstereo.methods import REGISTRY
 >>> print(REGISTRY["dsi5"])
@@ -119,7 +119,7 @@ class Method:
     def run(self, left: np.ndarray, right: np.ndarray, params: MatchParams) -> DisparityResult:
         """Run the stages whose options are on; the pair and ``params`` already validated.
 
-        The stages share a fresh :func:`run_shared` dict, dropped when the run ends.
+        The stages share a fresh ``run_shared()`` dict, dropped when the run ends.
         """
         token = _RUN.set({})
         try:
