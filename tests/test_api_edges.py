@@ -130,6 +130,14 @@ def test_an_option_the_method_does_not_read_is_refused(name):
         if method in readers:
             MatchParams(max_disparity=6, method=method, **{name: value})
             continue
+        fixed = params_module.FIXED_OPTIONS.get(method, {})
+        if name in fixed:  # a stage the method always runs: that value only
+            assert getattr(MatchParams(max_disparity=6, method=method), name) == fixed[name]
+            MatchParams(max_disparity=6, method=method, **{name: fixed[name]})
+            other = {"planes": False}.get(name, "none")
+            with pytest.raises(ValueError, match=f"{name}={other!r}: {method} always runs"):
+                MatchParams(max_disparity=6, method=method, **{name: other})
+            continue
         with pytest.raises(ValueError) as err:
             dcstereo.match(left, right, max_disparity=6, method=method, **{name: value})
         assert str(err.value) == f"{name} is read only by {', '.join(readers)}, not by {method}"

@@ -48,7 +48,7 @@ BOUNDS = [(0, 0), (4096, 4096), (64 * 1024, 0), (256 * 1024, 0), (256 * 1024, 64
 #: where each band's context (``window // 2 + sgm.STRIP_MARGIN``, 33 rows) reaches both
 #: edges of the image (the ``tiling`` module's text): 16-row bands of this 48-row pair do,
 #: 13-row ones do not.
-TILE_ROWS = {"sgm": 16}
+TILE_ROWS = {"sgm": 16, "sgm-accurate": 16}
 
 
 def _pair():

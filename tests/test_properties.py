@@ -41,7 +41,7 @@ def test_any_size_and_range_gives_a_consistent_result(problem):
     # every pixel without an estimate says why
     reasons = dcstereo.FLAG_OCCLUDED | dcstereo.FLAG_BORDER | dcstereo.FLAG_MISMATCH
     assert (own.flags[~finite] & reasons).all()
-    if method not in ("block", "sgm"):
+    if method not in ("block", *dcstereo.params.SGM_METHODS):
         # the DP methods obey the ordering constraint: along a row, matched right pixels
         # strictly increase with the left pixel
         pairs = result.pairs()

@@ -30,7 +30,7 @@ from dcstereo.methods.dc import DCLinearParams, DCParams
 from dcstereo.methods.dsi import DSI3Params, DSI5Params
 from dcstereo.methods.gcp import GCPParams
 from dcstereo.methods.redert import RedertParams
-from dcstereo.methods.sgm import SGMParams
+from dcstereo.methods.sgm import SGMAccurateParams, SGMParams
 from dcstereo.params import DEFAULT_METHOD, METHODS, MatchParams
 from dcstereo.rectification import RectifiedPair, StereoCalibration, read_calibration, rectify
 from dcstereo.result import (
@@ -51,6 +51,7 @@ __all__ = [
     "DSI5Params",
     "GCPParams",
     "RedertParams",
+    "SGMAccurateParams",
     "SGMParams",
     "FLAG_BORDER",
     "FLAG_FEATURE",

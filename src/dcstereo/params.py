@@ -8,7 +8,12 @@ import numpy as np
 from dcstereo._checks import is_integer, is_number
 
 #: Methods understood by :func:`dcstereo.match`, in the order the docs present them.
-METHODS = ("sgm", "dc", "dc-linear", "dsi5", "dsi3", "dsi3-gcp", "redert", "block")
+METHODS = (
+    "sgm", "sgm-accurate", "dc", "dc-linear", "dsi5", "dsi3", "dsi3-gcp", "redert", "block",
+)  # fmt: skip
+
+#: The methods built on ``sgm``'s semi-global pipeline: they read its options.
+SGM_METHODS = ("sgm", "sgm-accurate")
 
 #: The method :func:`dcstereo.match` runs when none is named.
 DEFAULT_METHOD = "sgm"
@@ -50,6 +55,7 @@ COSTS = ("sad", "bt", "census", "census-ad")
 #: The costs each method takes.
 METHOD_COSTS = {
     "sgm": ("census", "census-ad"),
+    "sgm-accurate": ("census-ad",),  # its photometric stage aligns the colour term
     "redert": ("sad",),
 }
 _SCANLINE_COSTS = ("sad", "bt")
@@ -64,9 +70,62 @@ def costs_of(method: str) -> tuple[str, ...]:
 #: left out: the method's value). ``sgm`` returns a filled, median-filtered map; the
 #: scanline methods of the paper the raw one.
 METHOD_DEFAULTS = {
-    "sgm": {"window": 3, "cost": "census-ad", "fill": True, "median": 5, "subpixel": "equiangular"},
-    None: {"window": 5, "cost": "sad", "fill": False, "median": 0, "subpixel": None},
+    "sgm": {
+        "window": 3,
+        "cost": "census-ad",
+        "fill": True,
+        "median": 5,
+        "subpixel": "equiangular",
+        "planes": False,
+    },
+    "sgm-accurate": {
+        "window": 3,
+        "cost": "census-ad",
+        "fill": True,
+        "median": "weighted-planes",
+        "subpixel": "equiangular",
+    },
+    None: {
+        "window": 5,
+        "cost": "sad",
+        "fill": False,
+        "median": 0,
+        "subpixel": None,
+        "planes": False,
+    },
 }
+
+#: The stages a method always runs: options of ``sgm`` that such a method fixes (given to
+#: it, only their fixed value or the option's default is taken). ``sgm-accurate`` is
+#: ``sgm`` with the five stages that won on the development scenes, indoor and outdoor
+#: (``docs/guide/methods.md``); another choice of stages is ``sgm`` with them named.
+FIXED_OPTIONS = {
+    "sgm-accurate": {
+        "photometric": "matched",
+        "planes": True,
+        "row_alignment": "estimated",
+        "edges": "support-weights",
+    },
+}
+
+
+def spelled_out(options: dict) -> dict:
+    """Return :func:`dcstereo.match`'s keyword arguments with a method of fixed stages as ``sgm``.
+
+    For a method of :data:`FIXED_OPTIONS` (``sgm-accurate``): ``method="sgm"``, its fixed
+    stages and its defaults named, so that a caller may then turn one of its stages off
+    (the bands of :func:`dcstereo.batch.match_tiled` run the median and the edges once, on
+    the stitched map); the same result. Other options are returned as they are.
+
+    >>> spelled_out({"method": "sgm-accurate", "max_disparity": 8})["median"]
+    'weighted-planes'
+    """
+    method = options.get("method", DEFAULT_METHOD)
+    if method not in FIXED_OPTIONS:
+        return dict(options)
+    given = {name: value for name, value in options.items() if value is not None}
+    return {**METHOD_DEFAULTS[method], **given, **FIXED_OPTIONS[method], "method": "sgm"}
+
 
 #: ``subpixel`` values that turn the fit off (None is the method's default).
 SUBPIXEL_OFF = (False, "none")
@@ -154,20 +213,20 @@ METHOD_OPTIONS = {
     "orientation_cost": ("redert",),
     "occlusion_discount": ("redert",),
     "occlusion_discount_pixels": ("redert",),
-    "census_window": ("sgm",),
-    "ad_truncation": ("sgm",),
-    "p1": ("sgm",),
-    "p2": ("sgm",),
-    "p2_gradient": ("sgm",),
-    "paths": ("sgm",),
-    "lr_tolerance": ("sgm",),
+    "census_window": SGM_METHODS,
+    "ad_truncation": SGM_METHODS,
+    "p1": SGM_METHODS,
+    "p2": SGM_METHODS,
+    "p2_gradient": SGM_METHODS,
+    "paths": SGM_METHODS,
+    "lr_tolerance": SGM_METHODS,
     "planes": ("sgm",),
-    "aggregation": ("sgm",),
-    "cross_limit": ("sgm",),
-    "cross_tau": ("sgm",),
-    "cross_iterations": ("sgm",),
-    "census_step": ("sgm",),
-    "census_smoothing": ("sgm",),
+    "aggregation": SGM_METHODS,
+    "cross_limit": SGM_METHODS,
+    "cross_tau": SGM_METHODS,
+    "cross_iterations": SGM_METHODS,
+    "census_step": SGM_METHODS,
+    "census_smoothing": SGM_METHODS,
     "photometric": ("sgm",),
     "row_alignment": ("sgm",),
     "edges": ("sgm",),
@@ -213,6 +272,12 @@ def check_method_options(names, methods, label=str) -> None:
         if readers is None or any(base in readers for base in bases):
             continue
         if len(bases) == 1:
+            fixed = FIXED_OPTIONS.get(bases[0], {})
+            if name in fixed:
+                raise ValueError(
+                    f"{label(name)} is fixed in {methods[0]}, which always runs its stages "
+                    f"({name}={fixed[name]!r}); another choice of stages is sgm with them named"
+                )
             raise ValueError(
                 f"{label(name)} is read only by {', '.join(readers)}, not by {methods[0]}"
             )
@@ -261,6 +326,11 @@ MAX_OCCLUSION_DISCOUNT_PIXELS = 64
 @dataclass(frozen=True)
 class MatchParams:
     """Parameters of one matching run.
+
+    ``sgm-accurate`` reads ``sgm``'s options but four: it always runs the stages
+    ``photometric="matched"``, ``planes=True``, ``row_alignment="estimated"`` and
+    ``edges="support-weights"`` (:data:`FIXED_OPTIONS`; another value is refused), and its
+    ``median`` is ``"weighted-planes"`` unless given.
 
     A method's own parameter (:data:`METHOD_OPTIONS`) given a value other than its default
     for a method that does not read it is refused (``ValueError``).
@@ -394,8 +464,9 @@ class MatchParams:
         ``occlusion_discount`` (0 to :data:`MAX_OCCLUSION_DISCOUNT_PIXELS`; 0: none).
         Default :data:`DEFAULT_OCCLUSION_DISCOUNT_PIXELS`: a run of ``n`` pixels costs
         ``occlusion_cost * (n - occlusion_discount * min(n - 1, 5))``.
-    planes : bool
-        ``sgm`` only, off by default: after the left-right check, a robust plane per
+    planes : bool or None
+        ``sgm`` only, off (None: the method's default) by default: after the left-right
+        check, a robust plane per
         superpixel of the left image gives its value to the mismatched pixels and to the
         unsure estimates far from it (:func:`dcstereo.refine.planes.refine_planes`).
     aggregation : str or None
@@ -467,7 +538,7 @@ class MatchParams:
     p2_gradient: float = DEFAULT_P2_GRADIENT
     paths: int = DEFAULT_PATHS
     lr_tolerance: int | None = DEFAULT_LR_TOLERANCE
-    planes: bool = False
+    planes: bool | None = None
     aggregation: str | None = None
     cross_limit: int = DEFAULT_CROSS_LIMIT
     cross_tau: int = DEFAULT_CROSS_TAU
@@ -492,6 +563,15 @@ class MatchParams:
                 object.__setattr__(self, name, value)
         if off:
             object.__setattr__(self, "subpixel", None)
+        fixed = FIXED_OPTIONS.get(self.method, {})
+        for name, value in fixed.items():
+            given = getattr(self, name)
+            if given != value and given != self.__dataclass_fields__[name].default:
+                raise ValueError(
+                    f"{name}={given!r}: {self.method} always runs its stages ({name}="
+                    f"{value!r}); another choice of stages is method='sgm' with them named"
+                )
+            object.__setattr__(self, name, value)
         for name in ("fill", "vs_relative", "lr_check", "planes"):
             value = getattr(self, name)
             if not isinstance(value, bool):
@@ -572,10 +652,13 @@ class MatchParams:
                     f"edge_guard must be None, 0 (no guard) or positive, got {self.edge_guard}"
                 )
         self._check_orientations()
-        given = [
+        given = [  # a value other than the option's default and the method's
             field.name
             for field in fields(self)
-            if field.name in METHOD_OPTIONS and getattr(self, field.name) != field.default
+            if field.name in METHOD_OPTIONS
+            and field.name not in fixed
+            and getattr(self, field.name) != field.default
+            and getattr(self, field.name) != defaults.get(field.name, field.default)
         ]
         check_method_options(given, [self.method])
 
@@ -628,7 +711,7 @@ class MatchParams:
                     f"photometric must be None or one of {', '.join(PHOTOMETRIC)}, "
                     f"got {self.photometric!r}"
                 )
-            if self.method == "sgm" and self.cost != "census-ad":  # other methods: refused below
+            if self.method in SGM_METHODS and self.cost != "census-ad":  # others: refused below
                 raise ValueError(
                     f"photometric={self.photometric!r} aligns the colour term's colours: it "
                     f"needs cost='census-ad', got cost={self.cost!r}"

@@ -32,7 +32,7 @@ from dcstereo.api import match
 from dcstereo.costs.row_offsets import moved_view
 from dcstereo.methods._pipeline import median_post_filter
 from dcstereo.methods.sgm import STRIP_MARGIN, sgm_row_field, sgm_views
-from dcstereo.params import MatchParams
+from dcstereo.params import SGM_METHODS, MatchParams, spelled_out
 from dcstereo.refine.consistency import fill_inconsistent
 from dcstereo.refine.edges import refine_edges
 from dcstereo.result import DisparityResult
@@ -156,10 +156,11 @@ def match_tiled(
     if "max_disparity" not in match_kwargs:
         raise TypeError("match_tiled() needs the keyword argument max_disparity")
     params = MatchParams(**match_kwargs)  # validate once, before any band runs
+    match_kwargs = spelled_out(match_kwargs)  # sgm-accurate: sgm with its stages named
     left, right = check_pair(left, right)
     height, width = left.shape[:2]
     params.check_image_size(height, width)
-    across = params.method == "sgm"  # paths, fill and median read across the bands
+    across = params.method in SGM_METHODS  # paths, fill and median read across the bands
     context = params.window // 2 + (STRIP_MARGIN if across else 0)
     bands = row_bands(height, tile_rows, params.window, context)
     if params.median or across:  # read rows of the neighbouring bands: once, on the whole
@@ -194,7 +195,7 @@ def match_tiled(
         if params.median:
             result = median_post_filter(result, left, params.median)
         if params.edges is not None:  # the right view moved as the bands' was
-            views = sgm_views(left, right, replace(params, row_alignment=None))
+            views = sgm_views(left, right, replace(params, method="sgm", row_alignment=None))
             result = refine_edges(result, *views)
     elif params.median:
         result = median_post_filter(result, left, params.median)

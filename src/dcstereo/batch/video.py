@@ -44,7 +44,7 @@ from dcstereo.batch.folders import (
 )
 from dcstereo.costs.row_offsets import moved_view
 from dcstereo.methods.sgm import sgm_row_field
-from dcstereo.params import MatchParams
+from dcstereo.params import SGM_METHODS, MatchParams, spelled_out
 from dcstereo.refine.confidence import confidence as confidence_map
 
 #: File suffixes taken as frames in a frame folder.
@@ -553,8 +553,8 @@ def match_sequence(
         resume,
         assumed={**ASSUMED_OPTIONS, **WRITE_OPTIONS},
     )
-    match_kwargs = {"max_disparity": max_disparity, **options}
-    align_once = params.method == "sgm" and params.row_alignment == "estimated"
+    match_kwargs = spelled_out({"max_disparity": max_disparity, **options})
+    align_once = params.method in SGM_METHODS and params.row_alignment == "estimated"
     if align_once:  # measured on the first frame matched, for all (by frame size)
         match_kwargs["row_alignment"] = None
     fields = {}

@@ -18,6 +18,7 @@ from dcstereo.params import (
     METHOD_OPTIONS,
     METHODS,
     NAMED_MEDIANS,
+    SGM_METHODS,
     SUBPIXEL_FITS,
     WEIGHTED_MEDIAN,
     WEIGHTED_PLANES,
@@ -276,10 +277,10 @@ def _method_option_list():
 
 def describe(params) -> str:
     """One line of a run's method and main settings (``method sgm, census 5x5 + colour, ..``)."""
-    if params.method == "sgm":
+    if params.method in SGM_METHODS:
         rows, cols = params.census_window
         cost = f"census {rows}x{cols}" + (" + colour" if params.cost == "census-ad" else "")
-        parts = [f"method sgm, {cost}, window {params.window}", f"P1 {params.p1}",
+        parts = [f"method {params.method}, {cost}, window {params.window}", f"P1 {params.p1}",
                  f"P2 {params.p2}", f"{params.paths} paths"]  # fmt: skip
     else:
         parts = [f"method {params.method}, window {params.window}"]
@@ -626,7 +627,8 @@ median_option = click.option(
     help="Median post-filter: every estimate but the feature pairs' takes the median of "
     f"the estimates in this odd square around it, 3 to {MAX_MEDIAN} (after --subpixel, "
     f"before --fill, sgm: after its fill; 0: off; default {METHOD_DEFAULTS['sgm']['median']} "
-    f"for sgm, 0 for the others); {WEIGHTED_MEDIAN}: the median of a 9 x 9 square weighted "
+    f"for sgm, {METHOD_DEFAULTS['sgm-accurate']['median']} for sgm-accurate, 0 for the "
+    f"others); {WEIGHTED_MEDIAN}: the median of a 9 x 9 square weighted "
     "by the left image's colours and the distance (depth edges stay on colour edges); "
     f"{WEIGHTED_PLANES}: that, then each estimate the value of a plane fitted to the "
     "estimates of its 9 x 9 square within a pixel of it, weighted alike (slanted surfaces).",

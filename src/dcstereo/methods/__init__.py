@@ -1,7 +1,8 @@
 """The methods of :func:`dcstereo.match`: each a named list of stages (a plain dict of them).
 
 * ``sgm``: ``sgm``, the default: census and colour costs, semi-global paths, a
-  left-right check, the colour fill, the median and the sub-pixel fit;
+  left-right check, the colour fill, the median and the sub-pixel fit; and
+  ``sgm-accurate``, the same stages with the five that win on the development scenes on;
 * ``dc``: ``dc`` and ``dc-linear``, the paper's divide and conquer;
 * ``dsi``: ``dsi3`` and ``dsi5``, the scanline DPs; ``block``: ``block``;
 * ``gcp``: ``dsi3-gcp``; ``redert``: ``redert``;
@@ -21,6 +22,7 @@ REGISTRY: dict[str, Method] = {
     method.name: method
     for method in (
         sgm.METHOD,
+        sgm.ACCURATE,
         dc.METHOD,
         dc.LINEAR,
         dsi.DSI5,

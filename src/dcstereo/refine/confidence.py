@@ -20,6 +20,7 @@ winner-take-all chose.
 
 import numpy as np
 
+from dcstereo.params import SGM_METHODS
 from dcstereo.refine import _confidence as confidence_kernels
 from dcstereo.result import FLAG_FILLED, DisparityResult, check_result_pair
 from dcstereo.scanline import rows
@@ -46,7 +47,7 @@ def confidence(result: DisparityResult, left, right) -> np.ndarray:
     left, right = check_result_pair(result, left, right)
     d = result.disparity
     params = result.params  # MatchParams, or an OpenCV baseline's (no cost: SAD)
-    if params.method == "sgm":
+    if params.method in SGM_METHODS:
         from dcstereo.methods.sgm import sgm_confidence
 
         out = sgm_confidence(left, right, params)

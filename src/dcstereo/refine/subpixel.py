@@ -23,6 +23,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from dcstereo.params import SGM_METHODS
 from dcstereo.params import SUBPIXEL_FITS as FITS
 from dcstereo.refine import _subpixel as subpixel_kernels
 from dcstereo.result import FLAG_FILLED, DisparityResult, check_result_pair
@@ -58,9 +59,9 @@ def refine_subpixel(
         raise ValueError(f"fit must be one of {', '.join(FITS)}, got {fit!r}")
     left, right = check_result_pair(result, left, right)
     params = result.params
-    if params.method == "sgm":
+    if params.method in SGM_METHODS:
         raise ValueError(
-            "sgm fits its own aggregated costs: match with subpixel="
+            f"{params.method} fits its own aggregated costs: match with subpixel="
             f"{fit!r} (dcstereo run --subpixel {fit}) instead of refining its result"
         )
     radius = params.window // 2

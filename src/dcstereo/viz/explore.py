@@ -15,7 +15,7 @@ import numpy as np
 from dcstereo import viz
 from dcstereo._checks import is_integer, is_number
 from dcstereo._extras import require
-from dcstereo.params import check_method_options, options_for
+from dcstereo.params import SGM_METHODS, base_method, check_method_options, options_for
 from dcstereo.signal import check_image, check_pair, intensity
 
 #: Methods of :func:`compare_methods` and :func:`scanline` by default (the paper's Fig. 4).
@@ -316,10 +316,10 @@ def scanline(
     from dcstereo.evaluation.scoring import run_method
 
     _check_methods(methods)
-    if "sgm" in methods:
+    if any(base_method(m) in SGM_METHODS for m in methods):
         raise ValueError(
-            "sgm has no scanline path to draw (its costs are aggregated across the rows); "
-            "choose scanline methods"
+            "sgm and sgm-accurate have no scanline path to draw (their costs are aggregated "
+            "across the rows); choose scanline methods"
         )
     check_method_options(options, methods)
     dsi = dsi_row(
