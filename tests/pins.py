@@ -20,7 +20,7 @@ def middlebury_bad1(root, name: str, method: str = "sgm", **options) -> float:
 
 
 def kitti_d1(name: str, method: str = "sgm", **options) -> float:
-    """D1 (percent) of ``method`` with ``options`` on the outdoor pair ``name``; skips without it."""
+    """D1 (percent) of ``method`` with ``options`` on the outdoor pair ``name`` (skips without)."""
     folder = default_data_dir() / "outdoor" / name
     if not folder.is_dir():
         pytest.skip(f"outdoor data not found at {folder}")
