@@ -114,7 +114,7 @@ def spelled_out(options: dict) -> dict:
 
     For a method of :data:`FIXED_OPTIONS` (``sgm-accurate``): ``method="sgm"``, its fixed
     stages and its defaults named, so that a caller may then turn one of its stages off
-    (the bands of :func:`dcstereo.batch.match_tiled` run the median and the edges once, on
+    (the bands of :func:`dcstereo.batch.tiling.match_tiled` run the median and the edges once, on
     the stitched map); the same result. Other options are returned as they are.
 
     >>> spelled_out({"method": "sgm-accurate", "max_disparity": 8})["median"]

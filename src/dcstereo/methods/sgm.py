@@ -689,7 +689,7 @@ METHOD = Method(
 #: (:data:`dcstereo.params.FIXED_OPTIONS`): the right view's colours and rows aligned to
 #: the left's, superpixel planes after the left-right check, the weighted median with a
 #: local plane per pixel, and the depth edges decided again. The same stages as
-#: :data:`METHOD`, run with those options on.
+#: :data:`dcstereo.methods.sgm.METHOD`, run with those options on.
 ACCURATE = Method(
     "sgm-accurate",
     (
