@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from dcstereo.compat.opencv import OPENCV_METHODS
+from dcstereo.costs import photometric
 from dcstereo.evaluation.datasets import (
     MASK_SOURCES,
     MISSING_MASKS,
@@ -302,11 +303,20 @@ def run_scene(method: str, scene: StereoScene, **options) -> DisparityResult:
     )
 
 
+#: The rows of a scene a method is first run on, untimed, by :func:`bench`: as many as the
+#: coarse views of ``sgm``'s photometric and row alignment stages need (64).
+WARM_UP_ROWS = photometric.COARSE_FACTOR * photometric.MIN_COARSE_SIDE
+
+
 def _warm_up(method: str, scene: StereoScene, options: dict, done: set) -> None:
-    """Run once on a few rows so that compiling is not timed (numba caches per process)."""
+    """Run once on a band of rows so that compiling is not timed (numba caches per process).
+
+    :data:`WARM_UP_ROWS` rows: enough for the coarse pass of ``sgm``'s stages, whose
+    kernels would otherwise compile in the first timed call.
+    """
     if method in done or method in OPENCV_METHODS:
         return
-    rows = min(scene.shape[0], 12)
+    rows = min(scene.shape[0], WARM_UP_ROWS)
     run_method(
         method,
         scene.left[:rows],
