@@ -335,6 +335,10 @@ def test_gray_and_colour_pair_of_one_size_is_accepted(left_layout, right_layout)
     for image, gray in ((left, gray_left), (right, gray_right)):
         np.testing.assert_array_equal(matching_signal(gray), matching_signal(image))
     for method in available_methods():
+        if method == "sgm-accurate" and left_layout != "gray":
+            # its weighted median, local planes and superpixels follow the left image's
+            # colours, which the gray reference has not: the gray left case holds it
+            continue
         mixed = run_method(method, left, right, max_disparity=8)
         plain = run_method(method, gray_left, gray_right, max_disparity=8)
         np.testing.assert_array_equal(mixed.disparity, plain.disparity, err_msg=method)
