@@ -9,7 +9,7 @@ from cli_runs import run_equals_match
 from dcstereo.params import MatchParams
 from dcstereo.refine import local_planes as lp
 from dcstereo.refine.weighted_median import weight_tables, weighted_median_filter
-from dcstereo.result import FLAG_FEATURE, FLAG_OCCLUDED, DisparityResult
+from dcstereo.result import FLAG_FEATURE, FLAG_FILLED, FLAG_OCCLUDED, DisparityResult
 from pins import kitti_d1, middlebury_bad1
 
 
@@ -101,6 +101,21 @@ def test_filter_limits_and_keeps_features():
     assert out[2, 5] == 9.0
     assert out[0, 0] == 0.5
     np.testing.assert_allclose(out[:, 6:], d[:, 6:], atol=1e-3)
+
+
+def test_a_filled_pixel_stays_in_the_searched_range():
+    # a filled pixel's plane is not limited by the right image, but a plane fitted to a
+    # bend extrapolates past the range: at x = 0 the weighted line through 0, 0, 0.4, 0.8
+    # (the window cut at the image's edge, the values within a pixel of 0) is about -0.1,
+    # below min_disparity 0
+    d = np.tile(np.array([0.0, 0.0, 0.4, 0.8, 1.2, 1.6, 2.0, 2.4], np.float32), (6, 1))
+    flags = np.full(d.shape, FLAG_FILLED, np.uint8)
+    guide = np.full(d.shape, 50, np.uint8)
+    raw = _planes(d, guide)
+    assert (raw[:, 0] < -0.05).all()  # the kernel's plane, unlimited
+    out = lp.local_plane_filter(_result(d, flags, max_disparity=3), guide).disparity
+    assert (out[:, 0] == 0.0).all()  # limited to the range 0..3
+    assert (out == np.clip(raw, 0, 3)).all()  # and nothing else moved
 
 
 def test_filter_keeps_holes_and_flags_and_refuses_bad_arguments():

@@ -137,6 +137,26 @@ def test_cli_runs_it_and_refuses_its_fixed_stages(pair):
         assert "Traceback" not in bad.output and not out.exists()
 
 
+def test_demo_writes_its_map_and_its_png(tmp_path):
+    # the demo writes a 16-bit PNG too, which holds no negative value: every pixel of the
+    # map, the filled ones' fitted planes included, stays in the searched range
+    pytest.importorskip("skimage")
+    from dcstereo.evaluation.datasets import load_motorcycle
+
+    out = tmp_path / "demo"
+    result = CliRunner().invoke(
+        main, ["demo", "--output", str(out), "--method", "sgm-accurate", "--threads", "1"]
+    )
+    assert result.exit_code == 0, result.output
+    assert "method sgm-accurate" in result.output
+    scene = load_motorcycle()
+    expected = dcstereo.match(scene.left, scene.right, max_disparity=64, method="sgm-accurate")
+    written = io.read_disparity(out / "disparity.pfm")
+    np.testing.assert_array_equal(written, expected.disparity)
+    assert (out / "disparity.png").is_file()
+    assert np.nanmin(expected.disparity) >= 0 and np.nanmax(expected.disparity) <= 64
+
+
 def test_the_api_and_the_cli_list_it():
     assert "sgm-accurate" in dcstereo.METHODS and dcstereo.DEFAULT_METHOD == "sgm"
     result = CliRunner().invoke(main, ["run", "--help"])

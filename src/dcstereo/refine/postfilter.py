@@ -90,16 +90,20 @@ def _inside(out: np.ndarray, result: DisparityResult) -> np.ndarray:
     Near the left edge the window's median can exceed the column by more than half a pixel
     (a match left of the right image's first pixel); an estimate whose median moved there
     becomes the nearest disparity of the searched range that points inside the right image
-    (``-0.5 <= x - d <= width - 0.5``: its pixels are a pixel wide). A filled pixel
-    keeps its median: it has no match in the right image, and its true disparity may well
-    point outside it.
+    (``-0.5 <= x - d <= width - 0.5``: its pixels are a pixel wide). A filled pixel has
+    no match in the right image, and its true disparity may well point outside it: it is
+    only kept within the searched range (a median never leaves it; a fitted plane, as
+    :mod:`dcstereo.refine.local_planes` fits, can, past the range's end).
     """
     d, params = result.disparity, result.params
+    bottom, top = np.float32(params.min_disparity), np.float32(params.max_disparity)
     cols = np.arange(out.shape[1], dtype=np.float32)
-    low = np.maximum(cols - (out.shape[1] - 0.5), np.float32(params.min_disparity))
-    high = np.minimum(cols + 0.5, np.float32(params.max_disparity))
-    limit = (out != d) & (low <= high) & ((result.flags & FLAG_FILLED) == 0)
-    return np.where(limit, np.clip(out, low, high), out)
+    low = np.maximum(cols - (out.shape[1] - 0.5), bottom)
+    high = np.minimum(cols + 0.5, top)
+    filled = (result.flags & FLAG_FILLED) != 0
+    limit = (out != d) & (low <= high) & ~filled
+    out = np.where(limit, np.clip(out, low, high), out)
+    return np.where((out != d) & filled, np.clip(out, bottom, top), out)
 
 
 @functools.cache
