@@ -280,6 +280,25 @@ def test_free_threads_leaves_the_cores_other_work_takes():
     assert sgm.free_threads(4, "garbled", "200000 100000") == 2
     assert sgm.free_threads(4, idle, "max 100000") == min(4, cores)  # no quota
     assert sgm.free_threads(4, idle, "-1 100000") == min(4, cores)  # v1: no quota
+    # the process's own running threads are not other work: after a parallel loop numba's
+    # workers still spin for a moment (before: 2 running, the caller and a spinning worker,
+    # left one thread of two on an idle 2-core machine)
+    two = "0.0 0.0 0.0 2/90 7"
+    assert sgm.free_threads(4, two, "max 1", own=2) == min(4, cores)
+    assert sgm.free_threads(4, two, "max 1", own=1) == max(1, min(4, cores - 1))
+    assert sgm.free_threads(4, f"5.0 5.0 5.0 {cores + 2}/90 7", "max 1", own=2) == 1
+
+
+def test_own_running_counts_the_caller_and_numbas_workers_not_other_callers():
+    # tasks: the caller (10), a numba worker still spinning (11), a sleeping one (12) and
+    # another Python thread, another caller's, running (13): that one is other work
+    states = {10: "R", 11: "R", 12: "S", 13: "R"}
+    assert _threads.own_running(states, callers={13}) == 2
+    assert _threads.own_running(states, callers=set()) == 3
+    assert _threads.own_running({}, callers=set()) == 1  # unreadable: the caller alone
+    # this process: the caller at least, and this thread is no other caller
+    assert _threads.own_running() >= 1
+    assert threading.get_native_id() in _threads._task_states()
 
 
 def test_quota_cores_reads_the_cgroup_text():

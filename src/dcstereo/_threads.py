@@ -6,6 +6,7 @@ the stage; the process's settings are never changed.
 
 import contextlib
 import os
+import threading
 
 import numba
 
@@ -40,22 +41,66 @@ def quota_cores(cpu_max: str | None = None) -> int | None:
         return None
 
 
-def free_threads(threads: int, loadavg: str | None = None, cpu_max: str | None = None) -> int:
+def own_running(states: dict | None = None, callers: set | None = None) -> int:
+    """Return how many threads of the caller's own work are running now (at least one).
+
+    The caller and the threads of this process that are not Python threads (numba's
+    workers): right after a parallel loop they still run for a moment (OpenMP's threads
+    spin before they sleep), and ``/proc/loadavg`` counts them with other processes'. The
+    process's other Python threads (other callers, each with its own parallel loops) stay
+    other work. ``states``: each task's state (``R``: running), read from
+    ``/proc/self/task`` when None; ``callers``: the native ids of the other Python threads,
+    :func:`threading.enumerate`'s when None. 1 where the states cannot be read.
+    """
+    if callers is None:
+        callers = {thread.native_id for thread in threading.enumerate()}
+        callers.discard(threading.get_native_id())
+    if states is None:
+        states = _task_states()
+    running = sum(state == "R" and task not in callers for task, state in states.items())
+    return max(1, running)
+
+
+def _task_states() -> dict:
+    """Return ``{thread id: state}`` of this process's tasks (``/proc/self/task``; {} if none)."""
+    states = {}
+    try:
+        tasks = os.listdir("/proc/self/task")
+    except OSError:
+        return states
+    for task in tasks:
+        try:
+            with open(f"/proc/self/task/{task}/stat") as file:
+                text = file.read()
+        except OSError:  # a thread that ended meanwhile
+            continue
+        fields = text[text.rfind(")") + 1 :].split()  # after the name, which may hold spaces
+        if task.isdigit() and fields:
+            states[int(task)] = fields[0]
+    return states
+
+
+def free_threads(threads: int, loadavg: str | None = None, cpu_max: str | None = None,
+                 own: int | None = None) -> int:  # fmt: skip
     """Return how many of ``threads`` have a core now: at least one.
 
     The cores this process may run on (its affinity, bounded by its control group's CPU
-    quota, :func:`quota_cores`), less the tasks the system is running now besides the
-    caller (the fourth field of ``/proc/loadavg``, ``running/total``; ``loadavg`` is that
-    file's text and ``cpu_max`` the quota's, read when ``None``). Where the load cannot be
-    read, ``threads`` bounded by the quota. A parallel loop waits for its slowest thread at
-    its end: on cores taken by other work, each of the few loops of a call would wait for
-    the scheduler to give a core back (2.7x the one-thread time with both of two cores busy).
+    quota, :func:`quota_cores`), less the tasks other processes are running now: the
+    fourth field of ``/proc/loadavg`` (``running/total``) less this process's own running
+    threads (``own``, :func:`own_running`: the caller, and numba's workers still spinning
+    after the loop before). ``loadavg`` is that file's text and ``cpu_max`` the quota's,
+    read when ``None``. Where the load cannot be read, ``threads`` bounded by the quota. A
+    parallel loop waits for its slowest thread at its end: on cores taken by other work,
+    each of the few loops of a call would wait for the scheduler to give a core back (2.7x
+    the one-thread time with both of two cores busy).
     """
     if threads <= 1:
         return 1
     quota = quota_cores(cpu_max)
     if quota is not None:
         threads = min(threads, quota)
+    if own is None:  # first: numba's workers may fall asleep while the load is read
+        own = own_running()
     try:
         if loadavg is None:
             with open("/proc/loadavg") as file:
@@ -65,7 +110,8 @@ def free_threads(threads: int, loadavg: str | None = None, cpu_max: str | None =
     except (OSError, ValueError, IndexError):
         return threads  # at least one: the quota is
     cores = cores or os.cpu_count() or threads
-    return max(1, min(threads, cores - (running - 1)))
+    others = max(0, running - own)
+    return max(1, min(threads, cores - others))
 
 
 @contextlib.contextmanager
