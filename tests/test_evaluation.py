@@ -190,3 +190,22 @@ def test_to_json_writes_null_for_non_finite_values():
     rows[0]["sparse"] = score(np.full(scene.shape, np.nan, np.float32), scene)
     text = to_json(json_rows(rows + mean_rows(rows)))
     assert "NaN" not in text and json.loads(text)[0]["sparse"]["all"]["mae"] is None
+
+
+def test_bench_warms_each_method_up_on_the_rows_its_stages_need(monkeypatch):
+    # the untimed first run: as many rows as the coarse pass of sgm's stages needs (64), so
+    # that their kernels do not compile inside the first timed call; a shorter scene whole
+    from dcstereo.evaluation import scoring
+
+    rng = np.random.default_rng(3)
+    left, right, truth = synthetic.object_pair(rng, 100, 80, 2, 6, (30, 50))
+    known = np.isfinite(truth)
+    tall = StereoScene("tall", left, right, truth, {"all": known, "nonocc": known}, 8)
+    seen = []
+    monkeypatch.setattr(scoring, "run_method", lambda method, first, second, **kw: seen.append(first.shape))
+    done = set()
+    scoring._warm_up("sgm-accurate", tall, {}, done)
+    scoring._warm_up("sgm-accurate", tall, {}, done)  # once a method
+    scoring._warm_up("dc", toy_scene(), {}, done)
+    assert scoring.WARM_UP_ROWS == 64
+    assert seen == [(64, 80), (24, 64)]
