@@ -202,7 +202,11 @@ def test_bench_warms_each_method_up_on_the_rows_its_stages_need(monkeypatch):
     known = np.isfinite(truth)
     tall = StereoScene("tall", left, right, truth, {"all": known, "nonocc": known}, 8)
     seen = []
-    monkeypatch.setattr(scoring, "run_method", lambda method, first, second, **kw: seen.append(first.shape))
+
+    def run_method(method, left, right, **options):
+        seen.append(left.shape)
+
+    monkeypatch.setattr(scoring, "run_method", run_method)
     done = set()
     scoring._warm_up("sgm-accurate", tall, {}, done)
     scoring._warm_up("sgm-accurate", tall, {}, done)  # once a method
