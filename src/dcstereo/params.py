@@ -5,8 +5,6 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from dcstereo._checks import is_integer, is_number
-
 #: Methods understood by :func:`dcstereo.match`, in the order the docs present them.
 METHODS = (
     "sgm", "sgm-accurate", "dc", "dc-linear", "dsi5", "dsi3", "dsi3-gcp", "redert", "block",
@@ -550,6 +548,8 @@ class MatchParams:
     edges: str | None = None
 
     def __post_init__(self):
+        from dcstereo import _method_checks  # it reads this module's tables
+
         for field in fields(self):  # numpy scalars (np.int64(4), np.True_): the Python value
             value = getattr(self, field.name)
             if isinstance(value, np.generic):
@@ -619,7 +619,7 @@ class MatchParams:
                 f"window={self.window} is larger than {MAX_BT_WINDOW}, the largest whose "
                 "Birchfield-Tomasi window sums fit the kernels' 32-bit integers"
             )
-        self._check_sgm()
+        _method_checks.check_semi_global(self)
         for name in (
             "ser_min",
             "vs_max",
@@ -651,7 +651,7 @@ class MatchParams:
                 raise ValueError(
                     f"edge_guard must be None, 0 (no guard) or positive, got {self.edge_guard}"
                 )
-        self._check_orientations()
+        _method_checks.check_redert(self)
         given = [  # a value other than the option's default and the method's
             field.name
             for field in fields(self)
@@ -661,139 +661,6 @@ class MatchParams:
             and getattr(self, field.name) != defaults.get(field.name, field.default)
         ]
         check_method_options(given, [self.method])
-
-    def _check_sgm(self):
-        """Validate the ``sgm`` parameters (census window, truncation, penalties, paths)."""
-        window = self.census_window
-        if (
-            not isinstance(window, (tuple, list))
-            or len(window) != 2
-            or not all(is_integer(v) for v in window)
-        ):
-            raise ValueError(
-                f"census_window must be (rows, cols), two odd integers, got {window!r}"
-            )
-        rows, cols = (int(v) for v in window)
-        if rows < 1 or cols < 1 or rows % 2 == 0 or cols % 2 == 0:
-            raise ValueError(f"census_window must hold two odd positive integers, got {window!r}")
-        if not 2 <= rows * cols - 1 <= MAX_CENSUS_BITS:
-            raise ValueError(
-                f"census_window={window!r} gives {rows * cols - 1} bits; a census takes "
-                f"2 to {MAX_CENSUS_BITS} (for example (5, 5), (7, 7), (7, 9))"
-            )
-        object.__setattr__(self, "census_window", (rows, cols))
-        for name, lowest in (("ad_truncation", 0), ("p1", 0), ("p2", 0), ("paths", 4)):
-            value = getattr(self, name)
-            if isinstance(value, float) and value.is_integer():
-                value = int(value)
-                object.__setattr__(self, name, value)
-            if not is_integer(value) or value < lowest:
-                raise ValueError(f"{name} must be an integer of at least {lowest}, got {value!r}")
-        if self.paths not in (4, 8):
-            raise ValueError(f"paths must be 4 or 8, got {self.paths}")
-        if self.p2 < self.p1:
-            raise ValueError(f"p2 ({self.p2}) must be at least p1 ({self.p1})")
-        if self.ad_truncation > 255:
-            raise ValueError(
-                f"ad_truncation must be at most 255 gray levels, got {self.ad_truncation}"
-            )
-        gradient = self.p2_gradient
-        if not is_number(gradient) or not math.isfinite(gradient) or gradient < 0:
-            raise ValueError(f"p2_gradient must be a non-negative number, got {gradient!r}")
-        if self.aggregation is not None and self.aggregation not in AGGREGATIONS:
-            raise ValueError(
-                f"aggregation must be None or one of {', '.join(AGGREGATIONS)}, "
-                f"got {self.aggregation!r}"
-            )
-        if self.photometric is not None:
-            if self.photometric not in PHOTOMETRIC:
-                raise ValueError(
-                    f"photometric must be None or one of {', '.join(PHOTOMETRIC)}, "
-                    f"got {self.photometric!r}"
-                )
-            if self.method in SGM_METHODS and self.cost != "census-ad":  # others: refused below
-                raise ValueError(
-                    f"photometric={self.photometric!r} aligns the colour term's colours: it "
-                    f"needs cost='census-ad', got cost={self.cost!r}"
-                )
-        if self.row_alignment is not None and self.row_alignment not in ROW_ALIGNMENTS:
-            raise ValueError(
-                f"row_alignment must be None or one of {', '.join(ROW_ALIGNMENTS)}, "
-                f"got {self.row_alignment!r}"
-            )
-        if self.edges is not None and self.edges not in EDGES:
-            raise ValueError(f"edges must be None or one of {', '.join(EDGES)}, got {self.edges!r}")
-        sigma = self.census_smoothing
-        if not is_number(sigma) or not math.isfinite(sigma):
-            raise ValueError(f"census_smoothing must be a number of pixels, got {sigma!r}")
-        if not 0 <= sigma <= MAX_CENSUS_SMOOTHING:
-            raise ValueError(
-                f"census_smoothing must be from 0 to {MAX_CENSUS_SMOOTHING:g} pixels, got {sigma!r}"
-            )
-        object.__setattr__(self, "census_smoothing", float(sigma))
-        for name, lowest, highest in (
-            ("cross_limit", 1, 1024),
-            ("cross_tau", 1, 256),
-            ("cross_iterations", 1, 8),
-            ("census_step", 1, 4),
-        ):
-            value = getattr(self, name)
-            if not is_integer(value) or not lowest <= value <= highest:
-                raise ValueError(
-                    f"{name} must be an integer from {lowest} to {highest}, got {value!r}"
-                )
-            object.__setattr__(self, name, int(value))
-        tolerance = self.lr_tolerance
-        if tolerance is not None:
-            if isinstance(tolerance, float) and tolerance.is_integer():
-                tolerance = int(tolerance)
-                object.__setattr__(self, "lr_tolerance", tolerance)
-            if not is_integer(tolerance) or tolerance < 0:
-                raise ValueError(
-                    "lr_tolerance must be None (no check) or a non-negative integer, "
-                    f"got {tolerance!r}"
-                )
-
-    def _check_orientations(self):
-        """Validate the ``redert`` parameters (orientations, their cost, the discount)."""
-        values = self.orientations
-        if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
-            raise ValueError(f"orientations must be a sequence of slopes, got {values!r}")
-        values = tuple(v.item() if isinstance(v, np.generic) else v for v in values)
-        if not values:
-            raise ValueError("orientations must hold at least one slope, got an empty sequence")
-        for value in values:
-            if (
-                isinstance(value, bool)
-                or not isinstance(value, (int, float))
-                or abs(value) not in (0, 0.0625, 0.125, 0.25, 0.5, 1)
-            ):
-                raise ValueError(
-                    "orientations must be slopes from 0, +-0.0625, +-0.125, +-0.25, +-0.5, "
-                    f"+-1 (px of disparity per px), got {value!r}"
-                )
-        if len(set(values)) != len(values):
-            raise ValueError(f"orientations must not repeat a slope, got {values!r}")
-        object.__setattr__(self, "orientations", tuple(float(v) for v in values))
-        cost = self.orientation_cost
-        if isinstance(cost, bool) or not isinstance(cost, (int, float)) or not cost >= 0:
-            raise ValueError(f"orientation_cost must be a non-negative number, got {cost!r}")
-        if not math.isfinite(cost):
-            raise ValueError(f"orientation_cost must be finite, got {cost!r}")
-        share = self.occlusion_discount
-        if isinstance(share, bool) or not isinstance(share, (int, float)) or not 0 <= share < 1:
-            raise ValueError(f"occlusion_discount must be a number in [0, 1), got {share!r}")
-        count = self.occlusion_discount_pixels
-        if isinstance(count, float) and count.is_integer():
-            count = int(count)
-            object.__setattr__(self, "occlusion_discount_pixels", count)
-        if isinstance(count, bool) or not isinstance(count, int):
-            raise TypeError(f"occlusion_discount_pixels must be an integer, got {count!r}")
-        if not 0 <= count <= MAX_OCCLUSION_DISCOUNT_PIXELS:
-            raise ValueError(
-                f"occlusion_discount_pixels must be 0 to {MAX_OCCLUSION_DISCOUNT_PIXELS}, "
-                f"got {count}"
-            )
 
     @property
     def effective_slant_cost(self) -> float:

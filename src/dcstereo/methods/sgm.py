@@ -696,8 +696,9 @@ ACCURATE = Method(
         Stage(
             "sgm-accurate",
             METHOD.stages[0].run,
-            steps="the right view's colours and rows aligned to the left's, "
-            + METHOD.stages[0].steps.replace("check, ", "check, superpixel planes, "),
+            steps="the right view's colours and rows aligned to the left's, census + colour "
+            "costs, box, semi-global paths, winner-take-all + sub-pixel fit, left-right check, "
+            "superpixel planes, colour fill",
         ),
         *METHOD.stages[1:],
     ),

@@ -98,12 +98,11 @@ def _inside(out: np.ndarray, result: DisparityResult) -> np.ndarray:
     d, params = result.disparity, result.params
     bottom, top = np.float32(params.min_disparity), np.float32(params.max_disparity)
     cols = np.arange(out.shape[1], dtype=np.float32)
-    low = np.maximum(cols - (out.shape[1] - 0.5), bottom)
-    high = np.minimum(cols + 0.5, top)
     filled = (result.flags & FLAG_FILLED) != 0
-    limit = (out != d) & (low <= high) & ~filled
-    out = np.where(limit, np.clip(out, low, high), out)
-    return np.where((out != d) & filled, np.clip(out, bottom, top), out)
+    low = np.where(filled, bottom, np.maximum(cols - (out.shape[1] - 0.5), bottom))
+    high = np.where(filled, top, np.minimum(cols + 0.5, top))
+    limit = (out != d) & (low <= high)
+    return np.where(limit, np.clip(out, low, high), out)
 
 
 @functools.cache
