@@ -83,6 +83,29 @@ def test_support_cost_by_hand():
     )
 
 
+def test_exp_minus_by_hand_and_over_its_domain():
+    assert kernels.exp_minus(0.0) == 1.0  # every term but the first is 0
+    # exp(-1) = (1 - 1/4 + 1/32 - ...)^4 to 1e-13
+    assert kernels.exp_minus(1.0) == pytest.approx(0.36787944117144233, rel=1e-13)
+    for t in np.linspace(0.0, kernels.EXP_DOMAIN, 2001):
+        assert kernels.exp_minus(t) == pytest.approx(math.exp(-t), rel=1e-13), t
+
+
+def test_the_costs_exponents_stay_inside_the_domain():
+    # the Hamming distance of a (2 r + 1)^2 census, and the truncated colour over 3
+    bits = (2 * edges.CENSUS_RADIUS + 1) ** 2 - 1
+    assert bits / edges.CENSUS_SCALE <= kernels.EXP_DOMAIN
+    assert edges.TRUNCATION / 3 / edges.COLOUR_COST_SCALE <= kernels.EXP_DOMAIN
+
+
+def test_row_extremes_by_hand():
+    d = np.array([[1, np.nan, 5, 2], [np.nan] * 4], dtype=np.float32)
+    low, high = np.empty_like(d), np.empty_like(d)
+    kernels.row_extremes(d, 1, low, high)  # three columns, the row's edges repeated
+    assert low[0].tolist() == [1, 1, 2, 2] and high[0].tolist() == [1, 5, 5, 5]
+    assert (low[1] == np.inf).all() and (high[1] == -np.inf).all()  # no estimate: none
+
+
 def test_census_of_a_float_intensity_by_hand():
     # the stage's census: costs.census.census_transform of the views' mean intensity
     # (float32), a bit where a neighbour is darker than the centre, the first highest

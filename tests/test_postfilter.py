@@ -8,6 +8,7 @@ import pytest
 
 from dcstereo import FLAG_FEATURE, FLAG_FILLED, FLAG_OCCLUDED, MatchParams, io, match
 from dcstereo.batch.tiling import match_tiled
+from dcstereo.refine import _median as median_kernels
 from dcstereo.refine import _postfilter as postfilter
 from dcstereo.refine.postfilter import MAX_BINS, MAX_MEDIAN, median_filter
 from test_cli import invoke
@@ -79,6 +80,31 @@ def test_the_sliding_histogram_equals_the_twin(subpixel, size, seed, low, values
     np.testing.assert_array_equal(
         filtered.disparity, twin(result.disparity, result.flags, size, result.params)
     )
+
+
+@pytest.mark.parametrize("size", [3, 5, 7])
+def test_the_network_of_full_windows_equals_the_twin_across_signs(size):
+    # every window full (the network's path), values of both signs, both zeros and
+    # magnitudes far apart: the int32 keys order them as the floats
+    rng = np.random.default_rng(size)
+    result = random_result(size, 14, 41, low=-9, values=18)
+    d = rng.choice(np.array([-3e5, -7.25, -1.5, -1e-30, -0.0, 0.0, 1e-30, 0.5, 2.75, 4e5],
+                            dtype=np.float32), (14, 41))  # fmt: skip
+    d += np.where(rng.random(d.shape) < 0.3, rng.random(d.shape), 0).astype(np.float32)
+    flags = np.zeros(d.shape, np.uint8)
+    dense = replace(result, disparity=d, flags=flags)
+    filtered = median_filter(dense, size).disparity
+    np.testing.assert_array_equal(filtered, twin(d, flags, size, dense.params))
+
+
+def test_sortable32_orders_float_bits_and_undoes_itself():
+    values = np.array([-np.inf, -3e9, -2.5, -1e-30, -0.0, 0.0, 1e-30, 0.25, 7.0, 3e9, np.inf],
+                      dtype=np.float32)  # fmt: skip
+    bits = values.view(np.int32)
+    keys = [int(median_kernels.sortable32(b)) for b in bits]
+    assert keys == sorted(keys) and len(set(keys)) == len(keys)  # -0.0 just below +0.0
+    assert keys[4] == -1 and keys[5] == 0  # by hand: 0x80000000 ^ 0x7FFFFFFF
+    assert [int(median_kernels.sortable32(np.int32(k))) for k in keys] == bits.tolist()
 
 
 def test_buckets_are_ordered_and_as_fine_as_the_span_allows():

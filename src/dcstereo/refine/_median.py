@@ -75,27 +75,42 @@ def exchange_rows(values, network, n):
             high[x] = max(a, b)
 
 
+@nb.njit(cache=True, inline="always")
+def sortable32(bits):
+    """Return a float32's int32 bits as an int32 of the same order (its own inverse).
+
+    A negative float's bits count down as the float goes down; their magnitude bits
+    flipped, they count up. ``-0.0`` sorts just below ``+0.0``, so that every finite value
+    keeps its own bits through a sort.
+    """
+    return bits ^ np.int32(0x7FFFFFFF) if bits < 0 else bits
+
+
 @nb.njit(cache=True, parallel=True)
-def median_rows_network(disparity, radius, network, full, out):
+def median_rows_network(bits, radius, network, full, out):
     """``out[y, x]``: the median of the window of each pixel with ``full[y, x]``.
 
-    ``full`` marks the pixels whose whole window (inside the image) holds finite values;
-    the others keep ``out``'s value. Rows in parallel.
+    ``bits``: the map's float32 values as int32 (``d.view(np.int32)``), ``out`` likewise:
+    the network sorts their :func:`sortable32` keys, as integers (a float's ``min`` and
+    ``max`` must order NaNs and do not become vector code where the hardware has no such
+    instruction: on AVX2 the 5 x 5 median took 3.8x the time). ``full`` marks the pixels
+    whose whole window (inside the image) holds finite values; the others keep ``out``'s
+    value. Rows in parallel.
     """
-    height, width = disparity.shape
+    height, width = bits.shape
     side = 2 * radius + 1
     count = side * side
     for y in nb.prange(radius, height - radius):
         inner = width - 2 * radius
-        values = np.empty((count, inner), dtype=np.float32)
+        values = np.empty((count, inner), dtype=np.int32)
         for dy in range(side):
             for dx in range(side):
-                src = disparity[y - radius + dy, dx : dx + inner]
+                src = bits[y - radius + dy, dx : dx + inner]
                 dst = values[dy * side + dx]
                 for x in range(inner):
-                    dst[x] = src[x]
+                    dst[x] = sortable32(src[x])
         exchange_rows(values, network, inner)
         middle = values[count // 2]
         for x in range(inner):
             if full[y, x + radius]:
-                out[y, x + radius] = middle[x]
+                out[y, x + radius] = sortable32(middle[x])

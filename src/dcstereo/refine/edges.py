@@ -165,10 +165,12 @@ def refine_edges(
     disparity = np.ascontiguousarray(result.disparity, dtype=np.float32)
     colour, space = support_weight_tables(RADIUS)
     out = np.empty_like(disparity)
+    row_low, row_high = np.empty_like(disparity), np.empty_like(disparity)
+    kernels.row_extremes(disparity, ZONE, row_low, row_high)
     kernels.edge_rows(
         disparity, np.ascontiguousarray(result.flags), guide_l, guide_r, codes_l, codes_r,
-        ZONE, JUMP, REACH, COLOUR_LIMIT, RADIUS, colour, space, TRUNCATION, CENSUS_SCALE,
-        COLOUR_COST_SCALE, MARGIN, out,
+        row_low, row_high, ZONE, JUMP, REACH, COLOUR_LIMIT, RADIUS, colour, space, TRUNCATION,
+        CENSUS_SCALE, COLOUR_COST_SCALE, MARGIN, out,
     )  # fmt: skip
     return replace(result, disparity=_inside(out, result))
 

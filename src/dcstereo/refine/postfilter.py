@@ -70,7 +70,9 @@ def median_filter(result: DisparityResult, size: int = 5) -> DisparityResult:
     radius = size // 2
     full = moved & _full_windows(d, radius)
     if full.any():  # every value of the window finite: a sorting network, rows at a time
-        median_kernels.median_rows_network(d, radius, _network(size), full, out)
+        median_kernels.median_rows_network(
+            _bits(d), radius, _network(size), full, out.view(np.int32)
+        )
         moved = moved & ~full
         if moved.any():  # the rest (windows with holes, or cut by the edge): sorted one by one
             postfilter_kernels.median_rows(d, moved, radius, out)
@@ -103,6 +105,11 @@ def _inside(out: np.ndarray, result: DisparityResult) -> np.ndarray:
     high = np.where(filled, top, np.minimum(cols + 0.5, top))
     limit = (out != d) & (low <= high)
     return np.where(limit, np.clip(out, low, high), out)
+
+
+def _bits(d: np.ndarray) -> np.ndarray:
+    """Return a float32 map's values as their int32 bits (the median network's input)."""
+    return np.ascontiguousarray(d, dtype=np.float32).view(np.int32)
 
 
 @functools.cache
