@@ -15,6 +15,8 @@ is that of the samples with an estimate alone.
 import numba as nb
 import numpy as np
 
+from dcstereo.refine._median import exchange_rows
+
 #: Pixels of a row whose windows are sorted together: ``81 x 128`` keys (83 KiB for a 9 x 9
 #: window, in the second-level cache) for each of the network's 864 exchanges. On teddy,
 #: one thread: 16 pixels 84 ms, 32 67, 64 62, 128 55, 256 59, 512 77.
@@ -35,25 +37,6 @@ def sortable(bits):
     if bits < 0:
         return np.int64(bits ^ 0x7FFFFFFF)
     return np.int64(bits)
-
-
-@nb.njit(cache=True, inline="always")
-def exchange_chunk(keys, network):
-    """Run ``network`` on all :data:`CHUNK` columns of ``keys`` (a row a network input).
-
-    As :func:`~dcstereo.refine._median.exchange_rows`, but over a constant count of
-    columns: only then does the compiler make vector code of the 64-bit ``min`` and ``max``
-    on hardware without such instructions (AVX2: 1.6x faster). The columns past a short
-    chunk's pixels hold whatever they held and are sorted along, unread.
-    """
-    for e in range(network.shape[0]):
-        low = keys[network[e, 0]]
-        high = keys[network[e, 1]]
-        for x in range(CHUNK):
-            a = low[x]
-            b = high[x]
-            low[x] = min(a, b)
-            high[x] = max(a, b)
 
 
 @nb.njit(cache=True, parallel=True)
@@ -143,7 +126,10 @@ def weighted_median_rows(high, guide, moved, radius, colour_weight, space_weight
                 row = keys[o]
                 for i in range(n):
                     total[i] += row[i] & _LOW
-            exchange_chunk(keys, network)
+            # over all CHUNK columns, a short chunk's unread ones too: with a constant count
+            # (exchange_rows is inlined) the compiler makes vector code of the 64-bit min
+            # and max where the hardware has no such instruction (AVX2: the stage 1.6x faster)
+            exchange_rows(keys, network, CHUNK)
             for o in range(count):  # the first key whose running weight reaches half
                 row = keys[o]
                 for i in range(n):
