@@ -173,7 +173,7 @@ def load_case(case):
     if case["kind"] == "middlebury":
         from dcstereo.evaluation.datasets import load_scene, middlebury_dir
 
-        scene = load_scene(middlebury_dir() / case["name"])
+        scene = load_scene(case.get("path") or middlebury_dir() / case["name"])
         left, right, truth = scene.left, scene.right, None
         low, high = scene.min_disparity, scene.max_disparity
     else:
@@ -765,8 +765,9 @@ def parse_args(argv):
     parser.add_argument("--one", help=argparse.SUPPRESS)
     parser.add_argument(
         "--scenes",
-        help="comma-separated scene folders under the Middlebury folder (any layout), 'all' "
-        "of them, or 'none' (default: the four v2 scenes)",
+        help="comma-separated scene folders under the Middlebury folder (any layout) or the "
+        "outdoor folder (the KITTI pairs), 'all' (the Middlebury scenes), 'outdoor' (the "
+        "KITTI pairs), or 'none' (default: the four v2 scenes)",
     )
     parser.add_argument(
         "--methods",
@@ -865,7 +866,16 @@ def main(argv=None):
     import numba
 
     import dcstereo
-    from dcstereo.evaluation.datasets import find_scenes, list_middlebury, middlebury_dir
+    from dcstereo.evaluation.datasets import (
+        default_data_dir,
+        find_scenes,
+        list_middlebury,
+        middlebury_dir,
+    )
+
+    def outdoor_dir():
+        return default_data_dir() / "outdoor"
+
     from dcstereo.evaluation.scoring import BT_SUFFIX
 
     try:
@@ -919,6 +929,7 @@ def main(argv=None):
     if not threads or threads[0] < 1 or threads[-1] > limit:
         return fail(f"--threads must lie between 1 and {limit} (numba's limit), got {threads}")
 
+    paths = {}  # an outdoor pair's folder by its name
     if args.scenes is None:
         names = list_middlebury()
         if not names:
@@ -927,12 +938,22 @@ def main(argv=None):
     elif args.scenes.strip().lower() == "none":
         names = []
     else:
-        known = [folder.name for folder in find_scenes(middlebury_dir())]
-        names = known if args.scenes.strip().lower() == "all" else comma_list(args.scenes)
+        indoor = {folder.name: folder for folder in find_scenes(middlebury_dir())}
+        outdoor = {folder.name: folder for folder in find_scenes(outdoor_dir())}
+        known = {**indoor, **outdoor}
+        word = args.scenes.strip().lower()
+        names = (
+            list(indoor) if word == "all" else list(outdoor) if word == "outdoor"
+            else comma_list(args.scenes)
+        )  # fmt: skip
         missing = [n for n in names if n not in known]
         if missing:
-            return fail(f"unknown scene(s) {', '.join(missing)}; found {known}")
-    cases = [{"kind": "middlebury", "name": name, "same_range": args.same_range} for name in names]
+            return fail(f"unknown scene(s) {', '.join(missing)}; found {list(known)}")
+        paths = {name: str(known[name]) for name in names if name in outdoor}
+    cases = [
+        {"kind": "middlebury", "name": name, "same_range": args.same_range, "path": paths.get(name)}
+        for name in names
+    ]  # "middlebury": a real scene of ground truth (the outdoor pairs as well)
 
     workdir = Path(tempfile.mkdtemp(prefix="bench_speed_"))
     try:

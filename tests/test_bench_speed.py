@@ -349,3 +349,21 @@ def test_stage_suffixes_run_sgm_with_its_stages(bench, tmp_path, capsys):
     # a stage suffix on another method is refused by name
     assert bench.main(["--methods", "dsi5+planes", "--skip-large"]) == 2
     assert "dsi5+planes" in capsys.readouterr().err
+
+
+def test_outdoor_pairs_are_scenes_by_name(bench, tmp_path, monkeypatch):
+    # a one-pair KITTI folder under <data>/outdoor: named alone, or all of them by 'outdoor'
+    from test_kitti import write_pair_folder
+
+    write_pair_folder(tmp_path / "data" / "outdoor" / "kitti_toy")
+    monkeypatch.setenv("DCSTEREO_DATA", str(tmp_path / "data"))
+    for scenes in ("kitti_toy", "outdoor"):
+        out = tmp_path / f"{scenes}.json"
+        args = ["--scenes", scenes, "--skip-large", "--methods", "block", "--threads", "1",
+                "--repeat", "1", "--compile-scene", "none", "--json", str(out)]  # fmt: skip
+        assert bench.main(args) == 0
+        rows = json.loads(out.read_text())["results"]
+        assert [(r["scene"], r["method"], r["disparities"]) for r in rows] == [
+            ("kitti_toy", "block", 12)  # meta.json's ndisp
+        ]
+    assert bench.main(["--scenes", "kitti_nowhere", "--skip-large"]) == 2

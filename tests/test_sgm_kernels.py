@@ -150,6 +150,12 @@ def test_box_reciprocal_is_exact_or_refused():
         census_kernels.box_reciprocal(3, 40000)
 
 
+def test_the_3x3_box_multiplier_is_the_floor_of_a_ninth():
+    sums = np.arange(32768, dtype=np.int64)  # every int16 box sum the volume can hold
+    np.testing.assert_array_equal((sums * census_kernels.BOX3_MULTIPLIER) >> 16, sums // 9)
+    assert (32767 * census_kernels.BOX3_MULTIPLIER) >> 16 == 3640  # by hand: 32767 // 9
+
+
 # --------------------------------------------------------------------------- pipeline
 
 
