@@ -47,6 +47,14 @@ def result_of(disparity, flags=None):
     return DisparityResult(disparity, flags, params, np.zeros(disparity.shape[0]))
 
 
+def support_cost(left, right, codes_l, codes_r, y, x, d, radius, truncation=40.0,
+                 census_scale=10.0, colour_scale=10.0):  # fmt: skip
+    """The kernel's cost on the views as it reads them (padded), the weights of ``edges``."""
+    pad, padded, space = edges.padded_views(left, right, codes_l, codes_r, radius)
+    return kernels.support_cost(*padded, pad, y, x, d, radius, edges.COLOUR_SCALE, space,
+                                truncation, census_scale, colour_scale)  # fmt: skip
+
+
 # ---------------------------------------------------------------------- by hand
 
 
@@ -56,31 +64,19 @@ def test_support_cost_by_hand():
     left = np.full((3, 1, 4), 10, np.int16)
     right = np.full((3, 1, 4), 20.0, np.float32)
     codes = np.zeros((1, 4), np.uint64)
-    colour, space = edges.support_weight_tables(0)
-    got = kernels.support_cost(
-        left, right, codes, codes, 0, 3, 1.5, 0, colour, space, 40.0, 10.0, 10.0
-    )
+    got = support_cost(left, right, codes, codes, 0, 3, 1.5, 0)
     assert got == pytest.approx(1 - math.exp(-1.0), rel=1e-12)
     # a colour difference truncated at 40: (3 * 20 = 60 -> 40) / 3
     right[:] = 30.0
-    got = kernels.support_cost(
-        left, right, codes, codes, 0, 3, 1.0, 0, colour, space, 40.0, 10.0, 10.0
-    )
+    got = support_cost(left, right, codes, codes, 0, 3, 1.0, 0)
     assert got == pytest.approx(1 - math.exp(-40 / 3 / 10), rel=1e-12)
     # the census term: one differing bit of 3 at the match, h = 1
     codes_r = np.full((1, 4), 1, np.uint64)
     right[:] = 10.0
-    got = kernels.support_cost(
-        left, right, codes, codes_r, 0, 3, 1.0, 0, colour, space, 40.0, 10.0, 10.0
-    )
+    got = support_cost(left, right, codes, codes_r, 0, 3, 1.0, 0)
     assert got == pytest.approx(1 - math.exp(-0.1), rel=1e-12)
     # the centre's match left of the view: nothing counts
-    assert (
-        kernels.support_cost(
-            left, right, codes, codes, 0, 0, 1.0, 0, colour, space, 40.0, 10.0, 10.0
-        )
-        == math.inf
-    )
+    assert support_cost(left, right, codes, codes, 0, 0, 1.0, 0) == math.inf
 
 
 def test_exp_minus_by_hand_and_over_its_domain():
@@ -91,11 +87,20 @@ def test_exp_minus_by_hand_and_over_its_domain():
         assert kernels.exp_minus(t) == pytest.approx(math.exp(-t), rel=1e-13), t
 
 
+def test_exp_minus_wide_by_hand_and_over_its_domain():
+    assert kernels.exp_minus_wide(0.0) == 1.0
+    assert kernels.exp_minus_wide(10.0) == pytest.approx(4.5399929762484854e-05, rel=1e-12)
+    for t in np.linspace(0.0, kernels.WIDE_DOMAIN, 2001):
+        assert kernels.exp_minus_wide(t) == pytest.approx(math.exp(-t), rel=1e-12), t
+
+
 def test_the_costs_exponents_stay_inside_the_domain():
     # the Hamming distance of a (2 r + 1)^2 census, and the truncated colour over 3
     bits = (2 * edges.CENSUS_RADIUS + 1) ** 2 - 1
     assert bits / edges.CENSUS_SCALE <= kernels.EXP_DOMAIN
     assert edges.TRUNCATION / 3 / edges.COLOUR_COST_SCALE <= kernels.EXP_DOMAIN
+    # the weights' colour factor: two channel differences of at most 255
+    assert 2 * 255 / edges.COLOUR_SCALE <= kernels.WIDE_DOMAIN
 
 
 def test_row_extremes_by_hand():
@@ -192,17 +197,45 @@ def test_support_cost_equals_its_twin():
     codes_l, codes_r = edges._census(left3), edges._census(right3)
     twin_l = naive.census(left3.astype(np.float32).mean(axis=0), edges.CENSUS_RADIUS)
     twin_r = naive.census(right3.astype(np.float32).mean(axis=0), edges.CENSUS_RADIUS)
-    colour, space = edges.support_weight_tables()
     points = [(0, 0, 0.0), (0, 79, 3.25), (39, 79, 79.0), (39, 5, 5.5), (20, 3, 3.75),
               (20, 2, 4.0), (20, 46, 12.0), (20, 46, 4.0), (11, 30, 11.6),
               (27, 47, 4.9)]  # fmt: skip
     points += [(int(rng.integers(0, 40)), int(rng.integers(0, 80)), float(rng.uniform(0, 16)))
                for _ in range(30)]  # fmt: skip
     for y, x, d in points:
-        got = kernels.support_cost(left3, right3, codes_l, codes_r, y, x, d, edges.RADIUS,
-                                   colour, space, edges.TRUNCATION, edges.CENSUS_SCALE,
-                                   edges.COLOUR_COST_SCALE)  # fmt: skip
+        got = support_cost(
+            left3,
+            right3,
+            codes_l,
+            codes_r,
+            y,
+            x,
+            d,
+            edges.RADIUS,
+            edges.TRUNCATION,
+            edges.CENSUS_SCALE,
+            edges.COLOUR_COST_SCALE,
+        )
         want = naive.cost(left3, right3, twin_l, twin_r, y, x, d, CONSTANTS)
+        assert got == pytest.approx(want, rel=1e-12) or got == want == math.inf, (y, x, d)
+    # a window wider than a block of the kernel (19 columns: two blocks, the second cut)
+    wide = {**CONSTANTS, "RADIUS": 9}
+    assert 2 * wide["RADIUS"] + 1 > kernels.LANES
+    for y, x, d in points[:12]:
+        got = support_cost(
+            left3,
+            right3,
+            codes_l,
+            codes_r,
+            y,
+            x,
+            d,
+            9,
+            edges.TRUNCATION,
+            edges.CENSUS_SCALE,
+            edges.COLOUR_COST_SCALE,
+        )
+        want = naive.cost(left3, right3, twin_l, twin_r, y, x, d, wide)
         assert got == pytest.approx(want, rel=1e-12) or got == want == math.inf, (y, x, d)
 
 

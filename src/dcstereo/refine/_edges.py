@@ -18,6 +18,9 @@ DIRECTIONS = np.array([(-1, 0), (-1, 1), (0, 1), (1, 0), (1, 1)], dtype=np.int64
 
 #: The largest argument of :func:`exp_minus` it is accurate for.
 EXP_DOMAIN = 2.5
+#: The largest argument of :func:`exp_minus_wide` it is accurate for: two differences of
+#: 255 over a scale of 10.
+WIDE_DOMAIN = 51.2
 
 
 @nb.njit(cache=True, inline="always")
@@ -48,8 +51,45 @@ def exp_minus(t):
     return p * p
 
 
+@nb.njit(cache=True, inline="always")
+def exp_minus_wide(t):
+    """Return ``exp(-t)`` for ``0 <= t <=`` :data:`WIDE_DOMAIN`, relative error under 1e-12.
+
+    ``exp(-t / 64)`` by its Taylor series to the 15th power, squared six times: the support
+    weights' colour factor, of both views' differences at once.
+    """
+    s = -t / 64
+    p = 1 / 1307674368000
+    p = 1 / 87178291200 + s * p
+    p = 1 / 6227020800 + s * p
+    p = 1 / 479001600 + s * p
+    p = 1 / 39916800 + s * p
+    p = 1 / 3628800 + s * p
+    p = 1 / 362880 + s * p
+    p = 1 / 40320 + s * p
+    p = 1 / 5040 + s * p
+    p = 1 / 720 + s * p
+    p = 1 / 120 + s * p
+    p = 1 / 24 + s * p
+    p = 1 / 6 + s * p
+    p = 1 / 2 + s * p
+    p = 1.0 + s * p
+    p = 1.0 + s * p
+    p = p * p
+    p = p * p
+    p = p * p
+    p = p * p
+    p = p * p
+    return p * p
+
+
+#: The columns of a window row that :func:`support_cost` takes at a time (vector code of a
+#: constant count; its views padded past the image so that every block reads inside them).
+LANES = 16
+
+
 @nb.njit(cache=True, fastmath={"reassoc", "nsz", "contract"})
-def support_cost(left, right, codes_l, codes_r, y, x, d, radius, colour_weight, space_weight,
+def support_cost(left, right, codes_l, codes_r, pad, y, x, d, radius, weight_scale, space_weight,
                  truncation, census_scale, colour_scale):  # fmt: skip
     """Return the adaptive-support-weight cost of disparity ``d`` at left pixel ``(y, x)``.
 
@@ -58,18 +98,25 @@ def support_cost(left, right, codes_l, codes_r, y, x, d, radius, colour_weight, 
     leaves the view does not count): its cost ``2 - exp(-h / census_scale) - exp(-c /
     colour_scale)``, ``h`` the interpolated Hamming distance of the census codes and ``c``
     the channels' summed absolute difference, truncated at ``truncation``, over 3; its
-    weight ``colour_weight[g_l] * colour_weight[g_r] * space_weight[dy, dx]``, ``g_l`` the
+    weight ``exp(-(g_l + g_r) / weight_scale) * space_weight[dy, dx]``, ``g_l`` the
     largest channel difference of ``q`` from the centre in the left view and ``g_r`` that
-    of their matches in the right view (rounded). The weighted mean; ``inf`` when nothing
-    counts (the centre's match outside the view).
+    of their matches in the right view (rounded): the product of the two views' colour
+    weights. The weighted mean; ``inf`` when nothing counts (the centre's match outside
+    the view).
 
-    Vector code, a window row's columns at a time: the exponentials by :func:`exp_minus`
-    (``h / census_scale`` and ``c / 3 / colour_scale`` at most :data:`EXP_DOMAIN`), the
-    sums in any order (``fastmath`` reassociation). Against the same sums in order with
-    the library's ``exp`` (``tests/naive_edges.py``): a relative difference of about
-    1e-15, and the same maps on the development scenes.
+    The views and the codes are those of :func:`dcstereo.refine.edges.padded_views`:
+    ``pad`` columns on the left of the image's, and ``pad + LANES`` on its right
+    (``pad >= radius + 2``); ``space_weight`` has its rows padded with zeros to a multiple
+    of :data:`LANES` columns. Vector code, :data:`LANES` columns of a window row at a
+    time (those outside the window or the views weigh 0): the exponentials by
+    :func:`exp_minus` (``h / census_scale`` and ``c / 3 / colour_scale`` at most
+    :data:`EXP_DOMAIN`) and :func:`exp_minus_wide` (``(g_l + g_r) / weight_scale`` at
+    most :data:`WIDE_DOMAIN`), the sums in any order (``fastmath`` reassociation). Against
+    the plain sums with the library's ``exp`` (``tests/naive_edges.py``): a relative
+    difference of about 1e-15, and the same maps on the development scenes.
     """
-    _, height, width = left.shape
+    _, height, padded = left.shape
+    width = padded - 2 * pad - LANES  # the image's columns
     xc = x - d
     j0 = int(np.floor(xc))
     if j0 < 0 or xc > width - 1:
@@ -79,11 +126,15 @@ def support_cost(left, right, codes_l, codes_r, y, x, d, radius, colour_weight, 
     step = 1 if g > 0 else 0  # the second column of the interpolation (weight g)
     j1 = j0 + step
     centre = (
-        (1 - g) * right[0, y, j0] + g * right[0, y, j1],
-        (1 - g) * right[1, y, j0] + g * right[1, y, j1],
-        (1 - g) * right[2, y, j0] + g * right[2, y, j1],
+        (1 - g) * right[0, y, pad + j0] + g * right[0, y, pad + j1],
+        (1 - g) * right[1, y, pad + j0] + g * right[1, y, pad + j1],
+        (1 - g) * right[2, y, pad + j0] + g * right[2, y, pad + j1],
     )
-    c0, c1, c2 = np.int32(left[0, y, x]), np.int32(left[1, y, x]), np.int32(left[2, y, x])
+    c0, c1, c2 = (
+        np.int32(left[0, y, pad + x]),
+        np.int32(left[1, y, pad + x]),
+        np.int32(left[2, y, pad + x]),
+    )
     # the window's columns inside the image whose match lies inside the right view
     lo = max(x - radius, 0, -k)
     hi = min(x + radius, width - 1, width - 1 - k - step)
@@ -91,37 +142,49 @@ def support_cost(left, right, codes_l, codes_r, y, x, d, radius, colour_weight, 
     weights = 0.0
     hc = 1.0 / census_scale
     cc = 1.0 / (3 * colour_scale)
+    wc = 1.0 / weight_scale
+    first = x - radius  # the window's first column
     for dy in range(-radius, radius + 1):
         yy = y + dy
         if yy < 0 or yy >= height:
             continue
-        # the row's samples as slices from the first of them: vector code
-        n = hi + 1 - lo
-        l0, l1, l2 = left[0, yy, lo:], left[1, yy, lo:], left[2, yy, lo:]
-        p0, p1, p2 = right[0, yy, lo + k :], right[1, yy, lo + k :], right[2, yy, lo + k :]
-        q0, q1 = right[0, yy, lo + k + step :], right[1, yy, lo + k + step :]
-        q2 = right[2, yy, lo + k + step :]
-        cl, cp, cq = codes_l[yy, lo:], codes_r[yy, lo + k :], codes_r[yy, lo + k + step :]
-        sw = space_weight[dy + radius, lo - x + radius :]
-        for i in range(n):
-            b0 = (1 - g) * p0[i] + g * q0[i]
-            b1 = (1 - g) * p1[i] + g * q1[i]
-            b2 = (1 - g) * p2[i] + g * q2[i]
-            a0, a1, a2 = l0[i], l1[i], l2[i]
-            gl = max(abs(np.int32(a0) - c0), abs(np.int32(a1) - c1), abs(np.int32(a2) - c2))
-            e0, e1, e2 = abs(b0 - centre[0]), abs(b1 - centre[1]), abs(b2 - centre[2])
-            e01 = e0 if e0 > e1 else e1
-            g_right = e01 if e01 > e2 else e2
-            colour = abs(a0 - b0) + abs(a1 - b1) + abs(a2 - b2)
-            colour = colour if colour < truncation else truncation
-            code = cl[i]
-            hamming = (1 - g) * popcount(code ^ cp[i]) + g * popcount(code ^ cq[i])
-            cost = 2.0 - exp_minus(hamming * hc) - exp_minus(colour * cc)
-            rounded = g_right + 0.5
-            gr = np.int32(rounded if rounded < 255.0 else 255.0)
-            weight = colour_weight[gl] * colour_weight[gr] * sw[i]
-            total += weight * cost
-            weights += weight
+        for b0 in range(0, 2 * radius + 1, LANES):  # a block of the row as slices: vectors
+            f0 = first + b0
+            l0, l1, l2 = left[0, yy, pad + f0 :], left[1, yy, pad + f0 :], left[2, yy, pad + f0 :]
+            p0, p1, p2 = (
+                right[0, yy, pad + f0 + k :],
+                right[1, yy, pad + f0 + k :],
+                right[2, yy, pad + f0 + k :],
+            )
+            q0, q1, q2 = (
+                right[0, yy, pad + f0 + k + step :],
+                right[1, yy, pad + f0 + k + step :],
+                right[2, yy, pad + f0 + k + step :],
+            )
+            cl = codes_l[yy, pad + f0 :]
+            cp, cq = codes_r[yy, pad + f0 + k :], codes_r[yy, pad + f0 + k + step :]
+            sw = space_weight[dy + radius, b0:]
+            for i in range(LANES):
+                b0_ = (1 - g) * p0[i] + g * q0[i]
+                b1_ = (1 - g) * p1[i] + g * q1[i]
+                b2_ = (1 - g) * p2[i] + g * q2[i]
+                a0, a1, a2 = l0[i], l1[i], l2[i]
+                gl = max(abs(np.int32(a0) - c0), abs(np.int32(a1) - c1), abs(np.int32(a2) - c2))
+                e0, e1, e2 = abs(b0_ - centre[0]), abs(b1_ - centre[1]), abs(b2_ - centre[2])
+                e01 = e0 if e0 > e1 else e1
+                g_right = e01 if e01 > e2 else e2
+                colour = abs(a0 - b0_) + abs(a1 - b1_) + abs(a2 - b2_)
+                colour = colour if colour < truncation else truncation
+                code = cl[i]
+                hamming = (1 - g) * popcount(code ^ cp[i]) + g * popcount(code ^ cq[i])
+                cost = 2.0 - exp_minus(hamming * hc) - exp_minus(colour * cc)
+                gr = np.floor(g_right + 0.5)
+                gr = gr if gr < 255.0 else 255.0
+                xx = f0 + i
+                inside = (xx >= lo) & (xx <= hi)
+                weight = exp_minus_wide((gl + gr) * wc) * sw[i] if inside else 0.0
+                total += weight * cost
+                weights += weight
     if weights <= 0:
         return np.inf
     return total / weights
@@ -190,17 +253,19 @@ def row_extremes(disparity, zone, low, high):
 
 
 @nb.njit(cache=True, parallel=True)
-def edge_rows(disparity, flags, left, right, codes_l, codes_r, row_low, row_high, zone, jump,
-              reach, colour_limit, radius, colour_weight, space_weight, truncation,
-              census_scale, colour_scale, margin, out):  # fmt: skip
+def edge_rows(disparity, flags, left, left_p, right_p, codes_l_p, codes_r_p, pad, row_low,
+              row_high, zone, jump, reach, colour_limit, radius, weight_scale, space_weight,
+              truncation, census_scale, colour_scale, margin, out):  # fmt: skip
     """Write into ``out`` the re-decided map (rows in parallel).
 
     A pixel with an estimate whose ``(2 zone + 1)^2`` window (the edges repeated; the
     estimates alone) spans more than ``jump`` takes the candidate of
     :func:`edge_candidates` of least :func:`support_cost` when that is below ``1 -
     margin`` times its own value's (any finite one, where its own value's match leaves the
-    right view); every other pixel keeps its value. ``row_low``, ``row_high``:
-    :func:`row_extremes` of ``disparity`` and ``zone``.
+    right view); every other pixel keeps its value. ``left``: the left view's channels
+    (the candidates' colour walk); ``left_p``, ``right_p``, ``codes_l_p``, ``codes_r_p``,
+    ``pad`` and ``space_weight``: the padded views and weights of :func:`support_cost`.
+    ``row_low``, ``row_high``: :func:`row_extremes` of ``disparity`` and ``zone``.
     """
     height, width = disparity.shape
     for y in nb.prange(height):
@@ -222,13 +287,13 @@ def edge_rows(disparity, flags, left, right, codes_l, codes_r, row_low, row_high
             count = edge_candidates(disparity, left, flags, y, x, reach, colour_limit, candidates)
             if count == 0:
                 continue
-            best = support_cost(left, right, codes_l, codes_r, y, x, own, radius,
-                                colour_weight, space_weight, truncation, census_scale,
+            best = support_cost(left_p, right_p, codes_l_p, codes_r_p, pad, y, x, own, radius,
+                                weight_scale, space_weight, truncation, census_scale,
                                 colour_scale)  # fmt: skip
             bound = best * (1.0 - margin)
             for j in range(count):
-                cost = support_cost(left, right, codes_l, codes_r, y, x, candidates[j],
-                                    radius, colour_weight, space_weight, truncation,
+                cost = support_cost(left_p, right_p, codes_l_p, codes_r_p, pad, y, x, candidates[j],
+                                    radius, weight_scale, space_weight, truncation,
                                     census_scale, colour_scale)  # fmt: skip
                 if cost < bound and cost < best:
                     best = cost

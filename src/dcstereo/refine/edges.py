@@ -160,19 +160,39 @@ def refine_edges(
         checked.append(guide)
     guide_l = kernel_guide(np.rint(checked[0]).astype(np.int16))
     guide_r = np.ascontiguousarray(kernel_guide(checked[1]), dtype=np.float32)
-    codes_l = _census(guide_l)
-    codes_r = _census(guide_r)
+    pad, padded, space = padded_views(guide_l, guide_r, _census(guide_l), _census(guide_r))
     disparity = np.ascontiguousarray(result.disparity, dtype=np.float32)
-    colour, space = support_weight_tables(RADIUS)
     out = np.empty_like(disparity)
     row_low, row_high = np.empty_like(disparity), np.empty_like(disparity)
     kernels.row_extremes(disparity, ZONE, row_low, row_high)
     kernels.edge_rows(
-        disparity, np.ascontiguousarray(result.flags), guide_l, guide_r, codes_l, codes_r,
-        row_low, row_high, ZONE, JUMP, REACH, COLOUR_LIMIT, RADIUS, colour, space, TRUNCATION,
-        CENSUS_SCALE, COLOUR_COST_SCALE, MARGIN, out,
+        disparity, np.ascontiguousarray(result.flags), guide_l, *padded, pad, row_low, row_high,
+        ZONE, JUMP, REACH, COLOUR_LIMIT, RADIUS, COLOUR_SCALE, space, TRUNCATION, CENSUS_SCALE,
+        COLOUR_COST_SCALE, MARGIN, out,
     )  # fmt: skip
     return replace(result, disparity=_inside(out, result))
+
+
+def padded_views(guide_l, guide_r, codes_l, codes_r, radius: int = RADIUS):
+    """Return ``(pad, (left, right, codes_l, codes_r), space)`` as the support cost reads them.
+
+    Each view and code array padded with zeros by ``pad = radius + 2`` columns on the left
+    and ``pad + LANES`` on the right (:func:`dcstereo.refine._edges.support_cost` reads
+    whole blocks of :data:`~dcstereo.refine._edges.LANES` columns, those outside weighing
+    0), and :func:`support_weight_tables`' space weights with their rows padded with zeros
+    to a multiple of ``LANES`` columns.
+    """
+    pad = radius + 2
+
+    def padded(view):
+        widths = [(0, 0)] * (view.ndim - 1) + [(pad, pad + kernels.LANES)]
+        return np.ascontiguousarray(np.pad(view, widths))
+
+    _, space = support_weight_tables(radius)
+    side = 2 * radius + 1
+    blocks = np.zeros((side, -(-side // kernels.LANES) * kernels.LANES))
+    blocks[:, :side] = space
+    return pad, tuple(padded(v) for v in (guide_l, guide_r, codes_l, codes_r)), blocks
 
 
 def _census(guide: np.ndarray) -> np.ndarray:
