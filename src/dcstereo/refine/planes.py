@@ -274,7 +274,11 @@ def refine_planes(
     mismatched pixels (not the occluded or border ones: the background fill's) and
     the estimates with a margin under ``replace_margin`` may take their plane's value
     (:func:`segment_planes`), limited to the searched range. A hole filled so keeps its
-    reason flag and gains :data:`~dcstereo.result.FLAG_FILLED`.
+    reason flag and gains :data:`~dcstereo.result.FLAG_FILLED`; an estimate whose plane's
+    value points past the right image (``x - d`` beyond -0.5 .. ``width - 0.5``: a pixel
+    at its border that the plane carries on, with no match in the right view) gains
+    :data:`~dcstereo.result.FLAG_BORDER` and ``FLAG_FILLED``: its value is the plane's,
+    not an estimate of the matcher's.
     """
     d = result.disparity
     free = (result.flags & (FLAG_OCCLUDED | FLAG_BORDER)) == 0  # not the background fill's
@@ -303,5 +307,10 @@ def refine_planes(
             params.max_scored, scratch, out, params.fit_lattice,
         )  # fmt: skip
     filled = np.isnan(d) & np.isfinite(out)
+    # an estimate whose plane's value points past the right image (a left border's pixel
+    # the plane carries on) has no match there: it is a border pixel, filled by its plane
+    cols = np.arange(d.shape[1], dtype=np.float32)
+    outside = (out != d) & ((cols - out < -0.5) | (cols - out > d.shape[1] - 0.5))
     flags = result.flags | (filled.view(np.uint8) * np.uint8(FLAG_FILLED))
+    flags |= outside.view(np.uint8) * np.uint8(FLAG_BORDER | FLAG_FILLED)
     return replace(result, disparity=out, flags=flags)
