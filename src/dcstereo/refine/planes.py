@@ -310,7 +310,7 @@ def refine_planes(
     # an estimate whose plane's value points past the right image (a left border's pixel
     # the plane carries on) has no match there: it is a border pixel, filled by its plane
     cols = np.arange(d.shape[1], dtype=np.float32)
-    outside = (out != d) & ((cols - out < -0.5) | (cols - out > d.shape[1] - 0.5))
+    outside = np.isfinite(d) & (out != d) & ((cols - out < -0.5) | (cols - out > d.shape[1] - 0.5))
     flags = result.flags | (filled.view(np.uint8) * np.uint8(FLAG_FILLED))
     flags |= outside.view(np.uint8) * np.uint8(FLAG_BORDER | FLAG_FILLED)
     return replace(result, disparity=out, flags=flags)
