@@ -171,9 +171,9 @@ def load_case(case):
     every method searches the same disparities.
     """
     if case["kind"] == "middlebury":
-        from dcstereo.evaluation.datasets import load_scene, middlebury_dir
+        from dcstereo.evaluation.datasets import load_scene
 
-        scene = load_scene(case.get("path") or middlebury_dir() / case["name"])
+        scene = load_scene(case["path"])
         left, right, truth = scene.left, scene.right, None
         low, high = scene.min_disparity, scene.max_disparity
     else:
@@ -872,10 +872,6 @@ def main(argv=None):
         list_middlebury,
         middlebury_dir,
     )
-
-    def outdoor_dir():
-        return default_data_dir() / "outdoor"
-
     from dcstereo.evaluation.scoring import BT_SUFFIX
 
     try:
@@ -929,31 +925,31 @@ def main(argv=None):
     if not threads or threads[0] < 1 or threads[-1] > limit:
         return fail(f"--threads must lie between 1 and {limit} (numba's limit), got {threads}")
 
-    paths = {}  # an outdoor pair's folder by its name
     if args.scenes is None:
         names = list_middlebury()
+        folders = {name: middlebury_dir() / name for name in names}
         if not names:
             notes.append(f"No Middlebury scenes at {middlebury_dir()}: set DCSTEREO_DATA.")
             print(notes[-1])
     elif args.scenes.strip().lower() == "none":
-        names = []
+        names, folders = [], {}
     else:
         indoor = {folder.name: folder for folder in find_scenes(middlebury_dir())}
-        outdoor = {folder.name: folder for folder in find_scenes(outdoor_dir())}
-        known = {**indoor, **outdoor}
+        outdoor = {folder.name: folder for folder in find_scenes(default_data_dir() / "outdoor")}
+        folders = {**indoor, **outdoor}
         word = args.scenes.strip().lower()
         names = (
             list(indoor) if word == "all" else list(outdoor) if word == "outdoor"
             else comma_list(args.scenes)
         )  # fmt: skip
-        missing = [n for n in names if n not in known]
+        missing = [n for n in names if n not in folders]
         if missing:
-            return fail(f"unknown scene(s) {', '.join(missing)}; found {list(known)}")
-        paths = {name: str(known[name]) for name in names if name in outdoor}
-    cases = [
-        {"kind": "middlebury", "name": name, "same_range": args.same_range, "path": paths.get(name)}
+            return fail(f"unknown scene(s) {', '.join(missing)}; found {list(folders)}")
+    cases = [  # "middlebury": a real scene of ground truth (the outdoor pairs as well)
+        {"kind": "middlebury", "name": name, "same_range": args.same_range,
+         "path": str(folders[name])}
         for name in names
-    ]  # "middlebury": a real scene of ground truth (the outdoor pairs as well)
+    ]  # fmt: skip
 
     workdir = Path(tempfile.mkdtemp(prefix="bench_speed_"))
     try:

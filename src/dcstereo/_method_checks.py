@@ -58,29 +58,24 @@ def check_semi_global(params) -> None:
     gradient = params.p2_gradient
     if not is_number(gradient) or not math.isfinite(gradient) or gradient < 0:
         raise ValueError(f"p2_gradient must be a non-negative number, got {gradient!r}")
-    if params.aggregation is not None and params.aggregation not in AGGREGATIONS:
-        raise ValueError(
-            f"aggregation must be None or one of {', '.join(AGGREGATIONS)}, "
-            f"got {params.aggregation!r}"
+    for name, choices in (
+        ("aggregation", AGGREGATIONS),
+        ("photometric", PHOTOMETRIC),
+        ("row_alignment", ROW_ALIGNMENTS),
+        ("edges", EDGES),
+    ):  # the stages on request: None (off) or one of their names
+        value = getattr(params, name)
+        if value is not None and value not in choices:
+            raise ValueError(f"{name} must be None or one of {', '.join(choices)}, got {value!r}")
+    if (
+        params.photometric is not None
+        and params.method in SGM_METHODS
+        and params.cost != "census-ad"
+    ):
+        raise ValueError(  # other methods: refused as an option they do not read
+            f"photometric={params.photometric!r} aligns the colour term's colours: it "
+            f"needs cost='census-ad', got cost={params.cost!r}"
         )
-    if params.photometric is not None:
-        if params.photometric not in PHOTOMETRIC:
-            raise ValueError(
-                f"photometric must be None or one of {', '.join(PHOTOMETRIC)}, "
-                f"got {params.photometric!r}"
-            )
-        if params.method in SGM_METHODS and params.cost != "census-ad":  # others: refused below
-            raise ValueError(
-                f"photometric={params.photometric!r} aligns the colour term's colours: it "
-                f"needs cost='census-ad', got cost={params.cost!r}"
-            )
-    if params.row_alignment is not None and params.row_alignment not in ROW_ALIGNMENTS:
-        raise ValueError(
-            f"row_alignment must be None or one of {', '.join(ROW_ALIGNMENTS)}, "
-            f"got {params.row_alignment!r}"
-        )
-    if params.edges is not None and params.edges not in EDGES:
-        raise ValueError(f"edges must be None or one of {', '.join(EDGES)}, got {params.edges!r}")
     sigma = params.census_smoothing
     if not is_number(sigma) or not math.isfinite(sigma):
         raise ValueError(f"census_smoothing must be a number of pixels, got {sigma!r}")

@@ -139,8 +139,8 @@ def support_cost(left, right, codes_l, codes_r, pad, y, x, d, radius, weight_sca
         yy = y + dy
         if yy < 0 or yy >= height:
             continue
-        for b0 in range(0, 2 * radius + 1, LANES):  # a block of the row as slices: vectors
-            f0 = first + b0
+        for block in range(0, 2 * radius + 1, LANES):  # a block of the row as slices: vectors
+            f0 = first + block
             l0, l1, l2 = left[0, yy, pad + f0 :], left[1, yy, pad + f0 :], left[2, yy, pad + f0 :]
             p0, p1, p2 = (
                 right[0, yy, pad + f0 + k :],
@@ -154,23 +154,22 @@ def support_cost(left, right, codes_l, codes_r, pad, y, x, d, radius, weight_sca
             )
             cl = codes_l[yy, pad + f0 :]
             cp, cq = codes_r[yy, pad + f0 + k :], codes_r[yy, pad + f0 + k + step :]
-            sw = space_weight[dy + radius, b0:]
+            sw = space_weight[dy + radius, block:]
             for i in range(LANES):
-                b0_ = (1 - g) * p0[i] + g * q0[i]
-                b1_ = (1 - g) * p1[i] + g * q1[i]
-                b2_ = (1 - g) * p2[i] + g * q2[i]
+                r0 = (1 - g) * p0[i] + g * q0[i]
+                r1 = (1 - g) * p1[i] + g * q1[i]
+                r2 = (1 - g) * p2[i] + g * q2[i]
                 a0, a1, a2 = l0[i], l1[i], l2[i]
                 gl = max(abs(np.int32(a0) - c0), abs(np.int32(a1) - c1), abs(np.int32(a2) - c2))
-                e0, e1, e2 = abs(b0_ - centre[0]), abs(b1_ - centre[1]), abs(b2_ - centre[2])
+                e0, e1, e2 = abs(r0 - centre[0]), abs(r1 - centre[1]), abs(r2 - centre[2])
                 e01 = e0 if e0 > e1 else e1
                 g_right = e01 if e01 > e2 else e2
-                colour = abs(a0 - b0_) + abs(a1 - b1_) + abs(a2 - b2_)
+                colour = abs(a0 - r0) + abs(a1 - r1) + abs(a2 - r2)
                 colour = colour if colour < truncation else truncation
                 code = cl[i]
                 hamming = (1 - g) * popcount(code ^ cp[i]) + g * popcount(code ^ cq[i])
                 cost = 2.0 - exp_minus(hamming * hc) - exp_minus(colour * cc)
-                gr = np.floor(g_right + 0.5)
-                gr = gr if gr < 255.0 else 255.0
+                gr = np.floor(g_right + 0.5)  # at most 255: the levels are 0..255
                 xx = f0 + i
                 inside = (xx >= lo) & (xx <= hi)
                 weight = exp_minus_wide((gl + gr) * wc) * sw[i] if inside else 0.0

@@ -14,6 +14,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from dcstereo.refine import _planes as _kernels
+from dcstereo.refine.postfilter import right_image_bounds
 from dcstereo.result import FLAG_BORDER, FLAG_FILLED, FLAG_OCCLUDED, DisparityResult
 
 
@@ -309,8 +310,8 @@ def refine_planes(
     filled = np.isnan(d) & np.isfinite(out)
     # an estimate whose plane's value points past the right image (a left border's pixel
     # the plane carries on) has no match there: it is a border pixel, filled by its plane
-    cols = np.arange(d.shape[1], dtype=np.float32)
-    outside = np.isfinite(d) & (out != d) & ((cols - out < -0.5) | (cols - out > d.shape[1] - 0.5))
+    least, largest = right_image_bounds(d.shape[1])
+    outside = np.isfinite(d) & (out != d) & ((out < least) | (out > largest))
     flags = result.flags | (filled.view(np.uint8) * np.uint8(FLAG_FILLED))
     flags |= outside.view(np.uint8) * np.uint8(FLAG_BORDER | FLAG_FILLED)
     return replace(result, disparity=out, flags=flags)

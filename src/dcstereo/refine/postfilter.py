@@ -99,12 +99,22 @@ def _inside(out: np.ndarray, result: DisparityResult) -> np.ndarray:
     """
     d, params = result.disparity, result.params
     bottom, top = np.float32(params.min_disparity), np.float32(params.max_disparity)
-    cols = np.arange(out.shape[1], dtype=np.float32)
+    least, largest = right_image_bounds(out.shape[1])
     filled = (result.flags & FLAG_FILLED) != 0
-    low = np.where(filled, bottom, np.maximum(cols - (out.shape[1] - 0.5), bottom))
-    high = np.where(filled, top, np.minimum(cols + 0.5, top))
+    low = np.where(filled, bottom, np.maximum(least, bottom))
+    high = np.where(filled, top, np.minimum(largest, top))
     limit = (out != d) & (low <= high)
     return np.where(limit, np.clip(out, low, high), out)
+
+
+def right_image_bounds(width: int) -> tuple[np.ndarray, np.ndarray]:
+    """Return the least and the largest disparity of each column that point inside the right image.
+
+    ``x - d`` from -0.5 to ``width - 0.5`` (its pixels are a pixel wide): float32 rows of
+    ``x - (width - 0.5)`` and ``x + 0.5``.
+    """
+    cols = np.arange(width, dtype=np.float32)
+    return cols - (width - 0.5), cols + 0.5
 
 
 def _bits(d: np.ndarray) -> np.ndarray:
