@@ -83,6 +83,19 @@ def test_path_start_add_and_first_min_vector_forms():
             assert sgm_simd.first_min(ties, 6, n)[0] == int(np.argmin(ties[6 : 6 + n]))
 
 
+def test_prefetch_is_a_hint():
+    # no value changes; compiled, it asks for the lines (llvm.prefetch in the code)
+    from dcstereo._vector import VECTOR
+
+    values = np.arange(100, dtype=np.int16)
+    assert sgm_simd.prefetch_pixel(values, 0, 64) is None
+    sgm_simd.compiled_prefetch_pixel(values, 4, 96)
+    assert values.tolist() == list(range(100))
+    kernel = sgm_simd.compiled_prefetch_pixel
+    code = kernel.inspect_llvm(kernel.signatures[0])
+    assert ("@llvm.prefetch" in code) == VECTOR
+
+
 # --------------------------------------------------------------------------- costs
 
 

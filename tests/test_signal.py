@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from dcstereo.signal import SIGNAL_STEPS, matching_signal, padded_signal
+from dcstereo import _signal
+from dcstereo.signal import SIGNAL_STEPS, colour_channels, matching_signal, padded_signal
 
 
 def _naive_padded(image, radius):
@@ -62,3 +63,35 @@ def test_every_uint8_colour_equals_numpy():
     codes = np.arange(2**24, dtype=np.uint32).reshape(4096, 4096)
     image = np.stack([codes >> 16, (codes >> 8) & 255, codes & 255], axis=-1).astype(np.uint8)
     np.testing.assert_array_equal(padded_signal(image, 0), matching_signal(image))
+
+
+def _naive_levels(signal):
+    """The reference of the gray levels: numpy's float64 division, ``rint``, ``clip``."""
+    return np.clip(np.rint(signal / float(SIGNAL_STEPS)), 0, 255).astype(np.int16)
+
+
+def test_signal_levels_by_hand():
+    # sixteenths: 24 -> 1.5 -> 2 (tie, to even), 40 -> 2.5 -> 2, 41 -> 3, below 0 and past 255 clip
+    signal = np.array([[24, 40, 41, -30, 255 * 16 + 8, 5000]], dtype=np.int32)
+    levels = np.empty(signal.shape, dtype=np.int16)
+    _signal.signal_levels(signal, float(SIGNAL_STEPS), levels)
+    assert levels.tolist() == [[2, 2, 3, 0, 255, 255]]
+
+
+def test_signal_levels_equal_numpy():
+    rng = np.random.default_rng(11)
+    signal = np.concatenate([np.arange(-64, 4200), rng.integers(-2**31, 2**31, 5000)])
+    signal = signal.astype(np.int32).reshape(-1, 2)
+    levels = np.empty(signal.shape, dtype=np.int16)
+    _signal.signal_levels(signal, float(SIGNAL_STEPS), levels)
+    np.testing.assert_array_equal(levels, _naive_levels(signal))
+
+
+def test_gray_colour_channels_are_the_rounded_intensity():
+    for name, image in _images():
+        if image.ndim == 3 and image.shape[2] >= 3:
+            continue
+        left, right = colour_channels(image, image[::-1])
+        assert left.dtype == np.int16 and left.shape == (1, *image.shape[:2]), name
+        np.testing.assert_array_equal(left[0], _naive_levels(matching_signal(image)), name)
+        np.testing.assert_array_equal(right[0], _naive_levels(matching_signal(image[::-1])), name)

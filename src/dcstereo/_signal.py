@@ -117,3 +117,17 @@ def padded_signal(image, mode, steps, radius, out):
             _row(image, y, 1.0, 257.0, False, steps, out, yp, radius)
         else:
             _row(image, y, 255.0, 1.0, False, steps, out, yp, radius)
+
+
+@nb.njit(cache=True)
+def signal_levels(signal, steps, out):
+    """Write ``clip(rint(signal / steps), 0, 255)`` of an int32 signal to ``out`` (int16).
+
+    The gray views' 0..255 levels (``signal.colour_channels``), in one pass instead of
+    numpy's four float64 temporaries (KITTI's 1226 x 370 pair: 12 -> about 1 ms); the same
+    float64 division and round-half-to-even, so the same values.
+    """
+    flat, dest = signal.reshape(-1), out.reshape(-1)
+    for i in range(flat.size):
+        level = np.rint(flat[i] / steps)
+        dest[i] = np.int16(min(max(level, 0.0), 255.0))

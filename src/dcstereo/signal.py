@@ -167,10 +167,13 @@ def colour_channels(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np
     colour = left.ndim == 3 and right.ndim == 3 and min(left.shape[2], right.shape[2]) >= 3
     out = []
     for image in (left, right):
-        if colour:
-            channels = np.moveaxis(scaled(image[:, :, :3]), 2, 0)
-        else:
-            channels = padded_signal(image, 0)[np.newaxis] / float(SIGNAL_STEPS)
+        if not colour:  # the intensity, in one compiled pass
+            signal = padded_signal(image, 0)
+            levels = np.empty((1, *signal.shape), dtype=np.int16)
+            signal_kernels.signal_levels(signal, float(SIGNAL_STEPS), levels)
+            out.append(levels)
+            continue
+        channels = np.moveaxis(scaled(image[:, :, :3]), 2, 0)
         if channels.dtype != np.uint8:
             channels = np.clip(np.rint(channels), 0, 255)
         out.append(np.ascontiguousarray(channels, dtype=np.int16))

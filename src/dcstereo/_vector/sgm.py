@@ -603,3 +603,57 @@ def _fetch_add(typingctx, counter):
 @overload(next_task)
 def _next_task_compiled(counter):
     return lambda counter: _fetch_add(counter)
+
+
+# --------------------------------------------------------------------------- prefetch
+
+#: Bytes of a cache line: :func:`prefetch_pixel` asks for one line in each.
+CACHE_LINE = 64
+
+
+def prefetch_pixel(array, off, n):
+    """Ask the processor to bring ``array[off:off + n]`` (int16) into its caches; no effect else.
+
+    A hint only (``llvm.prefetch`` of each 64-byte line when compiled, nothing in the plain
+    form): no value changes, and an address outside the array never faults.
+    """
+    return None
+
+
+@intrinsic
+def _prefetch_line(typingctx, array, off):
+    if not (_int16_array(array) and _words(off)):
+        return None
+
+    def codegen(context, builder, sig, args):
+        data = context.make_array(sig.args[0])(context, builder, args[0]).data
+        address = builder.bitcast(builder.gep(data, [args[1]]), ir.IntType(8).as_pointer())
+        i32 = ir.IntType(32)
+        signature = ir.FunctionType(ir.VoidType(), [address.type, i32, i32, i32])
+        function = cgutils.get_or_insert_function(builder.module, signature, "llvm.prefetch.p0")
+        # a read (0), kept in every cache level (3), of data (1)
+        builder.call(
+            function, [address, ir.Constant(i32, 0), ir.Constant(i32, 3), ir.Constant(i32, 1)]
+        )
+        return context.get_dummy_value()
+
+    return types.void(array, off), codegen
+
+
+@overload(prefetch_pixel)
+def _prefetch_pixel_compiled(array, off, n):
+    if not VECTOR:  # DCSTEREO_VECTOR=0: numba compiles the plain form
+        return prefetch_pixel
+    step = CACHE_LINE // 2  # int16 values a line
+
+    def compiled(array, off, n):
+        for k in range(0, n, step):
+            _prefetch_line(array, off + k)
+
+    return compiled
+
+
+@nb.njit(cache=True)
+def compiled_prefetch_pixel(array, off, n):
+    """``prefetch_pixel`` as compiled code runs it."""
+    prefetch_pixel(array, off, n)
