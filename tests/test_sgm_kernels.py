@@ -83,6 +83,30 @@ def test_path_start_add_and_first_min_vector_forms():
             assert sgm_simd.first_min(ties, 6, n)[0] == int(np.argmin(ties[6 : 6 + n]))
 
 
+def test_the_operations_of_a_pixel_are_inlined():
+    # a call a pixel pushed every array and offset on the stack, more than the vector loop's
+    # time at 64 disparities: the caller's code holds the operations, no call to them
+    import numba as nb
+
+    @nb.njit
+    def caller(cost, prev, cur, mins, sums, parts, total):
+        sgm_simd.paths_step(cost, 0, prev, (0, 18), cur, (0, 18), 16, 3, (9, 9), mins, sums, 0)
+        sgm_simd.path_step(cost, 0, prev, 0, cur, 0, 16, 3, 9, 0)
+        sgm_simd.add_saturated(sums, 0, sums, 0, cur, 1, 16)
+        return sgm_simd.path_total_step(
+            cost, 0, prev, 0, cur, 0, 16, 3, 9, 0, parts, (0, 0, 0), total, 0
+        )
+
+    values = np.zeros(64, np.int16)
+    parts = (values, values, values)
+    args = (values, values.copy(), values.copy(), np.zeros(2, np.int64), values.copy(), parts,
+            values.copy())  # fmt: skip
+    assert caller(*args) == (0, 0, 0)
+    code = caller.inspect_llvm(caller.signatures[0])
+    for name in ("paths_step", "path_step", "add_saturated", "path_total_step"):
+        assert f"{name}_compiled" not in code, name
+
+
 def test_prefetch_is_a_hint():
     # no value changes; compiled, it asks for the lines (llvm.prefetch in the code)
     from dcstereo._vector import VECTOR
