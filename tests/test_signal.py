@@ -80,7 +80,7 @@ def test_signal_levels_by_hand():
 
 def test_signal_levels_equal_numpy():
     rng = np.random.default_rng(11)
-    signal = np.concatenate([np.arange(-64, 4200), rng.integers(-2**31, 2**31, 5000)])
+    signal = np.concatenate([np.arange(-64, 4200), rng.integers(-(2**31), 2**31, 5000)])
     signal = signal.astype(np.int32).reshape(-1, 2)
     levels = np.empty(signal.shape, dtype=np.int16)
     _signal.signal_levels(signal, float(SIGNAL_STEPS), levels)
