@@ -195,6 +195,43 @@ def test_a_median_points_inside_the_right_image():
     np.testing.assert_array_equal(out[:, 1], 1.5)
 
 
+def _naive_inside(out, d, filled, bottom, top):
+    """The twin of ``limit_inside``: the rule as numpy arrays."""
+    cols = np.arange(out.shape[1], dtype=np.float32)
+    low = np.where(filled, bottom, np.maximum(cols - np.float32(out.shape[1] - 0.5), bottom))
+    high = np.where(filled, top, np.minimum(cols + np.float32(0.5), top))
+    limit = (out != d) & (low <= high)
+    return np.where(limit, np.clip(out, low, high), out)
+
+
+def test_limit_inside_equals_twin():
+    rng = np.random.default_rng(8)
+    for _ in range(200):
+        height, width = (int(v) for v in rng.integers(1, 12, 2))
+        bottom, top = sorted(rng.integers(-6, 10, 2))
+        d = rng.uniform(bottom - 3, top + 3, (height, width)).astype(np.float32)
+        d[rng.random(d.shape) < 0.2] = np.nan
+        out = np.where(rng.random(d.shape) < 0.5, d, d + rng.normal(0, 3, d.shape)).astype(
+            np.float32
+        )
+        out[rng.random(d.shape) < 0.1] = np.nan
+        filled = rng.random(d.shape) < 0.3
+        want = _naive_inside(out, d, filled, np.float32(bottom), np.float32(top))
+        postfilter.limit_inside(out, d, filled, np.float32(bottom), np.float32(top))
+        np.testing.assert_array_equal(out, want)
+
+
+def test_limit_inside_by_hand():
+    # width 3, range 0..5: column 0 allows 0..0.5, column 2 allows 0..2.5 (filled: 0..5)
+    d = np.zeros((1, 3), np.float32)
+    out = np.array([[4.0, 0.0, 4.0]], np.float32)  # column 1 unchanged: left as it is
+    postfilter.limit_inside(out, d, np.array([[False, False, True]]), np.float32(0), np.float32(5))
+    assert out.tolist() == [[0.5, 0.0, 4.0]]
+    out = np.array([[-1.0, np.nan, 9.0]], np.float32)
+    postfilter.limit_inside(out, d, np.zeros((1, 3), bool), np.float32(0), np.float32(5))
+    assert out[0, 0] == 0.0 and np.isnan(out[0, 1]) and out[0, 2] == 2.5
+
+
 def test_match_filters_after_subpixel_and_before_filling(pair):
     folder, _ = pair
     left, right = io.read_image(folder / "left.png"), io.read_image(folder / "right.png")

@@ -198,3 +198,34 @@ def value_buckets(disparity, max_bins, bins):
             v = np.float64(disparity[y, x])
             bins[y, x] = np.int32(np.floor(scale * (v - low))) if np.isfinite(v) else -1
     return low, int(np.floor(scale * span)) + 1, exact
+
+
+@nb.njit(cache=True)
+def limit_inside(out, disparity, filled, bottom, top):
+    """Limit in place each changed value of ``out`` to the disparities its pixel can have.
+
+    ``postfilter._inside``'s rule in one pass instead of numpy's dozen (every value changed:
+    teddy 0.73 -> 0.54 ms, KITTI 000066 4.1 -> 1.7 ms, with the flags' test):
+    where ``out`` differs from ``disparity`` (NaN differs), the value is clipped to ``[low,
+    high]`` if that is not empty: ``bottom``..``top`` (float32, the searched range) for a
+    filled pixel (``filled`` true), else that range cut to ``x - (width - 0.5) .. x + 0.5``
+    (``x - d`` inside the right image). NaN stays NaN.
+    """
+    height, width = out.shape
+    half = np.float32(0.5)
+    edge = np.float32(width - 0.5)
+    for y in range(height):
+        for x in range(width):
+            value = out[y, x]
+            if value == disparity[y, x]:
+                continue
+            low, high = bottom, top
+            if not filled[y, x]:
+                col = np.float32(x)
+                low = max(col - edge, bottom)
+                high = min(col + half, top)
+            if low <= high:
+                if value < low:
+                    out[y, x] = low
+                elif value > high:
+                    out[y, x] = high

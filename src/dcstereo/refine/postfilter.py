@@ -95,16 +95,14 @@ def _inside(out: np.ndarray, result: DisparityResult) -> np.ndarray:
     (``-0.5 <= x - d <= width - 0.5``: its pixels are a pixel wide). A filled pixel has
     no match in the right image, and its true disparity may well point outside it: it is
     only kept within the searched range (a median never leaves it; a fitted plane, as
-    :mod:`dcstereo.refine.local_planes` fits, can, past the range's end).
+    :mod:`dcstereo.refine.local_planes` fits, can, past the range's end). ``out`` (the
+    stage's own new map) is limited in place and returned.
     """
-    d, params = result.disparity, result.params
+    params = result.params
     bottom, top = np.float32(params.min_disparity), np.float32(params.max_disparity)
-    least, largest = right_image_bounds(out.shape[1])
     filled = (result.flags & FLAG_FILLED) != 0
-    low = np.where(filled, bottom, np.maximum(least, bottom))
-    high = np.where(filled, top, np.minimum(largest, top))
-    limit = (out != d) & (low <= high)
-    return np.where(limit, np.clip(out, low, high), out)
+    postfilter_kernels.limit_inside(out, result.disparity, filled, bottom, top)
+    return out
 
 
 def right_image_bounds(width: int) -> tuple[np.ndarray, np.ndarray]:
