@@ -10,7 +10,7 @@ from dcstereo import FLAG_FEATURE, FLAG_FILLED, FLAG_OCCLUDED, MatchParams, io, 
 from dcstereo.batch.tiling import match_tiled
 from dcstereo.refine import _median as median_kernels
 from dcstereo.refine import _postfilter as postfilter
-from dcstereo.refine.postfilter import MAX_BINS, MAX_MEDIAN, median_filter
+from dcstereo.refine.postfilter import MAX_BINS, MAX_MEDIAN, median_filter, right_image_bounds
 from test_cli import invoke
 
 
@@ -196,10 +196,10 @@ def test_a_median_points_inside_the_right_image():
 
 
 def _naive_inside(out, d, filled, bottom, top):
-    """The twin of ``limit_inside``: the rule as numpy arrays."""
-    cols = np.arange(out.shape[1], dtype=np.float32)
-    low = np.where(filled, bottom, np.maximum(cols - np.float32(out.shape[1] - 0.5), bottom))
-    high = np.where(filled, top, np.minimum(cols + np.float32(0.5), top))
+    """The twin of ``limit_inside``: the rule as numpy arrays (the bounds ``planes`` uses)."""
+    least, largest = right_image_bounds(out.shape[1])
+    low = np.where(filled, bottom, np.maximum(least, bottom))
+    high = np.where(filled, top, np.minimum(largest, top))
     limit = (out != d) & (low <= high)
     return np.where(limit, np.clip(out, low, high), out)
 
