@@ -217,7 +217,8 @@ def test_limit_inside_equals_twin():
         out[rng.random(d.shape) < 0.1] = np.nan
         filled = rng.random(d.shape) < 0.3
         want = _naive_inside(out, d, filled, np.float32(bottom), np.float32(top))
-        postfilter.limit_inside(out, d, filled, np.float32(bottom), np.float32(top))
+        bounds = right_image_bounds(width)
+        postfilter.limit_inside(out, d, filled, *bounds, np.float32(bottom), np.float32(top))
         np.testing.assert_array_equal(out, want)
 
 
@@ -225,10 +226,12 @@ def test_limit_inside_by_hand():
     # width 3, range 0..5: column 0 allows 0..0.5, column 2 allows 0..2.5 (filled: 0..5)
     d = np.zeros((1, 3), np.float32)
     out = np.array([[4.0, 0.0, 4.0]], np.float32)  # column 1 unchanged: left as it is
-    postfilter.limit_inside(out, d, np.array([[False, False, True]]), np.float32(0), np.float32(5))
+    bounds = right_image_bounds(3)
+    filled = np.array([[False, False, True]])
+    postfilter.limit_inside(out, d, filled, *bounds, np.float32(0), np.float32(5))
     assert out.tolist() == [[0.5, 0.0, 4.0]]
     out = np.array([[-1.0, np.nan, 9.0]], np.float32)
-    postfilter.limit_inside(out, d, np.zeros((1, 3), bool), np.float32(0), np.float32(5))
+    postfilter.limit_inside(out, d, np.zeros((1, 3), bool), *bounds, np.float32(0), np.float32(5))
     assert out[0, 0] == 0.0 and np.isnan(out[0, 1]) and out[0, 2] == 2.5
 
 

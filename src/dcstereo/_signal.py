@@ -124,8 +124,9 @@ def signal_levels(signal, steps, out):
     """Write ``clip(rint(signal / steps), 0, 255)`` of an int32 signal to ``out`` (int16).
 
     The gray views' 0..255 levels (``signal.colour_channels``), in one pass instead of
-    numpy's four float64 temporaries (KITTI's 1226 x 370 pair: 12 -> about 1 ms); the same
-    float64 division and round-half-to-even, so the same values.
+    numpy's four float64 temporaries (``colour_channels`` of KITTI's 1226 x 370 pair: 12-17
+    -> 3.5 ms, this pass 0.2 ms of it); the same float64 division and round-half-to-even,
+    so the same values.
     """
     flat, dest = signal.reshape(-1), out.reshape(-1)
     for i in range(flat.size):

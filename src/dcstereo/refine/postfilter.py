@@ -101,7 +101,8 @@ def _inside(out: np.ndarray, result: DisparityResult) -> np.ndarray:
     params = result.params
     bottom, top = np.float32(params.min_disparity), np.float32(params.max_disparity)
     filled = (result.flags & FLAG_FILLED) != 0
-    postfilter_kernels.limit_inside(out, result.disparity, filled, bottom, top)
+    least, largest = right_image_bounds(out.shape[1])
+    postfilter_kernels.limit_inside(out, result.disparity, filled, least, largest, bottom, top)
     return out
 
 
