@@ -2,6 +2,7 @@
 
 import math
 
+import numba
 import numpy as np
 import pytest
 
@@ -65,33 +66,46 @@ def test_support_cost_by_hand():
     right = np.full((3, 1, 4), 20.0, np.float32)
     codes = np.zeros((1, 4), np.uint64)
     got = support_cost(left, right, codes, codes, 0, 3, 1.5, 0)
-    assert got == pytest.approx(1 - math.exp(-1.0), rel=1e-12)
+    assert got == pytest.approx(1 - math.exp(-1.0), rel=kernels.COST_ERROR)
     # a colour difference truncated at 40: (3 * 20 = 60 -> 40) / 3
     right[:] = 30.0
     got = support_cost(left, right, codes, codes, 0, 3, 1.0, 0)
-    assert got == pytest.approx(1 - math.exp(-40 / 3 / 10), rel=1e-12)
+    assert got == pytest.approx(1 - math.exp(-40 / 3 / 10), rel=kernels.COST_ERROR)
     # the census term: one differing bit of 3 at the match, h = 1
     codes_r = np.full((1, 4), 1, np.uint64)
     right[:] = 10.0
     got = support_cost(left, right, codes, codes_r, 0, 3, 1.0, 0)
-    assert got == pytest.approx(1 - math.exp(-0.1), rel=1e-12)
+    assert got == pytest.approx(1 - math.exp(-0.1), rel=kernels.COST_ERROR)
     # the centre's match left of the view: nothing counts
     assert support_cost(left, right, codes, codes, 0, 0, 1.0, 0) == math.inf
 
 
 def test_exp_minus_by_hand_and_over_its_domain():
-    assert kernels.exp_minus(0.0) == 1.0  # every term but the first is 0
-    # exp(-1) = (1 - 1/4 + 1/32 - ...)^4 to 1e-13
-    assert kernels.exp_minus(1.0) == pytest.approx(0.36787944117144233, rel=1e-13)
-    for t in np.linspace(0.0, kernels.EXP_DOMAIN, 2001):
-        assert kernels.exp_minus(t) == pytest.approx(math.exp(-t), rel=1e-13), t
+    one = np.float32(1.0)
+    assert kernels.exp_minus(np.float32(0.0)) == 1.0  # every term but the first is 0
+    # exp(-1) = (1 - 1/4 + 1/32 - ...)^4, in float32
+    assert kernels.exp_minus(one) == pytest.approx(0.36787944117144233, rel=kernels.EXP_ERROR)
+    for t in np.linspace(0.0, kernels.EXP_DOMAIN, 2001, dtype=np.float32):
+        assert kernels.exp_minus(t) == pytest.approx(math.exp(-t), rel=kernels.EXP_ERROR), t
+    assert kernels.EXP_ERROR <= 1e-6  # float32's rounding (6e-8) times the squarings
 
 
 def test_exp_minus_wide_by_hand_and_over_its_domain():
-    assert kernels.exp_minus_wide(0.0) == 1.0
-    assert kernels.exp_minus_wide(10.0) == pytest.approx(4.5399929762484854e-05, rel=1e-12)
-    for t in np.linspace(0.0, kernels.WIDE_DOMAIN, 2001):
-        assert kernels.exp_minus_wide(t) == pytest.approx(math.exp(-t), rel=1e-12), t
+    assert kernels.exp_minus_wide(np.float32(0.0)) == 1.0
+    assert kernels.exp_minus_wide(np.float32(10.0)) == pytest.approx(
+        4.5399929762484854e-05, rel=kernels.WIDE_ERROR
+    )
+    for t in np.linspace(0.0, kernels.WIDE_DOMAIN, 2001, dtype=np.float32):
+        assert kernels.exp_minus_wide(t) == pytest.approx(math.exp(-t), rel=kernels.WIDE_ERROR), t
+    assert kernels.WIDE_ERROR <= 2e-5
+
+
+def test_the_exponentials_are_float32():
+    # eight lanes a vector on AVX2: a float64 in the series would halve them
+    for f in (kernels.exp_series, kernels.exp_minus, kernels.exp_minus_wide):
+        f(np.float32(0.5))
+        (signature,) = [s for s in f.nopython_signatures if s.args == (numba.float32,)]
+        assert signature.return_type == numba.float32, f
 
 
 def test_the_costs_exponents_stay_inside_the_domain():
@@ -217,7 +231,11 @@ def test_support_cost_equals_its_twin():
             edges.COLOUR_COST_SCALE,
         )
         want = naive.cost(left3, right3, twin_l, twin_r, y, x, d, CONSTANTS)
-        assert got == pytest.approx(want, rel=1e-12) or got == want == math.inf, (y, x, d)
+        assert got == pytest.approx(want, rel=kernels.COST_ERROR) or got == want == math.inf, (
+            y,
+            x,
+            d,
+        )
     # a window wider than a block of the kernel (19 columns: two blocks, the second cut)
     wide = {**CONSTANTS, "RADIUS": 9}
     assert 2 * wide["RADIUS"] + 1 > kernels.LANES
@@ -236,7 +254,11 @@ def test_support_cost_equals_its_twin():
             edges.COLOUR_COST_SCALE,
         )
         want = naive.cost(left3, right3, twin_l, twin_r, y, x, d, wide)
-        assert got == pytest.approx(want, rel=1e-12) or got == want == math.inf, (y, x, d)
+        assert got == pytest.approx(want, rel=kernels.COST_ERROR) or got == want == math.inf, (
+            y,
+            x,
+            d,
+        )
 
 
 def test_refine_edges_checks_its_channels():

@@ -21,54 +21,61 @@ EXP_DOMAIN = 2.5
 #: The largest argument of :func:`exp_minus_wide` it is accurate for: two differences of
 #: 255 over a scale of 10.
 WIDE_DOMAIN = 51.2
+#: :func:`exp_minus`'s largest relative error over its domain (measured: 6.1e-7; float32's
+#: rounding is 6e-8, the two squarings multiply it by four).
+EXP_ERROR = 1e-6
+#: :func:`exp_minus_wide`'s largest relative error over its domain (measured: 1.2e-5).
+WIDE_ERROR = 2e-5
+#: :func:`support_cost`'s largest relative difference from the float64 definition
+#: (measured: 8.2e-7 over 800 windows of the tests' scene, float32 sums of 225 terms).
+COST_ERROR = 2e-6
 
 
 @nb.njit(cache=True, inline="always")
 def exp_series(s):
-    """Return ``exp(s)`` by its Taylor series to the 15th power (Horner's scheme), small ``s``.
+    """Return ``exp(s)`` in float32 by its Taylor series to the 10th power (Horner), small ``s``.
 
-    Arithmetic only, which the compiler makes vector code of (a call of the maths library's
-    ``exp`` stays one value at a time, and took 40 % of the edge stage). Written out: as a
-    loop over a table of the coefficients the support cost took 2.3x the time (the
-    compiler no longer made vector code of the loop around it).
+    ``s`` a float32, ``-0.8 <= s <= 0``: the first term left out is under 2.2e-9 of the
+    sum, below float32's own rounding. Arithmetic only, which the compiler makes vector
+    code of (a call of the maths library's ``exp`` stays one value at a time, and took 40 %
+    of the edge stage), eight values a vector on AVX2. Written out: as a loop over a table
+    of the coefficients the support cost took 2.3x the time (the compiler no longer made
+    vector code of the loop around it).
     """
-    p = 1 / 1307674368000
-    p = 1 / 87178291200 + s * p
-    p = 1 / 6227020800 + s * p
-    p = 1 / 479001600 + s * p
-    p = 1 / 39916800 + s * p
-    p = 1 / 3628800 + s * p
-    p = 1 / 362880 + s * p
-    p = 1 / 40320 + s * p
-    p = 1 / 5040 + s * p
-    p = 1 / 720 + s * p
-    p = 1 / 120 + s * p
-    p = 1 / 24 + s * p
-    p = 1 / 6 + s * p
-    p = 1 / 2 + s * p
-    p = 1.0 + s * p
-    return 1.0 + s * p
+    p = np.float32(1 / 3628800)
+    p = np.float32(1 / 362880) + s * p
+    p = np.float32(1 / 40320) + s * p
+    p = np.float32(1 / 5040) + s * p
+    p = np.float32(1 / 720) + s * p
+    p = np.float32(1 / 120) + s * p
+    p = np.float32(1 / 24) + s * p
+    p = np.float32(1 / 6) + s * p
+    p = np.float32(1 / 2) + s * p
+    p = np.float32(1.0) + s * p
+    return np.float32(1.0) + s * p
 
 
 @nb.njit(cache=True, inline="always")
 def exp_minus(t):
-    """Return ``exp(-t)`` for ``0 <= t <=`` :data:`EXP_DOMAIN`, relative error under 1e-13.
+    """Return ``exp(-t)`` in float32 for ``0 <= t <=`` :data:`EXP_DOMAIN` (``t`` a float32).
 
-    :func:`exp_series` of ``-t / 4``, squared twice: the support cost's two terms.
+    :func:`exp_series` of ``-t / 4``, squared twice: the support cost's two terms. Relative
+    error under :data:`EXP_ERROR`.
     """
-    p = exp_series(-0.25 * t)
+    p = exp_series(np.float32(-0.25) * t)
     p = p * p
     return p * p
 
 
 @nb.njit(cache=True, inline="always")
 def exp_minus_wide(t):
-    """Return ``exp(-t)`` for ``0 <= t <=`` :data:`WIDE_DOMAIN`, relative error under 1e-12.
+    """Return ``exp(-t)`` in float32 for ``0 <= t <=`` :data:`WIDE_DOMAIN` (``t`` a float32).
 
     :func:`exp_series` of ``-t / 64``, squared six times: the support weights' colour
-    factor, of both views' differences at once.
+    factor, of both views' differences at once. The squarings multiply the series'
+    rounding by 64: relative error under :data:`WIDE_ERROR`, which a weight does not feel.
     """
-    p = exp_series(-t / 64)
+    p = exp_series(t * np.float32(-1 / 64))
     for _ in range(6):
         p = p * p
     return p
@@ -77,6 +84,10 @@ def exp_minus_wide(t):
 #: The columns of a window row that :func:`support_cost` takes at a time (vector code of a
 #: constant count; its views padded past the image so that every block reads inside them).
 LANES = 16
+
+#: The lanes' places in a block, as floats: the test of a column inside the window is then
+#: float32 vector code too (a 64-bit index would halve the vectors' lanes).
+LANE_PLACES = np.arange(LANES, dtype=np.float32)
 
 
 @nb.njit(cache=True, fastmath={"reassoc", "nsz", "contract"})
@@ -98,13 +109,15 @@ def support_cost(left, right, codes_l, codes_r, pad, y, x, d, radius, weight_sca
     The views and the codes are those of :func:`dcstereo.refine.edges.padded_views`:
     ``pad`` columns on the left of the image's, and ``pad + LANES`` on its right
     (``pad >= radius + 2``); ``space_weight`` has its rows padded with zeros to a multiple
-    of :data:`LANES` columns. Vector code, :data:`LANES` columns of a window row at a
-    time (those outside the window or the views weigh 0): the exponentials by
-    :func:`exp_minus` (``h / census_scale`` and ``c / 3 / colour_scale`` at most
-    :data:`EXP_DOMAIN`) and :func:`exp_minus_wide` (``(g_l + g_r) / weight_scale`` at
-    most :data:`WIDE_DOMAIN`), the sums in any order (``fastmath`` reassociation). Against
-    the plain sums with the library's ``exp`` (``tests/naive_edges.py``): a relative
-    difference of about 1e-15, and the same maps on the development scenes.
+    of :data:`LANES` columns (float32). Vector code in float32, eight lanes a vector on
+    AVX2, :data:`LANES` columns of a window row at a time (those outside the window or the
+    views weigh 0): the exponentials by :func:`exp_minus` (``h / census_scale`` and ``c /
+    3 / colour_scale`` at most :data:`EXP_DOMAIN`) and :func:`exp_minus_wide` (``(g_l +
+    g_r) / weight_scale`` at most :data:`WIDE_DOMAIN`), the sums in any order
+    (``fastmath`` reassociation). Against the plain float64 sums with the library's
+    ``exp`` (``tests/naive_edges.py``): a relative difference under :data:`COST_ERROR`.
+    In float64 (four lanes a vector) the stage took 2x the time, for the same maps on the
+    development scenes.
     """
     _, height, padded = left.shape
     width = padded - 2 * pad - LANES  # the image's columns
@@ -116,24 +129,27 @@ def support_cost(left, right, codes_l, codes_r, pad, y, x, d, radius, weight_sca
     k = j0 - x  # a sample at column xx matches between columns xx + k and xx + k + 1
     step = 1 if g > 0 else 0  # the second column of the interpolation (weight g)
     j1 = j0 + step
+    fp, fq = np.float32(1 - g), np.float32(g)  # the interpolation's weights, in float32
     centre = (
-        (1 - g) * right[0, y, pad + j0] + g * right[0, y, pad + j1],
-        (1 - g) * right[1, y, pad + j0] + g * right[1, y, pad + j1],
-        (1 - g) * right[2, y, pad + j0] + g * right[2, y, pad + j1],
+        fp * right[0, y, pad + j0] + fq * right[0, y, pad + j1],
+        fp * right[1, y, pad + j0] + fq * right[1, y, pad + j1],
+        fp * right[2, y, pad + j0] + fq * right[2, y, pad + j1],
     )
     c0, c1, c2 = (
-        np.int32(left[0, y, pad + x]),
-        np.int32(left[1, y, pad + x]),
-        np.int32(left[2, y, pad + x]),
+        np.float32(left[0, y, pad + x]),
+        np.float32(left[1, y, pad + x]),
+        np.float32(left[2, y, pad + x]),
     )
     # the window's columns inside the image whose match lies inside the right view
     lo = max(x - radius, 0, -k)
     hi = min(x + radius, width - 1, width - 1 - k - step)
-    total = 0.0
-    weights = 0.0
-    hc = 1.0 / census_scale
-    cc = 1.0 / (3 * colour_scale)
-    wc = 1.0 / weight_scale
+    span = np.float32(hi - lo)  # negative: none
+    total = np.float32(0.0)
+    weights = np.float32(0.0)
+    hc = np.float32(1.0 / census_scale)
+    cc = np.float32(1.0 / (3 * colour_scale))
+    wc = np.float32(1.0 / weight_scale)
+    cut = np.float32(truncation)
     first = x - radius  # the window's first column
     for dy in range(-radius, radius + 1):
         yy = y + dy
@@ -155,29 +171,32 @@ def support_cost(left, right, codes_l, codes_r, pad, y, x, d, radius, weight_sca
             cl = codes_l[yy, pad + f0 :]
             cp, cq = codes_r[yy, pad + f0 + k :], codes_r[yy, pad + f0 + k + step :]
             sw = space_weight[dy + radius, block:]
+            start = np.float32(f0 - lo)  # the block's first column, from lo
             for i in range(LANES):
-                r0 = (1 - g) * p0[i] + g * q0[i]
-                r1 = (1 - g) * p1[i] + g * q1[i]
-                r2 = (1 - g) * p2[i] + g * q2[i]
-                a0, a1, a2 = l0[i], l1[i], l2[i]
-                gl = max(abs(np.int32(a0) - c0), abs(np.int32(a1) - c1), abs(np.int32(a2) - c2))
+                r0 = fp * p0[i] + fq * q0[i]
+                r1 = fp * p1[i] + fq * q1[i]
+                r2 = fp * p2[i] + fq * q2[i]
+                a0, a1, a2 = np.float32(l0[i]), np.float32(l1[i]), np.float32(l2[i])
+                gl = max(abs(a0 - c0), abs(a1 - c1), abs(a2 - c2))  # whole levels: exact
                 e0, e1, e2 = abs(r0 - centre[0]), abs(r1 - centre[1]), abs(r2 - centre[2])
                 e01 = e0 if e0 > e1 else e1
                 g_right = e01 if e01 > e2 else e2
                 colour = abs(a0 - r0) + abs(a1 - r1) + abs(a2 - r2)
-                colour = colour if colour < truncation else truncation
+                colour = colour if colour < cut else cut
                 code = cl[i]
-                hamming = (1 - g) * popcount(code ^ cp[i]) + g * popcount(code ^ cq[i])
-                cost = 2.0 - exp_minus(hamming * hc) - exp_minus(colour * cc)
-                gr = np.floor(g_right + 0.5)  # at most 255: the levels are 0..255
-                xx = f0 + i
-                inside = (xx >= lo) & (xx <= hi)
-                weight = exp_minus_wide((gl + gr) * wc) * sw[i] if inside else 0.0
+                bits_p = np.float32(np.int32(popcount(code ^ cp[i])))
+                bits_q = np.float32(np.int32(popcount(code ^ cq[i])))
+                hamming = fp * bits_p + fq * bits_q
+                cost = np.float32(2.0) - exp_minus(hamming * hc) - exp_minus(colour * cc)
+                gr = np.floor(g_right + np.float32(0.5))  # at most 255: the levels are 0..255
+                column = start + LANE_PLACES[i]
+                inside = (column >= 0) & (column <= span)
+                weight = exp_minus_wide((gl + gr) * wc) * sw[i] if inside else np.float32(0.0)
                 total += weight * cost
                 weights += weight
     if weights <= 0:
         return np.inf
-    return total / weights
+    return np.float64(total) / np.float64(weights)
 
 
 @nb.njit(cache=True)

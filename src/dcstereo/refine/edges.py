@@ -179,8 +179,8 @@ def padded_views(guide_l, guide_r, codes_l, codes_r, radius: int = RADIUS):
     Each view and code array padded with zeros by ``pad = radius + 2`` columns on the left
     and ``pad + LANES`` on the right (:func:`dcstereo.refine._edges.support_cost` reads
     whole blocks of :data:`~dcstereo.refine._edges.LANES` columns, those outside weighing
-    0), and :func:`support_weight_tables`' space weights with their rows padded with zeros
-    to a multiple of ``LANES`` columns.
+    0), and :func:`support_weight_tables`' space weights in float32 (the support cost's
+    precision) with their rows padded with zeros to a multiple of ``LANES`` columns.
     """
     pad = radius + 2
 
@@ -190,7 +190,7 @@ def padded_views(guide_l, guide_r, codes_l, codes_r, radius: int = RADIUS):
 
     _, space = support_weight_tables(radius)
     side = 2 * radius + 1
-    blocks = np.zeros((side, -(-side // kernels.LANES) * kernels.LANES))
+    blocks = np.zeros((side, -(-side // kernels.LANES) * kernels.LANES), dtype=np.float32)
     blocks[:, :side] = space
     return pad, tuple(padded(v) for v in (guide_l, guide_r, codes_l, codes_r)), blocks
 
