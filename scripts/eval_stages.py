@@ -153,7 +153,11 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--method", default="sgm")
     parser.add_argument("--options", default="{}", help="dict of match options")
-    parser.add_argument("--groups", default="mb,kitti", help="mb, kitti or both")
+    parser.add_argument(
+        "--groups",
+        default="mb,kitti",
+        help="the groups to score, comma-separated: mb (Middlebury), kitti, or mb,kitti (both)",
+    )
     parser.add_argument("--scenes", help="comma-separated scene names (default: all)")
     parser.add_argument("--json", help="write the scores to this file")
     parser.add_argument(
@@ -163,9 +167,13 @@ def main(argv=None):
     args = parser.parse_args(argv)
     options = ast.literal_eval(args.options)
     names = set(args.scenes.split(",")) if args.scenes else None
+    groups = args.groups.split(",")
+    unknown = sorted(set(groups) - {"mb", "kitti"})
+    if unknown:
+        parser.error(f"--groups: unknown group {', '.join(unknown)} (mb, kitti or mb,kitti)")
     print(f"# {args.method} {options}", flush=True)
     light = tuple(float(v) for v in args.light.split(","))
-    scores = run(args.method, options, args.groups.split(","), names, light=light)
+    scores = run(args.method, options, groups, names, light=light)
     reference = json.loads(Path(args.reference).read_text())["scores"] if args.reference else None
     print(group_summary(scores, reference))
     if args.json:

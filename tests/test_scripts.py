@@ -38,6 +38,17 @@ def test_measure_gcp_bt_unknown_mode_fails(monkeypatch, capsys):
     assert "invalid choice" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("groups", ["both", "mb,outdoor"])
+def test_eval_stages_unknown_group_fails_before_scoring(groups, monkeypatch, capsys):
+    # "both" once scored nothing and printed an empty table
+    script = load("eval_stages", monkeypatch)
+    with pytest.raises(SystemExit) as exit_info:
+        script.main(["--groups", groups])
+    assert exit_info.value.code == 2
+    captured = capsys.readouterr()
+    assert "unknown group" in captured.err and captured.out == ""
+
+
 @pytest.mark.parametrize(
     "argv",
     [
