@@ -125,6 +125,58 @@ def test_row_extremes_by_hand():
     assert (low[1] == np.inf).all() and (high[1] == -np.inf).all()  # no estimate: none
 
 
+def test_reachable_jumps_by_hand():
+    # a 3 x 5 map: the pixel (1, 0) sees, to its right, 5 -> 5 -> 2 (a jump of 3 to a
+    # smaller value at the second step): marked; (1, 3) sees only 2 -> 7 (larger): not
+    d = np.array([[5, 5, 5, 5, 5], [5, 5, 2, 5, 7], [5, 5, 5, 5, 5]], dtype=np.float32)
+    out = np.empty(d.shape, np.bool_)
+    kernels.reachable_jumps(d, 3, out)
+    assert out[1, 0]  # right: 5, 2 (the step 5 -> 2 at column 2)
+    assert not out[1, 3]  # right: 7 is larger; down and up: 5 = 5, no jump
+    assert not out[1, 2]  # 2 is the least value around it: nothing smaller
+    # one step of reach does not get to column 2 from column 0
+    kernels.reachable_jumps(d, 1, out)
+    assert not out[1, 0] and out[1, 1]
+
+
+def naive_reachable(d, reach):
+    """Each pixel: a pixel within ``reach`` steps of a direction, a jump before it, smaller."""
+    height, width = d.shape
+    out = np.zeros(d.shape, bool)
+    for y in range(height):
+        for x in range(width):
+            for sy, sx in kernels.DIRECTIONS.tolist():
+                for r in range(1, reach + 1):
+                    yy, xx = y + sy * r, x + sx * r
+                    if not (0 <= yy < height and 0 <= xx < width):
+                        break
+                    step = abs(float(d[yy, xx]) - float(d[yy - sy, xx - sx]))
+                    if step > 1.0 and d[yy, xx] < d[y, x]:
+                        out[y, x] = True
+    return out
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_reachable_jumps_equal_their_twin_and_hold_every_candidate(seed):
+    rng = np.random.default_rng(seed)
+    height, width = int(rng.integers(1, 12)), int(rng.integers(1, 30))
+    d = (rng.integers(0, 8, (height, width)) * 0.75).astype(np.float32)
+    d[rng.random(d.shape) < 0.1] = np.nan
+    reach = 1 + seed % 3
+    out = np.empty(d.shape, np.bool_)
+    kernels.reachable_jumps(d, reach, out)
+    assert np.array_equal(out, naive_reachable(d, reach))
+    # the test is exact: every pixel with a candidate is marked (whatever the colours)
+    left = rng.integers(0, 40, (3, height, width)).astype(np.int16)
+    flags = np.zeros(d.shape, np.uint8)
+    found = np.empty(kernels.DIRECTIONS.shape[0], np.float32)
+    for y in range(height):
+        for x in range(width):
+            count = kernels.edge_candidates(d, left, flags, y, x, reach, 255, found)
+            if np.isfinite(d[y, x]) and count:
+                assert out[y, x], (y, x)
+
+
 def test_census_of_a_float_intensity_by_hand():
     # the stage's census: costs.census.census_transform of the views' mean intensity
     # (float32), a bit where a neighbour is darker than the centre, the first highest

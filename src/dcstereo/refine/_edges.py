@@ -262,9 +262,41 @@ def row_extremes(disparity, zone, low, high):
 
 
 @nb.njit(cache=True, parallel=True)
+def reachable_jumps(disparity, reach, out):
+    """Mark each pixel that :func:`edge_candidates` could give a candidate (a test it passes).
+
+    ``out[y, x]``: some pixel ``q`` at ``1..reach`` steps along one of :data:`DIRECTIONS`,
+    inside the image, differs by more than 1 from the pixel one step before it and holds a
+    value below ``disparity[y, x]``. A candidate is such a pixel (the walk stops there), so
+    a pixel left unmarked has none, and :func:`edge_rows` skips its walk: on KITTI 000066
+    two thirds of the pixels whose window spans a jump. Each step of each direction is one
+    pass over the row's columns (vector code, NaN on either side: no jump).
+    """
+    height, width = disparity.shape
+    for y in nb.prange(height):
+        mark = out[y]
+        mark[:] = False
+        own = disparity[y]
+        for k in range(DIRECTIONS.shape[0]):
+            sy, sx = DIRECTIONS[k, 0], DIRECTIONS[k, 1]
+            for r in range(1, reach + 1):
+                yy = y + sy * r
+                if yy < 0 or yy >= height:
+                    break
+                last = width - sx * r  # the columns whose step stays inside the image
+                if last <= 0:
+                    break
+                here = disparity[yy, sx * r :]
+                before = disparity[yy - sy, sx * (r - 1) :]
+                for x in range(last):
+                    value = here[x]
+                    mark[x] |= (abs(value - before[x]) > 1.0) & (value < own[x])
+
+
+@nb.njit(cache=True, parallel=True)
 def edge_rows(disparity, flags, left, left_p, right_p, codes_l_p, codes_r_p, pad, row_low,
-              row_high, zone, jump, reach, colour_limit, radius, weight_scale, space_weight,
-              truncation, census_scale, colour_scale, margin, out):  # fmt: skip
+              row_high, reachable, zone, jump, reach, colour_limit, radius, weight_scale,
+              space_weight, truncation, census_scale, colour_scale, margin, out):  # fmt: skip
     """Write into ``out`` the re-decided map (rows in parallel).
 
     A pixel with an estimate whose ``(2 zone + 1)^2`` window (the edges repeated; the
@@ -274,7 +306,9 @@ def edge_rows(disparity, flags, left, left_p, right_p, codes_l_p, codes_r_p, pad
     right view); every other pixel keeps its value. ``left``: the left view's channels
     (the candidates' colour walk); ``left_p``, ``right_p``, ``codes_l_p``, ``codes_r_p``,
     ``pad`` and ``space_weight``: the padded views and weights of :func:`support_cost`.
-    ``row_low``, ``row_high``: :func:`row_extremes` of ``disparity`` and ``zone``.
+    ``row_low``, ``row_high``: :func:`row_extremes` of ``disparity`` and ``zone``;
+    ``reachable``: :func:`reachable_jumps` of ``disparity`` and ``reach`` (the pixels it
+    leaves unmarked have no candidate, and keep their value without the walk).
     """
     height, width = disparity.shape
     for y in nb.prange(height):
@@ -291,7 +325,7 @@ def edge_rows(disparity, flags, left, left_p, right_p, codes_l_p, codes_r_p, pad
                     low = row_low[yy, x]
                 if row_high[yy, x] > high:
                     high = row_high[yy, x]
-            if not high - low > jump:
+            if not high - low > jump or not reachable[y, x]:
                 continue
             count = edge_candidates(disparity, left, flags, y, x, reach, colour_limit, candidates)
             if count == 0:

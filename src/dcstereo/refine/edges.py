@@ -165,10 +165,12 @@ def refine_edges(
     out = np.empty_like(disparity)
     row_low, row_high = np.empty_like(disparity), np.empty_like(disparity)
     kernels.row_extremes(disparity, ZONE, row_low, row_high)
+    reachable = np.empty(disparity.shape, dtype=np.bool_)
+    kernels.reachable_jumps(disparity, REACH, reachable)
     kernels.edge_rows(
         disparity, np.ascontiguousarray(result.flags), guide_l, *padded, pad, row_low, row_high,
-        ZONE, JUMP, REACH, COLOUR_LIMIT, RADIUS, COLOUR_SCALE, space, TRUNCATION, CENSUS_SCALE,
-        COLOUR_COST_SCALE, MARGIN, out,
+        reachable, ZONE, JUMP, REACH, COLOUR_LIMIT, RADIUS, COLOUR_SCALE, space, TRUNCATION,
+        CENSUS_SCALE, COLOUR_COST_SCALE, MARGIN, out,
     )  # fmt: skip
     return replace(result, disparity=_inside(out, result))
 
