@@ -31,6 +31,8 @@ from dcstereo.evaluation.metrics import bad_pixel_rate, d1_rate
 from dcstereo.evaluation.scoring import run_method
 
 V2 = ("tsukuba", "venus", "teddy", "cones")
+#: The groups of scenes ``--groups`` takes: the Middlebury scenes, the KITTI pairs.
+GROUPS = ("mb", "kitti")
 OUTDOOR = Path(
     os.environ.get("DCSTEREO_OUTDOOR", Path(__file__).resolve().parents[2] / "shared/data/outdoor")
 )
@@ -155,8 +157,8 @@ def main(argv=None):
     parser.add_argument("--options", default="{}", help="dict of match options")
     parser.add_argument(
         "--groups",
-        default="mb,kitti",
-        help="the groups to score, comma-separated: mb (Middlebury), kitti, or mb,kitti (both)",
+        default=",".join(GROUPS),
+        help=f"the groups to score, comma-separated, of {', '.join(GROUPS)} (Middlebury, KITTI)",
     )
     parser.add_argument("--scenes", help="comma-separated scene names (default: all)")
     parser.add_argument("--json", help="write the scores to this file")
@@ -168,9 +170,9 @@ def main(argv=None):
     options = ast.literal_eval(args.options)
     names = set(args.scenes.split(",")) if args.scenes else None
     groups = args.groups.split(",")
-    unknown = sorted(set(groups) - {"mb", "kitti"})
+    unknown = sorted(set(groups) - set(GROUPS))
     if unknown:
-        parser.error(f"--groups: unknown group {', '.join(unknown)} (mb, kitti or mb,kitti)")
+        parser.error(f"--groups: unknown group {', '.join(unknown)} (of {', '.join(GROUPS)})")
     print(f"# {args.method} {options}", flush=True)
     light = tuple(float(v) for v in args.light.split(","))
     scores = run(args.method, options, groups, names, light=light)

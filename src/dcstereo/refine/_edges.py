@@ -15,6 +15,11 @@ from dcstereo.costs.census import popcount
 #: its left, where the pixels near a depth edge are the occluded ones.
 DIRECTIONS = np.array([(-1, 0), (-1, 1), (0, 1), (1, 0), (1, 1)], dtype=np.int64)
 
+#: A step along a direction of more than this (pixels of disparity) between two
+#: neighbours is a jump: :func:`edge_candidates` stops there, :func:`reachable_jumps`
+#: looks for one.
+RAY_STEP = 1.0
+
 
 #: The largest argument of :func:`exp_minus` it is accurate for.
 EXP_DOMAIN = 2.5
@@ -205,10 +210,10 @@ def edge_candidates(disparity, left, flags, y, x, reach, colour_limit, out):
 
     Along each of :data:`DIRECTIONS`, up to ``reach`` pixels: the walk stops at the image's
     edge, at a pixel whose left colour differs from the centre's by more than
-    ``colour_limit`` in a channel, or at the first jump (a step of more than 1 from the
-    pixel before it). A jump's value is a candidate when it is farther (smaller) than the
-    pixel's own, its pixel carries no flag (an estimate of the matcher's own), and it lies
-    0.5 or more from every candidate before it.
+    ``colour_limit`` in a channel, or at the first jump (a step of more than
+    :data:`RAY_STEP` from the pixel before it). A jump's value is a candidate when it is
+    farther (smaller) than the pixel's own, its pixel carries no flag (an estimate of the
+    matcher's own), and it lies 0.5 or more from every candidate before it.
     """
     height, width = disparity.shape
     own = disparity[y, x]
@@ -225,7 +230,7 @@ def edge_candidates(disparity, left, flags, y, x, reach, colour_limit, out):
             if step > colour_limit:
                 break
             value = disparity[yy, xx]
-            if not abs(value - disparity[yy - sy, xx - sx]) > 1.0:
+            if not abs(value - disparity[yy - sy, xx - sx]) > RAY_STEP:
                 continue  # no jump (or no estimate: NaN): walk on
             if value < own and flags[yy, xx] == 0:
                 new = True
@@ -266,11 +271,12 @@ def reachable_jumps(disparity, reach, out):
     """Mark each pixel that :func:`edge_candidates` could give a candidate (a test it passes).
 
     ``out[y, x]``: some pixel ``q`` at ``1..reach`` steps along one of :data:`DIRECTIONS`,
-    inside the image, differs by more than 1 from the pixel one step before it and holds a
-    value below ``disparity[y, x]``. A candidate is such a pixel (the walk stops there), so
-    a pixel left unmarked has none, and :func:`edge_rows` skips its walk: on KITTI 000066
-    two thirds of the pixels whose window spans a jump. Each step of each direction is one
-    pass over the row's columns (vector code, NaN on either side: no jump).
+    inside the image, differs by more than :data:`RAY_STEP` from the pixel one step before
+    it and holds a value below ``disparity[y, x]``. A candidate is such a pixel (the walk
+    stops there), so a pixel left unmarked has none, and :func:`edge_rows` skips it: on
+    KITTI 000066 two thirds of the pixels whose window spans a jump. Each step of each
+    direction is one pass over the row's columns (vector code, NaN on either side: no
+    jump).
     """
     height, width = disparity.shape
     for y in nb.prange(height):
@@ -290,7 +296,7 @@ def reachable_jumps(disparity, reach, out):
                 before = disparity[yy - sy, sx * (r - 1) :]
                 for x in range(last):
                     value = here[x]
-                    mark[x] |= (abs(value - before[x]) > 1.0) & (value < own[x])
+                    mark[x] |= (abs(value - before[x]) > RAY_STEP) & (value < own[x])
 
 
 @nb.njit(cache=True, parallel=True)
@@ -316,7 +322,7 @@ def edge_rows(disparity, flags, left, left_p, right_p, codes_l_p, codes_r_p, pad
         for x in range(width):
             own = disparity[y, x]
             out[y, x] = own
-            if not np.isfinite(own):
+            if not reachable[y, x]:  # no candidate (nor an estimate: NaN is never marked)
                 continue
             low, high = own, own
             for dy in range(-zone, zone + 1):  # the rows' extremes: the window's
@@ -325,7 +331,7 @@ def edge_rows(disparity, flags, left, left_p, right_p, codes_l_p, codes_r_p, pad
                     low = row_low[yy, x]
                 if row_high[yy, x] > high:
                     high = row_high[yy, x]
-            if not high - low > jump or not reachable[y, x]:
+            if not high - low > jump:
                 continue
             count = edge_candidates(disparity, left, flags, y, x, reach, colour_limit, candidates)
             if count == 0:
