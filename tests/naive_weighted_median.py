@@ -20,8 +20,11 @@ def weights(radius, colour_scale, space_scale):
     return colour, space
 
 
-def weighted_median_rows(disparity, guide, moved, radius, colour_scale, space_scale):
-    colour, space = weights(radius, colour_scale, space_scale)
+def weighted_median_rows(disparity, guide, moved, radius, colour_scale, space_scale,
+                         tables=None):  # fmt: skip
+    """The map with each moved pixel's weighted median; ``tables``: ``(colour, space)`` in
+    place of :func:`weights`' (for weights that the kernel must sum in 64 bits)."""
+    colour, space = weights(radius, colour_scale, space_scale) if tables is None else tables
     height, width = disparity.shape
     out = disparity.copy()
     for y in range(height):

@@ -62,12 +62,33 @@ def test_kernel_equals_its_twin(seed):
     assert out.tobytes() == twin.tobytes()
 
 
+@pytest.mark.parametrize("seed", range(2))
+def test_kernel_sums_large_weights_in_64_bits(seed):
+    # weights near 2**30 each: a window's total is past int32, which the wrapper sees from
+    # the tables (int32 sums would wrap, and the medians with them)
+    rng = np.random.default_rng(seed)
+    d = (rng.integers(-4, 6, (7, 30)) / 2).astype(np.float32)
+    d[rng.random(d.shape) < 0.1] = np.nan
+    guide = rng.integers(0, 256, (3, 7, 30)).astype(np.int16)
+    moved = np.isfinite(d)
+    radius = 1 + seed
+    colour = rng.integers(1, 2**15, 256).astype(np.int64)
+    space = rng.integers(2**14, 2**15, (2 * radius + 1,) * 2).astype(np.int64)
+    assert 2 * colour.max() * space.max() * (2 * radius + 1) ** 2 >= 2**31
+    out = wm.weighted_medians(d, guide, moved, radius, colour, space)
+    twin = naive.weighted_median_rows(d, guide, moved, radius, 0, 0,
+                                      tables=(colour.tolist(), space.tolist()))  # fmt: skip
+    assert out.tobytes() == twin.tobytes()
+
+
 def test_sortable_keys_order_as_the_floats():
     values = np.array([-np.inf, -3e9, -2.5, -1e-30, -0.0, 0.0, 1e-30, 0.25, 7.0, 3e9],
                       dtype=np.float32)  # fmt: skip
-    keys = [kernels.sortable(b) for b in values[1:-1].view(np.int32)]
+    keys = [kernels.sample_key(b) for b in values[1:-1].view(np.int32)]
     assert keys == sorted(keys) and keys[3] == keys[4] == 0  # -0.0 and +0.0 alike
     assert len(set(keys)) == len(keys) - 1
+    ends = [kernels.sample_key(b) for b in np.float32([-np.inf, np.inf, np.nan]).view(np.int32)]
+    assert ends == [kernels.EMPTY] * 3 and max(keys) < kernels.EMPTY  # no estimate: last
 
 
 @pytest.mark.parametrize("count", [2, 9, 25, 49, 81])

@@ -1,84 +1,88 @@
 """The colour-weighted median's kernels (:mod:`dcstereo.refine.weighted_median`).
 
-Each sample of a window is one int64 key: its disparity's float32 bits made to sort as
-signed integers in the high half, its integer weight in the low half. A fixed sorting
-network of compare-exchanges (Batcher's odd-even merge sort,
-:func:`~dcstereo.refine._median.sort_network`) sorts the keys of :data:`CHUNK` pixels side
-by side, each exchange a ``min`` and a ``max`` of two rows of keys (vector code), and a
-running sum of the weights in sorted order finds each pixel's median, again for all the
-chunk's pixels at once. Samples outside the image or without an estimate get the weight 0
-and the largest key: a sample of weight 0 is never the weighted median (the running sum
-reaches half the total, which is positive, at a sample of positive weight), so the result
-is that of the samples with an estimate alone.
+Each sample of a window is an int32 key, its disparity's float32 bits made to sort as
+signed integers (:func:`sample_keys`), and an integer weight. A fixed sorting network of
+compare-exchanges (Batcher's odd-even merge sort,
+:func:`~dcstereo.refine._median.sort_network`) sorts a copy of the keys of :data:`CHUNK`
+pixels side by side, each exchange a ``min`` and a ``max`` of two rows of keys (vector
+code). The weights stay where they are: a binary search over the sorted keys finds each
+pixel's median, the least sorted key whose weight at or below it (a masked sum over the
+window's samples, again for all the chunk's pixels at once) reaches half the total. Samples
+outside the image or without an estimate get the weight 0 and the largest key,
+:data:`EMPTY`: a sample of weight 0 is never the weighted median (the weight at or below
+the largest finite value is the whole total, which is positive), so the result is that of
+the samples with an estimate alone.
 """
 
 import numba as nb
 import numpy as np
 
-from dcstereo.refine._median import exchange_rows
+from dcstereo.refine._median import exchange_rows, sortable32
 
-#: Pixels of a row whose windows are sorted together: ``81 x 128`` keys (83 KiB for a 9 x 9
-#: window, in the second-level cache) for each of the network's 864 exchanges. On teddy,
-#: one thread: 16 pixels 84 ms, 32 67, 64 62, 128 55, 256 59, 512 77.
+#: Pixels of a row whose windows are sorted together: ``81 x 128`` keys and as many
+#: weights (2 x 41 KiB for a 9 x 9 window, in the second-level cache) for each of the
+#: network's 864 exchanges and the search's 7 sums.
 CHUNK = 128
 
-#: The key of a sample that does not count (outside the image, or without an estimate): the
-#: largest value and the weight 0.
-EMPTY = np.int64(0x7FFFFFFF00000000)
-
-_LOW = np.int64(0xFFFFFFFF)
+#: The key of a sample that does not count (outside the image, or without an estimate):
+#: above every finite value's, with the weight 0.
+EMPTY = np.int32(0x7FFFFFFF)
 
 
 @nb.njit(cache=True, inline="always")
-def sortable(bits):
-    """Return a finite float32's int32 bits as an integer of the same order (-0.0 as +0.0)."""
-    if bits == np.int32(-0x80000000):  # -0.0
-        return np.int64(0)
-    if bits < 0:
-        return np.int64(bits ^ 0x7FFFFFFF)
-    return np.int64(bits)
+def sample_key(bits):
+    """Return a float32's int32 bits as a key of the same order (``-0.0`` as ``+0.0``).
+
+    A NaN or an infinity (no estimate) gives :data:`EMPTY`.
+    """
+    if (bits & 0x7F800000) == 0x7F800000:
+        return EMPTY
+    key = sortable32(bits)
+    return np.int32(0) if key == np.int32(-1) else key  # -0.0's bits sort just below +0.0
 
 
 @nb.njit(cache=True, parallel=True)
-def sample_keys(bits, high):
-    """Fill ``high`` (int64) with each pixel's key without its weight.
-
-    A finite value: its :func:`sortable` bits shifted to the high half; a NaN or an
-    infinity (no estimate): :data:`EMPTY`, which keeps the weight 0 in the window.
-    """
+def sample_keys(bits, keys):
+    """Fill ``keys`` (int32) with the :func:`sample_key` of each pixel's float32 ``bits``."""
     height, width = bits.shape
     for y in nb.prange(height):
         for x in range(width):
-            b = bits[y, x]
-            finite = (b & 0x7F800000) != 0x7F800000
-            high[y, x] = sortable(b) << 32 if finite else EMPTY
+            keys[y, x] = sample_key(bits[y, x])
 
 
 @nb.njit(cache=True, parallel=True)
-def weighted_median_rows(high, guide, moved, radius, colour_weight, space_weight, network,
-                         out):  # fmt: skip
+def weighted_median_rows(key, guide, moved, radius, colour_weight, space_weight, network,
+                         sums_like, out):  # fmt: skip
     """Write into ``out`` the colour-weighted median of each moved pixel's window.
 
-    ``high``: :func:`sample_keys` of the disparity map's float32 bits (a NaN or an infinity:
-    no estimate); ``guide``: ``(3, H, W)`` integer levels 0..255 (a gray image
-    as three equal channels); ``out``: the map's int32 bits, where a pixel with
-    ``moved[y, x]`` receives the weighted median of the finite values of the
-    ``(2 radius + 1)`` square around it, cut at the image's edges, each weighted by
-    ``colour_weight[g] * space_weight[dy + radius, dx + radius]``, ``g`` the largest
-    difference of a channel between that pixel and the centre: the least value ``v`` with
-    ``2 * (weight of the values <= v) >= total weight`` (int64 tables, the weights under
-    ``2**31``). ``network``: :func:`~dcstereo.refine._median.sort_network` of
-    ``(2 radius + 1)**2``. Rows in parallel.
+    ``key``: :func:`sample_keys` of the disparity map's float32 bits (a NaN or an infinity:
+    no estimate); ``guide``: ``(3, H, W)`` integer levels 0..255 (a gray image as three
+    equal channels); ``out``: the map's int32 bits, where a pixel with ``moved[y, x]``
+    receives the weighted median of the finite values of the ``(2 radius + 1)`` square
+    around it, cut at the image's edges, each weighted by ``colour_weight[g] *
+    space_weight[dy + radius, dx + radius]``, ``g`` the largest difference of a channel
+    between that pixel and the centre: the least value ``v`` with ``2 * (weight of the
+    values <= v) >= total weight``. ``colour_weight`` (256) and ``space_weight`` are int32
+    tables, their products' sum over a window with its double under ``2**31``;
+    ``sums_like``'s integer dtype is that of the sums (int32 where twice the largest total
+    fits, otherwise int64). ``network``:
+    :func:`~dcstereo.refine._median.sort_network` of ``(2 radius + 1)**2``. Rows in parallel.
     """
-    height, width = high.shape
+    height, width = key.shape
     side = 2 * radius + 1
     count = side * side
+    rounds = 0  # the binary search's: 2**rounds >= count
+    while (1 << rounds) < count:
+        rounds += 1
     for y in nb.prange(height):
-        keys = np.empty((count, CHUNK), dtype=np.int64)
-        total = np.empty(CHUNK, dtype=np.int64)
-        running = np.empty(CHUNK, dtype=np.int64)
-        found = np.empty(CHUNK, dtype=np.int64)
-        done = np.empty(CHUNK, dtype=np.bool_)
+        keys = np.empty((count, CHUNK), dtype=np.int32)
+        weights = np.empty((count, CHUNK), dtype=np.int32)
+        ordered = np.empty((count, CHUNK), dtype=np.int32)
+        total = np.empty(CHUNK, dtype=sums_like.dtype)
+        below = np.empty(CHUNK, dtype=sums_like.dtype)
+        low = np.empty(CHUNK, dtype=np.int32)
+        high = np.empty(CHUNK, dtype=np.int32)
+        probe = np.empty(CHUNK, dtype=np.int32)
         diff = np.empty(CHUNK, dtype=np.int32)
         for x0 in range(0, width, CHUNK):
             n = min(CHUNK, width - x0)
@@ -89,18 +93,23 @@ def weighted_median_rows(high, guide, moved, radius, colour_weight, space_weight
                 continue
             for o in range(count):
                 dy, dx = o // side - radius, o % side - radius
-                row = keys[o]
+                key_row, weight_row = keys[o], weights[o]
                 yy = y + dy
                 if yy < 0 or yy >= height:
-                    for i in range(n):
-                        row[i] = EMPTY
+                    for i in range(CHUNK):
+                        key_row[i] = EMPTY
+                        weight_row[i] = 0
                     continue
                 first = min(n, max(0, -dx - x0))  # the chunk's samples inside the image
                 last = max(first, min(n, width - dx - x0))
+                # every column of the chunk, a short chunk's unread ones too: the network
+                # and the sums below run over all CHUNK (a constant count: vector code)
                 for i in range(first):
-                    row[i] = EMPTY
-                for i in range(last, n):
-                    row[i] = EMPTY
+                    key_row[i] = EMPTY
+                    weight_row[i] = 0
+                for i in range(last, CHUNK):
+                    key_row[i] = EMPTY
+                    weight_row[i] = 0
                 space = space_weight[dy + radius, dx + radius]
                 # the samples of this offset inside the image, as views that start at the
                 # first of them: every index from 0 up, so that the loops are whole vectors
@@ -113,32 +122,36 @@ def weighted_median_rows(high, guide, moved, radius, colour_weight, space_weight
                         diff[i] = max(abs(np.int32(r1[i]) - np.int32(r0[i])),
                                       abs(np.int32(g1[i]) - np.int32(g0[i])),
                                       abs(np.int32(b1[i]) - np.int32(b0[i])))  # fmt: skip
-                    h1, out_row = high[yy, src:], row[first:]
-                    for i in range(m):  # the weights: a table lookup each
-                        h = h1[i]
-                        out_row[i] = h if h == EMPTY else h | (colour_weight[diff[i]] * space)
-            for i in range(n):
+                    k1, k0, w0 = key[yy, src:], key_row[first:], weight_row[first:]
+                    for i in range(m):  # the weights: a table lookup each (an unsigned
+                        k = k1[i]  # index: no test for a negative one)
+                        k0[i] = k
+                        w0[i] = 0 if k == EMPTY else colour_weight[np.uint32(diff[i])] * space
+            for i in range(CHUNK):
                 total[i] = 0
-                running[i] = 0
-                found[i] = EMPTY
-                done[i] = False
             for o in range(count):
-                row = keys[o]
-                for i in range(n):
-                    total[i] += row[i] & _LOW
-            # over all CHUNK columns, a short chunk's unread ones too: with a constant count
-            # (exchange_rows is inlined) the compiler makes vector code of the 64-bit min
-            # and max where the hardware has no such instruction (AVX2: the stage 1.6x faster)
-            exchange_rows(keys, network, CHUNK)
-            for o in range(count):  # the first key whose running weight reaches half
-                row = keys[o]
-                for i in range(n):
-                    key = row[i]
-                    running[i] += key & _LOW
-                    hit = (not done[i]) & (2 * running[i] >= total[i])  # no branch: vectors
-                    found[i] = key if hit else found[i]
-                    done[i] |= hit
+                key_row, weight_row, ordered_row = keys[o], weights[o], ordered[o]
+                for i in range(CHUNK):
+                    total[i] += weight_row[i]
+                    ordered_row[i] = key_row[i]
+            exchange_rows(ordered, network, CHUNK)
+            # the least sorted position whose key has half the weight at or below it
+            for i in range(CHUNK):
+                low[i] = 0
+                high[i] = count - 1
+            for _ in range(rounds):
+                for i in range(CHUNK):
+                    probe[i] = ordered[(low[i] + high[i]) >> 1, i]
+                    below[i] = 0
+                for o in range(count):
+                    key_row, weight_row = keys[o], weights[o]
+                    for i in range(CHUNK):
+                        below[i] += weight_row[i] if key_row[i] <= probe[i] else 0
+                for i in range(CHUNK):
+                    middle = (low[i] + high[i]) >> 1
+                    enough = 2 * below[i] >= total[i]
+                    high[i] = middle if enough else high[i]
+                    low[i] = low[i] if enough else middle + 1
             for i in range(n):
                 if moved[y, x0 + i]:
-                    s = np.int32(found[i] >> 32)
-                    out[y, x0 + i] = s ^ 0x7FFFFFFF if s < 0 else s
+                    out[y, x0 + i] = sortable32(ordered[low[i], i])
