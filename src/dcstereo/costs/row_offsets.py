@@ -54,6 +54,11 @@ TILE_PATCHES = 64
 #: The patches a thread of :func:`patch_curves` takes at a time.
 TASK_PATCHES = 32
 
+#: The patches :func:`patch_curves` measures side by side, each sum over them at once (a
+#: call on teddy's 2304 patches, one thread, AVX2: 13.3 ms one patch at a time, 8.5 ms 16 a
+#: time, the costs the same bit for bit).
+LANES = 16
+
 #: The fewest patches a tile needs to give an offset.
 MIN_PATCHES = 12
 
@@ -120,10 +125,11 @@ def _separable(image, taps, out):
 
 
 @nb.njit(cache=True)
-def _rows_at(view, top, x0, side, span, out):
-    """Write ``side`` rows of ``span`` columns of ``view`` into ``out``; False if beyond it.
+def _rows_at(view, top, x0, side, span, out, lane):
+    """Write ``side`` rows of ``span`` columns of ``view`` into ``out[:, :, lane]``.
 
-    From row ``top`` (a fraction: linearly interpolated between rows) and column ``x0``.
+    From row ``top`` (a fraction: linearly interpolated between rows) and column ``x0``;
+    False, and nothing written, where they are not all inside ``view``.
     """
     height, width = view.shape
     r0 = int(np.floor(top))
@@ -132,7 +138,7 @@ def _rows_at(view, top, x0, side, span, out):
         return False
     for a in range(side):
         for c in range(span):
-            out[a, c] = (1.0 - frac) * view[r0 + a, x0 + c] + frac * view[r0 + a + 1, x0 + c]
+            out[a, c, lane] = (1.0 - frac) * view[r0 + a, x0 + c] + frac * view[r0 + a + 1, x0 + c]
     return True
 
 
@@ -153,69 +159,111 @@ def patch_curves(left, right, ys, xs, xr, centres, offsets, radius, reach, out, 
     column for one of a row); ``inf`` where a patch, or the row after it, leaves a view.
 
     ``threads``: numba's thread count; the patches are handed out :data:`TASK_PATCHES` at a
-    time to whichever thread is free.
+    time to whichever thread is free, and a thread measures :data:`LANES` of them side by
+    side (:func:`_patch_block`).
     """
     side = 2 * radius + 1
     span = side + 2 * reach  # the right columns the patches at every dx read
+    shifts = 2 * reach + 1
     tasks = (ys.size + TASK_PATCHES - 1) // TASK_PATCHES
+    # no more lanes than patches: a count the compiler does not know, so that it makes
+    # vector loops of the lanes (with the constant it unrolled them into scalar code)
+    lanes = max(1, min(LANES, ys.size))
     counter = np.zeros(1, dtype=np.int64)
     for _ in nb.prange(max(1, min(threads, tasks))):
-        patch = np.empty((side, side))
-        rows = np.empty((side, span))
-        column_sums = np.empty(span)
-        sads = np.empty(2 * reach + 1)
-        lifts = np.empty(2 * reach + 1)
+        patch = np.empty((side, side, lanes))
+        rows = np.empty((side, span, lanes))
+        column_sums = np.empty((span, lanes))
+        lifts = np.empty((shifts, lanes))
+        sads = np.empty((shifts, lanes))
+        means = np.empty(lanes)
+        inside = np.empty(lanes, dtype=np.bool_)
         task = next_task(counter)
         while task < tasks:
-            for i in range(task * TASK_PATCHES, min((task + 1) * TASK_PATCHES, ys.size)):
-                _patch_curve(
-                    left, right, ys[i], xs[i], xr[i], centres[i], offsets, radius, reach,
-                    patch, rows, column_sums, sads, lifts, out[i],
+            end = min((task + 1) * TASK_PATCHES, ys.size)
+            for first in range(task * TASK_PATCHES, end, lanes):
+                _patch_block(
+                    left, right, ys, xs, xr, centres, offsets, radius, reach, first,
+                    min(lanes, end - first), patch, rows, column_sums, lifts, sads, means,
+                    inside, out,
                 )  # fmt: skip
             task = next_task(counter)
 
 
 @nb.njit(cache=True)
-def _patch_curve(
-    left, right, y, x, xr, centre, offsets, radius, reach, patch, rows, column_sums, sads, lifts,
-    out,
+def _patch_block(
+    left, right, ys, xs, xr, centres, offsets, radius, reach, first, count, patch, rows,
+    column_sums, lifts, sads, means, inside, out,
 ):  # fmt: skip
-    """One patch of :func:`patch_curves` into ``out`` (its row), with the buffers given."""
+    """Patches ``first .. first + count - 1`` of :func:`patch_curves`, one a lane.
+
+    The buffers hold a lane's values last (``patch[a, b, lane]``), so that every sum runs
+    over the lanes at once (vector code); each lane's sums are in the order of one patch
+    alone (rows, then columns; the shifts side by side), so the costs do not depend on the
+    patches beside it. The lanes past ``count``, and those whose patch leaves a view at an
+    offset, hold zeros and are not written out.
+    """
     side = 2 * radius + 1
     size = side * side
     span = side + 2 * reach
-    x0 = xr - reach - radius  # the first right column the patches read
     shifts = 2 * reach + 1
+    lanes = means.size
     for j in range(offsets.size):
-        out[j] = np.inf
-        half = 0.5 * (centre + offsets[j])
-        if not _rows_at(left, y - radius - half, x - radius, side, side, patch):
-            continue
-        if not _rows_at(right, y - radius + half, x0, side, span, rows):
-            continue
-        mean = patch.sum() / size
-        for c in range(span):
-            column_sums[c] = 0.0
-        for a in range(side):
-            for c in range(span):
-                column_sums[c] += rows[a, c]
-        for dx in range(shifts):
-            rmean = 0.0
-            for b in range(side):
-                rmean += column_sums[dx + b]
-            lifts[dx] = rmean / size - mean  # the right patch's mean over the left's
-            sads[dx] = 0.0
-        # each shift's sum in the plain order (rows, then columns), the shifts side by side
+        for p in range(lanes):
+            ok = False
+            if p < count:
+                i = first + p
+                half = 0.5 * (centres[i] + offsets[j])
+                x0 = xr[i] - reach - radius  # the first right column the patches read
+                ok = _rows_at(left, ys[i] - radius - half, xs[i] - radius, side, side, patch, p)
+                ok = ok and _rows_at(right, ys[i] - radius + half, x0, side, span, rows, p)
+            inside[p] = ok
+            if not ok:
+                patch[:, :, p] = 0.0
+                rows[:, :, p] = 0.0
+        means[:] = 0.0
         for a in range(side):
             for b in range(side):
                 value = patch[a, b]
-                for dx in range(shifts):
-                    sads[dx] += abs(value - rows[a, dx + b] + lifts[dx])
-        k = np.argmin(sads)
-        best = sads[k]
-        if 0 < k < 2 * reach:
-            best = max(best - 0.5 * abs(sads[k - 1] - sads[k + 1]), 0.0)  # the V
-        out[j] = best
+                for p in range(lanes):
+                    means[p] += value[p]
+        for p in range(lanes):
+            means[p] = means[p] / size
+        column_sums[:] = 0.0
+        for a in range(side):
+            for c in range(span):
+                value, total = rows[a, c], column_sums[c]
+                for p in range(lanes):
+                    total[p] += value[p]
+        lifts[:] = 0.0
+        for dx in range(shifts):
+            lift = lifts[dx]
+            for b in range(side):
+                value = column_sums[dx + b]
+                for p in range(lanes):
+                    lift[p] += value[p]
+            for p in range(lanes):
+                lift[p] = lift[p] / size - means[p]  # the right patch's mean over the left's
+        sads[:] = 0.0
+        for dx in range(shifts):
+            lift, sad = lifts[dx], sads[dx]
+            for a in range(side):
+                for b in range(side):
+                    value, row = patch[a, b], rows[a, dx + b]
+                    for p in range(lanes):
+                        sad[p] += abs(value[p] - row[p] + lift[p])
+        for p in range(count):
+            if not inside[p]:
+                out[first + p, j] = np.inf
+                continue
+            k = 0  # the first least
+            for dx in range(1, shifts):
+                if sads[dx, p] < sads[k, p]:
+                    k = dx
+            best = sads[k, p]
+            if 0 < k < 2 * reach:
+                best = max(best - 0.5 * abs(sads[k - 1, p] - sads[k + 1, p]), 0.0)  # the V
+            out[first + p, j] = best
 
 
 @nb.njit(cache=True)
