@@ -160,7 +160,7 @@ def patch_curves(left, right, ys, xs, xr, centres, offsets, radius, reach, out, 
 
     ``threads``: numba's thread count; the patches are handed out :data:`TASK_PATCHES` at a
     time to whichever thread is free, and a thread measures :data:`LANES` of them side by
-    side (:func:`_patch_block`).
+    side (``_patch_block``).
     """
     side = 2 * radius + 1
     span = side + 2 * reach  # the right columns the patches at every dx read
