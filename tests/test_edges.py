@@ -257,6 +257,17 @@ def test_kernel_equals_its_twin(seed):
     assert not np.array_equal(got, estimate, equal_nan=True)  # some pixels moved
 
 
+def test_the_map_is_the_same_at_any_thread_count(monkeypatch):
+    # the rows are handed out to whichever thread is free: more tasks than threads, fewer
+    left, right, truth, estimate = square_scene(3, fat=2)
+    outs = []
+    for threads in (1, 3, 64):
+        monkeypatch.setattr(edges.nb, "get_num_threads", lambda t=threads: t)
+        outs.append(edges.edge_refinement(result_of(estimate), left, right).disparity)
+    assert all(np.array_equal(out, outs[0], equal_nan=True) for out in outs[1:])
+    assert not np.array_equal(outs[0], estimate)  # the fattened edge moved
+
+
 def test_support_cost_equals_its_twin():
     rng = np.random.default_rng(7)
     left, right, _, _ = square_scene(seed=7)

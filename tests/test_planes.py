@@ -1,5 +1,6 @@
 """The plane refinement (dcstereo.refine.planes) against its naive twins (tests/naive_planes.py)."""
 
+import numba
 import numpy as np
 import pytest
 
@@ -20,6 +21,22 @@ def test_slic_equals_naive(seed):
     got = planes.superpixels(colour, step=5, compactness=10.0, iterations=3)
     expected = naive_planes.slic(colour, 5, 10.0, 3)
     np.testing.assert_array_equal(got, expected)
+
+
+def test_slic_is_the_same_at_any_thread_count():
+    # the rows go to whichever thread is free; numba's threads, one or all of them
+    rng = np.random.default_rng(7)
+    colour = rng.integers(0, 256, (3, 61, 83)).astype(np.int16)
+    colour[:, 20:, 30:] //= 3
+    outs = []
+    for threads in (1, numba.config.NUMBA_NUM_THREADS):
+        numba.set_num_threads(threads)
+        try:
+            outs.append(planes.superpixels(colour, step=6, compactness=10.0, iterations=3))
+        finally:
+            numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    np.testing.assert_array_equal(outs[0], outs[1])
+    np.testing.assert_array_equal(outs[0], naive_planes.slic(colour, 6, 10.0, 3))
 
 
 @pytest.mark.parametrize(

@@ -9,6 +9,7 @@ own value's by a margin.
 import numba as nb
 import numpy as np
 
+from dcstereo._vector.sgm import next_task
 from dcstereo.costs.census import popcount
 
 #: The directions a pixel looks along for another surface, ``(dy, dx)``: all but those to
@@ -302,7 +303,8 @@ def reachable_jumps(disparity, reach, out):
 @nb.njit(cache=True, parallel=True)
 def edge_rows(disparity, flags, left, left_p, right_p, codes_l_p, codes_r_p, pad, row_low,
               row_high, reachable, zone, jump, reach, colour_limit, radius, weight_scale,
-              space_weight, truncation, census_scale, colour_scale, margin, out):  # fmt: skip
+              space_weight, truncation, census_scale, colour_scale, margin, out,
+              threads=1):  # fmt: skip
     """Write into ``out`` the re-decided map (rows in parallel).
 
     A pixel with an estimate whose ``(2 zone + 1)^2`` window (the edges repeated; the
@@ -315,35 +317,56 @@ def edge_rows(disparity, flags, left, left_p, right_p, codes_l_p, codes_r_p, pad
     ``row_low``, ``row_high``: :func:`row_extremes` of ``disparity`` and ``zone``;
     ``reachable``: :func:`reachable_jumps` of ``disparity`` and ``reach`` (the pixels it
     leaves unmarked have no candidate, and keep their value without the walk).
+
+    ``threads``: numba's thread count; the rows are handed out one at a time to whichever
+    thread is free (the pixels near a depth edge, which cost the most, gather in some parts
+    of an image: in two fixed halves of the rows, two threads took the time of one).
     """
     height, width = disparity.shape
-    for y in nb.prange(height):
+    counter = np.zeros(1, dtype=np.int64)
+    for _ in nb.prange(max(1, min(threads, height))):
         candidates = np.empty(DIRECTIONS.shape[0], dtype=np.float32)
-        for x in range(width):
-            own = disparity[y, x]
-            out[y, x] = own
-            if not reachable[y, x]:  # no candidate (nor an estimate: NaN is never marked)
-                continue
-            low, high = own, own
-            for dy in range(-zone, zone + 1):  # the rows' extremes: the window's
-                yy = min(max(y + dy, 0), height - 1)
-                if row_low[yy, x] < low:
-                    low = row_low[yy, x]
-                if row_high[yy, x] > high:
-                    high = row_high[yy, x]
-            if not high - low > jump:
-                continue
-            count = edge_candidates(disparity, left, flags, y, x, reach, colour_limit, candidates)
-            if count == 0:
-                continue
-            best = support_cost(left_p, right_p, codes_l_p, codes_r_p, pad, y, x, own, radius,
-                                weight_scale, space_weight, truncation, census_scale,
-                                colour_scale)  # fmt: skip
-            bound = best * (1.0 - margin)
-            for j in range(count):
-                cost = support_cost(left_p, right_p, codes_l_p, codes_r_p, pad, y, x, candidates[j],
-                                    radius, weight_scale, space_weight, truncation,
-                                    census_scale, colour_scale)  # fmt: skip
-                if cost < bound and cost < best:
-                    best = cost
-                    out[y, x] = candidates[j]
+        y = next_task(counter)
+        while y < height:
+            _edge_row(disparity, flags, left, left_p, right_p, codes_l_p, codes_r_p, pad,
+                      row_low, row_high, reachable, zone, jump, reach, colour_limit, radius,
+                      weight_scale, space_weight, truncation, census_scale, colour_scale,
+                      margin, out, y, candidates)  # fmt: skip
+            y = next_task(counter)
+
+
+@nb.njit(cache=True)
+def _edge_row(disparity, flags, left, left_p, right_p, codes_l_p, codes_r_p, pad, row_low,
+              row_high, reachable, zone, jump, reach, colour_limit, radius, weight_scale,
+              space_weight, truncation, census_scale, colour_scale, margin, out, y,
+              candidates):  # fmt: skip
+    """Row ``y`` of :func:`edge_rows`, with the candidates' scratch given."""
+    height, width = disparity.shape
+    for x in range(width):
+        own = disparity[y, x]
+        out[y, x] = own
+        if not reachable[y, x]:  # no candidate (nor an estimate: NaN is never marked)
+            continue
+        low, high = own, own
+        for dy in range(-zone, zone + 1):  # the rows' extremes: the window's
+            yy = min(max(y + dy, 0), height - 1)
+            if row_low[yy, x] < low:
+                low = row_low[yy, x]
+            if row_high[yy, x] > high:
+                high = row_high[yy, x]
+        if not high - low > jump:
+            continue
+        count = edge_candidates(disparity, left, flags, y, x, reach, colour_limit, candidates)
+        if count == 0:
+            continue
+        best = support_cost(left_p, right_p, codes_l_p, codes_r_p, pad, y, x, own, radius,
+                            weight_scale, space_weight, truncation, census_scale,
+                            colour_scale)  # fmt: skip
+        bound = best * (1.0 - margin)
+        for j in range(count):
+            cost = support_cost(left_p, right_p, codes_l_p, codes_r_p, pad, y, x, candidates[j],
+                                radius, weight_scale, space_weight, truncation,
+                                census_scale, colour_scale)  # fmt: skip
+            if cost < bound and cost < best:
+                best = cost
+                out[y, x] = candidates[j]

@@ -16,6 +16,8 @@
 import numba as nb
 import numpy as np
 
+from dcstereo._vector.sgm import next_task
+
 #: The generator's multiplier, increment and modulus (glibc's ``rand``).
 LCG_A = 1103515245
 LCG_C = 12345
@@ -161,12 +163,14 @@ def _move_centres(colour, labels, sums, centres):
 
 
 @nb.njit(cache=True, parallel=True)
-def slic(colour, step, compactness, iterations, labels):
+def slic(colour, step, compactness, iterations, labels, threads=1):
     """SLIC superpixels of ``colour`` (``(C, H, W)``) into ``labels`` (``(H, W)`` int32).
 
     Seeds on a grid of about ``step`` pixels (:func:`grid_shape`) at their cells' centres;
     ``compactness``: the colour distance (gray levels) worth ``step`` pixels of distance.
     Returns the number of labels (``ny * nx``); a seed left without pixels keeps its place.
+    ``threads``: numba's thread count; the rows are handed out one at a time to whichever
+    thread is free.
     """
     channels, height, width = colour.shape
     ny, nx = grid_shape(height, width, step)
@@ -184,13 +188,18 @@ def slic(colour, step, compactness, iterations, labels):
     weight = (compactness / step) ** 2
     xstarts = cell_starts(width, nx)
     sums = np.empty((n, 3 + channels), dtype=np.float64)
-    parts = 1  # a block of rows per thread, one scratch each
+    # the rows handed out one at a time to whichever thread is free, one scratch a thread
+    tasks = max(1, min(threads, height))
+    counter = np.zeros(1, dtype=np.int64)
     for it in range(iterations + 1):
-        for part in nb.prange(parts):
+        counter[0] = 0
+        for _ in nb.prange(tasks):
             best = np.empty(width)
             dist = np.empty(width)
-            for y in range(part * height // parts, (part + 1) * height // parts):
+            y = next_task(counter)
+            while y < height:
                 _assign_row(colour, y, centres, ny, nx, weight, xstarts, best, dist, labels)
+                y = next_task(counter)
         if it == iterations:
             break
         _move_centres(colour, labels, sums, centres)

@@ -25,6 +25,7 @@ wins. It runs after the median stage (``dcstereo.match(..., edges="support-weigh
 
 from dataclasses import replace
 
+import numba as nb
 import numpy as np
 
 from dcstereo.costs.census import census_transform
@@ -170,7 +171,7 @@ def refine_edges(
     kernels.edge_rows(
         disparity, np.ascontiguousarray(result.flags), guide_l, *padded, pad, row_low, row_high,
         reachable, ZONE, JUMP, REACH, COLOUR_LIMIT, RADIUS, COLOUR_SCALE, space, TRUNCATION,
-        CENSUS_SCALE, COLOUR_COST_SCALE, MARGIN, out,
+        CENSUS_SCALE, COLOUR_COST_SCALE, MARGIN, out, nb.get_num_threads(),
     )  # fmt: skip
     return replace(result, disparity=_inside(out, result))
 

@@ -11,6 +11,7 @@ without an estimate and to those whose estimate is far from it.
 
 from dataclasses import dataclass, replace
 
+import numba as nb
 import numpy as np
 
 from dcstereo.refine import _planes as _kernels
@@ -111,7 +112,9 @@ def superpixels(colour: np.ndarray, step: int = 16, compactness: float = 20.0,
     """
     colour = np.ascontiguousarray(colour, dtype=np.float64)
     labels = np.empty(colour.shape[1:], dtype=np.int32)
-    _kernels.slic(colour, int(step), float(compactness), int(iterations), labels)
+    _kernels.slic(
+        colour, int(step), float(compactness), int(iterations), labels, nb.get_num_threads()
+    )
     return labels
 
 
