@@ -75,6 +75,28 @@ def test_fit_planes_equals_naive(seed, max_scored, partial, lattice):
     assert 0 < fitted < len(expected) if partial else fitted == len(expected)
 
 
+def test_fit_planes_are_the_same_at_any_thread_count():
+    # the segments go to whichever thread is free; each draws from its own seed
+    rng = np.random.default_rng(4)
+    height, width, step = 60, 90, 8
+    labels = planes.superpixels(rng.integers(0, 256, (1, height, width)).astype(np.int16), step)
+    yy, xx = np.mgrid[0:height, 0:width]
+    disparity = (0.1 * xx + 0.05 * yy + 9 + rng.normal(0, 0.4, (height, width))).astype(np.float32)
+    wrong = rng.random((height, width)) < 0.3
+    disparity[wrong] = rng.uniform(0, 30, wrong.sum())
+    usable = rng.random((height, width)) < 0.9
+    ny, nx = kernels.grid_shape(height, width, step)
+    outs = []
+    for threads in (1, numba.config.NUMBA_NUM_THREADS):
+        numba.set_num_threads(threads)
+        try:
+            outs.append(planes.fit_planes(disparity, usable, labels, nx, ny, 50, 1.0, 0.8))
+        finally:
+            numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    assert np.array_equal(outs[0][0], outs[1][0]) and np.array_equal(outs[0][1], outs[1][1])
+    assert (outs[0][1][:, 1] > 0).all()  # every segment fitted, with inliers
+
+
 def test_apply_planes_equals_naive():
     rng = np.random.default_rng(5)
     height, width, n = 9, 11, 4

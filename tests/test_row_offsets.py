@@ -8,6 +8,7 @@ batch folders and the speed benchmark; pins on development scenes.
 
 import json
 
+import numba
 import numpy as np
 import pytest
 from PIL import Image
@@ -497,6 +498,20 @@ def test_gaussian_smooth_equals_a_plain_convolution(shape):
             expected[y, x] = taps @ window @ taps
     assert np.allclose(row_offsets.gaussian_smooth(image, sigma), expected, rtol=1e-12)
     assert np.array_equal(row_offsets.gaussian_smooth(image, 0.0), image)
+
+
+def test_gaussian_smooth_is_the_same_at_any_thread_count():
+    # the rows go to whichever thread is free, each row's sums in one order
+    image = np.random.default_rng(3).uniform(0, 255, (57, 40))
+    outs = []
+    for threads in (1, numba.config.NUMBA_NUM_THREADS):
+        numba.set_num_threads(threads)
+        try:
+            outs.append(row_offsets.gaussian_smooth(image, 1.0))
+        finally:
+            numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+    assert outs[0].tobytes() == outs[1].tobytes()
+    assert not np.array_equal(outs[0], image)
 
 
 def test_estimate_from_an_aligned_pair_is_near_zero_and_none_without_patches():

@@ -97,31 +97,47 @@ def gaussian_smooth(image: np.ndarray, sigma: float) -> np.ndarray:
     radius = max(1, int(np.ceil(3 * sigma)))
     taps = np.exp(-0.5 * (np.arange(-radius, radius + 1) / sigma) ** 2)
     out = np.empty_like(array)
-    _separable(array, taps / taps.sum(), out)
+    _separable(array, taps / taps.sum(), out, nb.get_num_threads())
     return out
 
 
+@nb.njit(cache=True, parallel=True)
+def _separable(image, taps, out, threads=1):
+    """``image`` filtered by ``taps`` down the columns, then along the rows (edges repeated).
+
+    ``threads``: numba's thread count; the rows are handed out one at a time to whichever
+    thread is free, each row's sums in the same order.
+    """
+    height, width = image.shape
+    counter = np.zeros(1, dtype=np.int64)
+    for _ in nb.prange(max(1, min(threads, height))):
+        columns = np.empty(width)
+        padded = np.empty(width + 2 * (taps.size // 2))  # a row of columns, edges repeated
+        y = next_task(counter)
+        while y < height:
+            _separable_row(image, taps, out, y, columns, padded)
+            y = next_task(counter)
+
+
 @nb.njit(cache=True)
-def _separable(image, taps, out):
+def _separable_row(image, taps, out, y, columns, padded):
+    """Row ``y`` of :func:`_separable`, with the scratch rows given."""
     height, width = image.shape
     radius = taps.size // 2
-    columns = np.empty(width)
-    padded = np.empty(width + 2 * radius)  # a row of columns, its edges repeated
-    for y in range(height):
-        columns[:] = 0.0
-        for k in range(taps.size):
-            row = image[min(max(y + k - radius, 0), height - 1)]
-            for x in range(width):
-                columns[x] += taps[k] * row[x]
-        padded[radius : radius + width] = columns
-        padded[:radius] = columns[0]
-        padded[radius + width :] = columns[width - 1]
-        total = out[y]
-        total[:] = 0.0
-        for k in range(taps.size):  # each pixel's sum in the order of the taps
-            shifted = padded[k:]
-            for x in range(width):
-                total[x] += taps[k] * shifted[x]
+    columns[:] = 0.0
+    for k in range(taps.size):
+        row = image[min(max(y + k - radius, 0), height - 1)]
+        for x in range(width):
+            columns[x] += taps[k] * row[x]
+    padded[radius : radius + width] = columns
+    padded[:radius] = columns[0]
+    padded[radius + width :] = columns[width - 1]
+    total = out[y]
+    total[:] = 0.0
+    for k in range(taps.size):  # each pixel's sum in the order of the taps
+        shifted = padded[k:]
+        for x in range(width):
+            total[x] += taps[k] * shifted[x]
 
 
 @nb.njit(cache=True)

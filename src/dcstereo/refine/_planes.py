@@ -365,22 +365,24 @@ def segment_points(disparity, usable, wanted, labels, n, lattice, xs, ys, ds):
 
 
 @nb.njit(cache=True, parallel=True)
-def fit_planes(disparity, usable, wanted, labels, n, nx, iterations, inlier, stop, max_scored,
-               min_support, lattice, xs, ys, ds, planes, support):  # fmt: skip
+def fit_planes(disparity, usable, wanted, labels, n, iterations, inlier, stop, max_scored,
+               min_support, lattice, xs, ys, ds, planes, support, threads=1):  # fmt: skip
     """Fit a plane to each segment's ``usable`` estimates.
 
     ``planes[k]``: (a, b, c); ``support[k]``: (estimates used, inliers, pixels). A segment
     none of whose pixels is ``wanted``, or with under three estimates or under
-    ``min_support`` of its pixels, is not fitted: plane (0, 0, 0), no inliers. Segments are
-    fitted a grid row at a time (labels ``gy * nx ..``), rows in parallel. ``xs``, ``ys``,
-    ``ds``: :func:`segment_points`' buffers.
+    ``min_support`` of its pixels, is not fitted: plane (0, 0, 0), no inliers. ``xs``,
+    ``ys``, ``ds``: :func:`segment_points`' buffers. ``threads``: numba's thread count; the
+    segments are handed out one at a time to whichever thread is free (a segment's RANSAC
+    draws from its own seed, so the planes do not depend on the order).
     """
     starts, size, need = segment_points(disparity, usable, wanted, labels, n, lattice, xs, ys,
                                         ds)  # fmt: skip
-    ny = n // nx
-    for gy in nb.prange(ny):
+    counter = np.zeros(1, dtype=np.int64)
+    for _ in nb.prange(max(1, min(threads, n))):
         plane = np.zeros(3)
-        for k in range(gy * nx, (gy + 1) * nx):
+        k = next_task(counter)
+        while k < n:
             s0, s1 = starts[k], starts[k + 1]
             m = s1 - s0
             count = 0
@@ -392,6 +394,7 @@ def fit_planes(disparity, usable, wanted, labels, n, nx, iterations, inlier, sto
             support[k, 0] = m
             support[k, 1] = count
             support[k, 2] = size[k]
+            k = next_task(counter)
 
 
 @nb.njit(cache=True, parallel=True)

@@ -189,9 +189,9 @@ def fit_planes(disparity: np.ndarray, usable: np.ndarray, labels: np.ndarray, nx
         scratch = point_buffers(disparity.shape)
     _kernels.fit_planes(
         disparity, np.ascontiguousarray(usable),
-        np.ascontiguousarray(wanted), np.ascontiguousarray(labels), n, nx, int(iterations),
+        np.ascontiguousarray(wanted), np.ascontiguousarray(labels), n, int(iterations),
         float(inlier), float(stop), int(max_scored), float(min_support), int(lattice),
-        *scratch, planes, support,
+        *scratch, planes, support, nb.get_num_threads(),
     )  # fmt: skip
     return planes, support
 
