@@ -64,9 +64,9 @@ def weighted_median_rows(key, guide, moved, radius, colour_weight, space_weight,
     space_weight[dy + radius, dx + radius]``, ``g`` the largest difference of a channel
     between that pixel and the centre: the least value ``v`` with ``2 * (weight of the
     values <= v) >= total weight``. ``colour_weight`` (256) and ``space_weight`` are int32
-    tables, their products' sum over a window with its double under ``2**31``;
-    ``sums_like``'s integer dtype is that of the sums (int32 where twice the largest total
-    fits, otherwise int64). ``network``:
+    tables whose products are under ``2**31`` (a sample's weight, int32);
+    ``sums_like``'s integer dtype is that of the window's sums (int32 where twice the
+    largest total fits, otherwise int64). ``network``:
     :func:`~dcstereo.refine._median.sort_network` of ``(2 radius + 1)**2``. Rows in parallel.
     """
     height, width = key.shape
