@@ -7,6 +7,7 @@ import dcstereo
 import naive_local_planes as naive
 from cli_runs import run_equals_match
 from dcstereo.params import MatchParams
+from dcstereo.refine import _local_planes as lp_kernels
 from dcstereo.refine import local_planes as lp
 from dcstereo.refine.weighted_median import weight_tables, weighted_median_filter
 from dcstereo.result import FLAG_FEATURE, FLAG_FILLED, FLAG_OCCLUDED, DisparityResult
@@ -87,6 +88,64 @@ def test_kernel_equals_its_twin(seed):
     expected = naive.local_planes(d, guide, moved, radius, tolerance, lp.COLOUR_SCALE, space)
     np.testing.assert_allclose(out, expected, atol=2e-4, equal_nan=True)
     assert out[2, 3] == d[2, 3] or np.isnan(d[2, 3])
+
+
+def _tall_case(seed=5, height=None, width=23):
+    height = 2 * lp_kernels.BAND + 7 if height is None else height  # three bands
+    rng = np.random.default_rng(seed)
+    y, x = np.mgrid[0:height, 0:width]
+    d = (30 - 0.15 * x + 0.2 * y + rng.normal(0, 0.4, (height, width))).astype(np.float32)
+    d[rng.random(d.shape) < 0.1] = np.nan
+    d[rng.random(d.shape) < 0.1] -= 4
+    guide = rng.integers(0, 256, (3, height, width)).astype(np.uint8)
+    guide[:, height // 2 :] //= 6
+    return d, guide
+
+
+def test_kernel_equals_its_twin_across_bands():
+    # rows past the first band take their weights of the rows above from the band's own
+    # ring, which starts by computing the radius rows above the band again
+    d, guide = _tall_case()
+    moved = np.isfinite(d)
+    out = _planes(d, guide, moved=moved)
+    _, space = weight_tables(lp.RADIUS, lp.COLOUR_SCALE, lp.SPACE_SCALE)
+    expected = naive.local_planes(d, guide, moved, lp.RADIUS, lp.TOLERANCE, lp.COLOUR_SCALE,
+                                  space)  # fmt: skip
+    np.testing.assert_allclose(out, expected, atol=2e-4, equal_nan=True)
+
+
+def test_the_same_at_any_thread_count(monkeypatch):
+    # bands go to whichever thread is free: one task, a few, more than bands (the counts
+    # the kernel is given, whatever the machine's cores)
+    d, guide = _tall_case(seed=6, height=3 * lp_kernels.BAND + 2)
+    outs = []
+    for threads in (1, 3, 64):
+        monkeypatch.setattr(lp.nb, "get_num_threads", lambda t=threads: t)
+        outs.append(_planes(d, guide))
+    for out in outs[1:]:
+        np.testing.assert_array_equal(outs[0], out)
+
+
+def test_a_weight_is_its_samples_weight_of_the_pixel():
+    # the kernel computes the weights of the forward offsets (rows below, the row to the
+    # right) and takes the others from the sample: pixel p's weight of p + o is p + o's of
+    # p, the same float32 product. Row 0 of a 2 x 2 image with radius 1: pixel (0, 0)'s
+    # forward offsets (0, 1), (1, -1) (outside), (1, 0), (1, 1)
+    guide = np.array([[[10, 30], [50, 13]]], dtype=np.int16).repeat(3, axis=0)
+    _, space = weight_tables(1, lp.COLOUR_SCALE, lp.SPACE_SCALE)
+    powers = lp.colour_powers(lp.COLOUR_SCALE)
+    ring = np.full((4, 2), -1.0, dtype=np.float32)
+    lp_kernels.forward_weights(guide, 0, 1, powers, space.astype(np.float32), ring)
+    # g = 20 (10 -> 30): bits 4 and 2; g = 40 (10 -> 50): bits 5 and 3; g = 3: bits 0, 1
+    factor = {20: powers[2] * powers[4], 40: powers[3] * powers[5], 3: powers[0] * powers[1]}
+    assert ring[0, 0] == pytest.approx(734 * factor[20], rel=1e-6)  # (0, 1): 30
+    assert ring[2, 0] == pytest.approx(734 * factor[40], rel=1e-6)  # (1, 0): 50
+    assert ring[3, 0] == pytest.approx(639 * factor[3], rel=1e-6)  # (1, 1): 13
+    assert ring[1, 0] == -1.0  # (1, -1) lies outside: left as it was
+    # pixel (0, 1)'s forward offsets: (0, 1) outside; (1, -1): 50, g = 20; (1, 0): 13, g = 17
+    assert ring[1, 1] == pytest.approx(639 * factor[20], rel=1e-6)
+    assert ring[2, 1] == pytest.approx(734 * powers[0] * powers[4], rel=1e-6)
+    assert ring[0, 1] == -1.0
 
 
 def test_filter_limits_and_keeps_features():

@@ -62,6 +62,55 @@ def test_kernel_equals_its_twin(seed):
     assert out.tobytes() == twin.tobytes()
 
 
+def _tall_case(seed, height):
+    rng = np.random.default_rng(seed)
+    d = rng.integers(-4, 6, (height, 19)) / 2 + rng.integers(0, 2, (height, 19)) / 8
+    d = d.astype(np.float32)
+    d[rng.random(d.shape) < 0.15] = np.nan
+    guide = rng.integers(0, 256, (3, height, 19)).astype(np.int16)
+    guide[:, height // 3 :] //= 8
+    return d, guide, np.isfinite(d) & (rng.random(d.shape) < 0.9)
+
+
+@pytest.mark.parametrize("radius", [2, 4])
+def test_kernel_equals_its_twin_across_bands(radius):
+    # three bands of rows: past the first, a band's rows take the weights of the rows
+    # above from its own ring, which starts by computing the radius rows above it again
+    d, guide, moved = _tall_case(radius, 2 * kernels.BAND + 5)
+    colour, space = wm.weight_tables(radius)
+    out = wm.weighted_medians(d, guide, moved, radius, colour, space)
+    twin = naive.weighted_median_rows(d, guide, moved, radius, wm.COLOUR_SCALE, wm.SPACE_SCALE)
+    assert out.tobytes() == twin.tobytes()
+
+
+def test_the_same_at_any_thread_count(monkeypatch):
+    # bands go to whichever thread is free: one task, a few, more than bands (the counts
+    # the kernel is given, whatever the machine's cores)
+    d, guide, moved = _tall_case(9, 3 * kernels.BAND + 2)
+    colour, space = wm.weight_tables()
+    outs = []
+    for threads in (1, 3, 64):
+        monkeypatch.setattr(wm.nb, "get_num_threads", lambda t=threads: t)
+        outs.append(wm.weighted_medians(d, guide, moved, wm.RADIUS, colour, space))
+    for out in outs[1:]:
+        assert out.tobytes() == outs[0].tobytes()
+
+
+def test_forward_weights_by_hand():
+    # row 0 of a 2 x 2 image, radius 1: the weights of the forward offsets (0, 1), (1, -1),
+    # (1, 0), (1, 1) (the others come from the samples' rows); outside ones left as they are
+    guide = np.array([[10, 30], [50, 13]], dtype=np.int16)[None].repeat(3, axis=0)
+    colour, space = wm.weight_tables(1)  # space: 1024 centre, 734 beside, 639 corners
+    slot = np.full((4, 2), -1, dtype=np.int32)
+    diff = np.empty(2, dtype=np.int32)
+    kernels.forward_weights(guide, 0, 1, colour.astype(np.int32), space.astype(np.int32),
+                            diff, slot)  # fmt: skip
+    # pixel (0, 0) = 10: (0, 1) is 30 (g 20), (1, 0) 50 (g 40), (1, 1) 13 (g 3)
+    assert slot[:, 0].tolist() == [734 * colour[20], -1, 734 * colour[40], 639 * colour[3]]
+    # pixel (0, 1) = 30: (1, -1) is 50 (g 20), (1, 0) 13 (g 17); (0, 1), (1, 1) outside
+    assert slot[:, 1].tolist() == [-1, 639 * colour[20], 734 * colour[17], -1]
+
+
 @pytest.mark.parametrize("seed", range(2))
 def test_kernel_sums_large_weights_in_64_bits(seed):
     # weights near 2**30 each: a window's total is past int32, which the wrapper sees from
@@ -74,11 +123,21 @@ def test_kernel_sums_large_weights_in_64_bits(seed):
     radius = 1 + seed
     colour = rng.integers(1, 2**15, 256).astype(np.int64)
     space = rng.integers(2**14, 2**15, (2 * radius + 1,) * 2).astype(np.int64)
+    space = np.maximum(space, space[::-1, ::-1])  # symmetric about the centre, as a distance's
     assert 2 * colour.max() * space.max() * (2 * radius + 1) ** 2 >= 2**31
     out = wm.weighted_medians(d, guide, moved, radius, colour, space)
     twin = naive.weighted_median_rows(d, guide, moved, radius, 0, 0,
                                       tables=(colour.tolist(), space.tolist()))  # fmt: skip
     assert out.tobytes() == twin.tobytes()
+
+
+def test_kernel_refuses_a_distance_table_not_symmetric():
+    # the kernel takes a pixel's weight of its sample at -o from the sample's of it at o
+    d = np.zeros((3, 4), np.float32)
+    colour, space = wm.weight_tables(1)
+    space[0, 1] += 1
+    with pytest.raises(ValueError, match="symmetric"):
+        wm.weighted_medians(d, np.zeros((1, 3, 4), np.int16), np.isfinite(d), 1, colour, space)
 
 
 def test_sortable_keys_order_as_the_floats():

@@ -17,6 +17,7 @@ al., BMVC 2011) give, here fitted to the estimates instead of searched for by th
 
 from dataclasses import replace
 
+import numba as nb
 import numpy as np
 
 from dcstereo._checks import is_number
@@ -124,6 +125,6 @@ def local_planes(
     out = np.empty_like(disparity)
     kernels.local_plane_rows(
         disparity, kernel_guide(guide), np.ascontiguousarray(moved), radius, tolerance,
-        colour_powers(colour_scale), space.astype(np.float32), out,
+        colour_powers(colour_scale), space.astype(np.float32), out, nb.get_num_threads(),
     )  # fmt: skip
     return out

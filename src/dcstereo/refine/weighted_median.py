@@ -18,6 +18,7 @@ parameters below (measured on the development scenes: ``scripts/eval_stages.py``
 import functools
 from dataclasses import replace
 
+import numba as nb
 import numpy as np
 
 from dcstereo.refine import _weighted_median as kernels
@@ -150,9 +151,13 @@ def weighted_medians(
     """Return ``disparity`` (float32) with each ``moved`` pixel's weighted median (the kernel).
 
     ``guide``: ``(C, H, W)`` levels 0..255 (:func:`dcstereo.signal.colour_channels`);
-    ``colour_weight``, ``space_weight``: :func:`weight_tables`. See
+    ``colour_weight``, ``space_weight``: :func:`weight_tables` (the distance's table
+    symmetric about its centre: the kernel takes a pixel's weight of its sample at ``-o``
+    from the sample's of it at ``o``; ValueError otherwise). See
     :func:`dcstereo.refine._weighted_median.weighted_median_rows`; a zero comes out as +0.0.
     """
+    if not np.array_equal(space_weight, space_weight[::-1, ::-1]):
+        raise ValueError("space_weight must be symmetric about its centre (a distance's weight)")
     disparity = np.ascontiguousarray(disparity, dtype=np.float32)
     out = disparity.copy()
     keys = np.empty(disparity.shape, dtype=np.int32)
@@ -163,7 +168,7 @@ def weighted_medians(
     kernels.weighted_median_rows(
         keys, kernel_guide(guide), np.ascontiguousarray(moved), radius,
         colour_weight.astype(np.int32), space_weight.astype(np.int32), _network(count),
-        np.empty(0, dtype=sums), out.view(np.int32),
+        np.empty(0, dtype=sums), out.view(np.int32), nb.get_num_threads(),
     )  # fmt: skip
     return out
 
