@@ -97,6 +97,21 @@ def test_the_network_of_full_windows_equals_the_twin_across_signs(size):
     np.testing.assert_array_equal(filtered, twin(d, flags, size, dense.params))
 
 
+@pytest.mark.parametrize("size", [3, 5])
+def test_the_network_equals_the_twin_across_chunks(size):
+    # rows wider than two of the network's chunks: each chunk's windows read the columns
+    # past its own, the last chunk is short
+    rng = np.random.default_rng(10 + size)
+    width = 2 * median_kernels.CHUNK + 13
+    result = random_result(size, 9, width, low=0, values=30)
+    d = (rng.integers(0, 30, (9, width)) + rng.random((9, width))).astype(np.float32)
+    flags = np.zeros(d.shape, np.uint8)
+    dense = replace(result, disparity=d, flags=flags)
+    filtered = median_filter(dense, size).disparity
+    np.testing.assert_array_equal(filtered, twin(d, flags, size, dense.params))
+    assert (filtered != d).sum() > width
+
+
 def test_sortable32_orders_float_bits_and_undoes_itself():
     values = np.array([-np.inf, -3e9, -2.5, -1e-30, -0.0, 0.0, 1e-30, 0.25, 7.0, 3e9, np.inf],
                       dtype=np.float32)  # fmt: skip
