@@ -135,7 +135,8 @@ def test_a_weight_is_its_samples_weight_of_the_pixel():
     _, space = weight_tables(1, lp.COLOUR_SCALE, lp.SPACE_SCALE)
     powers = lp.colour_powers(lp.COLOUR_SCALE)
     ring = np.full((4, 2), -1.0, dtype=np.float32)
-    lp_kernels.forward_weights(guide, 0, 1, powers, space.astype(np.float32), ring)
+    diff = np.empty(2, dtype=np.int32)
+    lp_kernels.forward_weights(guide, 0, 1, powers, space.astype(np.float32), diff, ring)
     # g = 20 (10 -> 30): bits 4 and 2; g = 40 (10 -> 50): bits 5 and 3; g = 3: bits 0, 1
     factor = {20: powers[2] * powers[4], 40: powers[3] * powers[5], 3: powers[0] * powers[1]}
     assert ring[0, 0] == pytest.approx(734 * factor[20], rel=1e-6)  # (0, 1): 30

@@ -73,6 +73,28 @@ def forward_index(dy, dx, side):
     return dy * side + dx - 1
 
 
+@nb.njit(cache=True, inline="always")
+def channel_differences(guide, y, yy, dx, diff):
+    """Write ``diff[x - a]``: the largest channel difference of ``(y, x)`` and ``(yy, x + dx)``.
+
+    ``guide`` ``(3, H, W)``; for the pixels ``a <= x < b`` whose sample lies inside the
+    row, ``(a, b)`` returned. Vector code (the guided kernels' colour term).
+    """
+    width = guide.shape[2]
+    a, b = max(0, -dx), min(width, width - dx)  # the pixels, their samples + dx
+    r1, g1, b1 = (
+        guide[0, yy, a + dx : b + dx],
+        guide[1, yy, a + dx : b + dx],
+        guide[2, yy, a + dx : b + dx],
+    )
+    r0, g0, b0 = guide[0, y, a:b], guide[1, y, a:b], guide[2, y, a:b]
+    for i in range(b - a):
+        diff[i] = max(abs(np.int32(r1[i]) - np.int32(r0[i])),
+                      abs(np.int32(g1[i]) - np.int32(g0[i])),
+                      abs(np.int32(b1[i]) - np.int32(b0[i])))  # fmt: skip
+    return a, b
+
+
 @nb.njit(cache=True)
 def forward_weights(guide, y, radius, colour_weight, space_weight, diff, slot):
     """Write ``slot[forward_index(dy, dx), x]``: pixel ``(y, x)``'s weight of ``(y + dy, x + dx)``.
@@ -81,23 +103,12 @@ def forward_weights(guide, y, radius, colour_weight, space_weight, diff, slot):
     channel difference, for the forward offsets whose sample lies inside the image; the
     other entries are left as they are (never read). ``diff``: int32 scratch of the width.
     """
-    height, width = guide.shape[1], guide.shape[2]
+    height = guide.shape[1]
     side = 2 * radius + 1
     for dy in range(0, min(radius, height - 1 - y) + 1):
-        yy = y + dy
         for dx in range(1 if dy == 0 else -radius, radius + 1):
             space = space_weight[dy + radius, dx + radius]
-            a, b = max(0, -dx), min(width, width - dx)  # the pixels, their samples + dx
-            r1, g1, b1 = (
-                guide[0, yy, a + dx : b + dx],
-                guide[1, yy, a + dx : b + dx],
-                guide[2, yy, a + dx : b + dx],
-            )
-            r0, g0, b0 = guide[0, y, a:b], guide[1, y, a:b], guide[2, y, a:b]
-            for i in range(b - a):
-                diff[i] = max(abs(np.int32(r1[i]) - np.int32(r0[i])),
-                              abs(np.int32(g1[i]) - np.int32(g0[i])),
-                              abs(np.int32(b1[i]) - np.int32(b0[i])))  # fmt: skip
+            a, b = channel_differences(guide, y, y + dy, dx, diff)
             dst = slot[forward_index(dy, dx, side), a:b]
             for i in range(b - a):  # a table lookup each (an unsigned index: no test for
                 dst[i] = colour_weight[np.uint32(diff[i])] * space  # a negative one)
