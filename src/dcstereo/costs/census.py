@@ -31,7 +31,9 @@ def reversed_padded_rows(rows_in, before, after):
 
     Padded by ``before`` repeated first values and ``after`` repeated last ones, then
     reversed: ``out[n, j] = rows_in[n, clip(W + after - 1 - j, 0, W - 1)]``, ``W + before +
-    after`` columns (the right view as the cost kernel reads it). Rows in parallel.
+    after`` columns (the right view as the cost kernel reads it). Rows in parallel. The
+    copy reads a reversed view of the row from index 0 up, which the compiler makes vector
+    code of (indexed from the end, it did not: teddy's codes and colours 0.84 -> 0.24 ms).
     """
     count, width = rows_in.shape
     length = width + before + after
@@ -43,8 +45,9 @@ def reversed_padded_rows(rows_in, before, after):
         first = row[0]
         for j in range(after):
             dst[j] = last
-        for j in range(after, after + width):
-            dst[j] = row[width + after - 1 - j]
+        backwards, body = row[::-1], dst[after : after + width]
+        for j in range(width):
+            body[j] = backwards[j]
         for j in range(after + width, length):
             dst[j] = first
     return out
