@@ -25,16 +25,11 @@ import numba as nb
 import numpy as np
 
 from dcstereo._vector.sgm import next_task
-from dcstereo.refine._weighted_median import channel_differences, forward_index
+from dcstereo.refine._weighted_median import BAND, band_rows, channel_differences, forward_index
 
 #: The slopes' regularisation, per unit of weight: keeps the fit defined where the
 #: window's estimates lie on a line, and leaves it the weighted mean where they are one.
 RIDGE = 1e-3
-
-#: The rows of a task: each computes the weights of ``radius`` rows above it again (4 of
-#: 32: an eighth more colour factors). Teddy, one thread (AVX2): 16 rows 26.2 ms, 32 24.7,
-#: 64 23.9; 32 keeps twelve tasks for threads on a 375-row image.
-BAND = 32
 
 
 @nb.njit(cache=True, inline="always")
@@ -111,8 +106,8 @@ def local_plane_rows(disparity, guide, moved, radius, tolerance, colour_powers, 
         diff = np.empty(width, dtype=np.int32)
         band = next_task(counter)
         while band < bands:
-            y0 = band * BAND
-            for y in range(max(0, y0 - radius), min(height, y0 + BAND)):
+            first, y0, stop = band_rows(band, radius, height)
+            for y in range(first, stop):
                 forward_weights(
                     guide, y, radius, colour_powers, space_weight, diff, ring[y % slots]
                 )
