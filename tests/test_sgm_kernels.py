@@ -1,5 +1,6 @@
 """The sgm kernels against their naive twins (tests/naive_sgm.py), bit for bit."""
 
+import numba
 import numpy as np
 import pytest
 
@@ -115,7 +116,10 @@ def test_prefetch_is_a_hint():
     assert sgm_simd.prefetch_pixel(values, 0, 64) is None
     sgm_simd.compiled_prefetch_pixel(values, 4, 96)
     assert values.tolist() == list(range(100))
-    kernel = sgm_simd.compiled_prefetch_pixel
+    # compiled afresh: the cached kernel, loaded from an earlier process's cache, has no code
+    # to inspect
+    kernel = numba.njit(sgm_simd.compiled_prefetch_pixel.py_func)
+    kernel(values, 4, 96)
     code = kernel.inspect_llvm(kernel.signatures[0])
     assert ("@llvm.prefetch" in code) == VECTOR
 
@@ -160,19 +164,36 @@ def test_cost_volume_equals_twin(colour, dmin, dmax, box):
         naive_sgm.pixel_costs(codes_l, codes_r, colour_l, colour_r, dmin, ndisp, bit_cost, 20),
         box,
     )
-    pad, after = max(0, dmax), max(0, -dmin)
+    after = max(0, -dmin)
     lanes = -(-ndisp // LANES) * LANES
     largest = sgm.UNITS * sgm.largest_pixel_cost(params)
     reciprocal = census_kernels.box_reciprocal(box, largest * box * box)
-    for begin, rows in ((0, height), (2, 3)):  # the whole image, and a strip of it
-        out = np.empty((rows, width, lanes), np.int16)
-        census_kernels.cost_volume(
-            codes_l, sgm._reversed_right(codes_r, pad, after), colour_l,
-            sgm._reversed_right(colour_r, pad, after), dmin, ndisp, bit_cost, 20, box,
-            reciprocal, 7777, begin, out,
-        )  # fmt: skip
-        np.testing.assert_array_equal(out[:, :, :ndisp], expected[begin : begin + rows])
-        assert (out[:, :, ndisp:] == 7777).all()
+    # the right rows padded for the disparities only (the kernel computes ndisp lanes), and
+    # for every lane (as sgm pads them: all lanes computed, the padding set after)
+    for pad in (max(0, dmax), max(0, dmax + lanes - ndisp)):
+        for begin, rows in ((0, height), (2, 3)):  # the whole image, and a strip of it
+            out = np.empty((rows, width, lanes), np.int16)
+            census_kernels.cost_volume(
+                codes_l, sgm._reversed_right(codes_r, pad, after), colour_l,
+                sgm._reversed_right(colour_r, pad, after), dmin, ndisp, bit_cost, 20, box,
+                reciprocal, 7777, begin, out,
+            )  # fmt: skip
+            np.testing.assert_array_equal(out[:, :, :ndisp], expected[begin : begin + rows])
+            assert (out[:, :, ndisp:] == 7777).all()
+
+
+def test_cost_span_by_hand():
+    # 10 left columns, disparities 2..6 (5 of them, 16 lanes): left pixel 0 reads right
+    # columns 9 + 2 + k (the reversed layout), so k up to 15 needs 27 columns
+    span = census_kernels.cost_span.py_func
+    assert span(10, 10 + 6, 2, 5, 16) == 5  # padded for the disparities only
+    assert span(10, 26, 2, 5, 16) == 15
+    assert span(10, 27, 2, 5, 16) == 16
+    assert span(10, 40, 2, 5, 16) == 16  # never past the lanes
+    # disparities -3..1: after = 3 (right columns 9 - 3 + 3 + k), pad = 1 for them alone,
+    # 1 + 11 for every lane
+    assert span(10, 10 + 1 + 3, -3, 5, 16) == 5
+    assert span(10, 10 + 12 + 3, -3, 5, 16) == 16
 
 
 def test_box_reciprocal_is_exact_or_refused():

@@ -513,7 +513,9 @@ def _run_threads(left, right, params, want_confidence):
     if params.cost == "census":
         colour_l = colour_l[:1, :1, :1]  # unread (ad_max 0); one unit a cost unit
         colour_r = colour_r[:1, :1, :1]
-    pad = max(0, params.max_disparity)
+    # right columns for every lane of a pixel (census.cost_span: whole vectors), not only
+    # for its disparities
+    pad = max(0, params.max_disparity + lanes - ndisp)
     after = max(0, -dmin)
     codes_r = _reversed_right(codes_r, pad, after)
     if params.cost == "census-ad":
