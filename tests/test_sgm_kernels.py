@@ -246,13 +246,19 @@ CASES = [
 ]
 
 
+@pytest.mark.parametrize("threads", [1, 2])  # one: the fused sweep up (paths_and_choices)
 @pytest.mark.parametrize("colour", [False, True])
 @pytest.mark.parametrize("case", CASES)
-def test_sgm_equals_twin(case, colour):
+def test_sgm_equals_twin(case, colour, threads):
     left, right = _costs_inputs(len(str(case)), colour, height=8 + colour, width=26)  # odd too
     right = np.roll(left, -3, axis=1) // 2 + right // 2  # something to match
     params = MatchParams(method="sgm", fill=False, median=0, **case)
-    result = sgm.match_sgm(left, right, params)
+    before = numba.get_num_threads()
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    try:
+        result = sgm.match_sgm(left, right, params)
+    finally:
+        numba.set_num_threads(before)
     disparity, flags = _naive_sgm(left, right, params)
     np.testing.assert_array_equal(result.flags, flags)
     np.testing.assert_array_equal(result.disparity, disparity)
@@ -267,9 +273,15 @@ def test_strips_are_exact_where_one_strip_holds_the_image(monkeypatch):
     # a bound that makes strips of 5 rows with 32 rows of context covers this image whole
     per_row = 50 * 16 * 2 * 3
     monkeypatch.setattr(sgm, "VOLUME_BYTES", per_row * (5 + 2 * sgm.STRIP_MARGIN))
-    strips = sgm.match_sgm(left, right, params)
-    np.testing.assert_array_equal(strips.disparity, whole.disparity)
-    np.testing.assert_array_equal(strips.flags, whole.flags)
+    before = numba.get_num_threads()
+    for threads in (1, min(2, numba.config.NUMBA_NUM_THREADS)):  # one: the fused sweep up
+        numba.set_num_threads(threads)
+        try:
+            strips = sgm.match_sgm(left, right, params)
+        finally:
+            numba.set_num_threads(before)
+        np.testing.assert_array_equal(strips.disparity, whole.disparity)
+        np.testing.assert_array_equal(strips.flags, whole.flags)
 
 
 @pytest.mark.parametrize("channels", [1, 3])

@@ -564,11 +564,10 @@ def _run_threads(left, right, params, want_confidence):
                 )  # fmt: skip
             cost = volume.reshape(-1)
             luma = np.ascontiguousarray(luma_l[m0:m1, c0:c1])
-            sgm_kernels.vertical_sums(cost, luma, p1, table, diagonals, down, up, threads)
-            sgm_kernels.final_pass(
+            sgm_kernels.paths_and_choices(
                 cost, luma, down, up, s0 - m0, s1 - m0, k0 - c0, k1 - c0, dmin, ndisp, p1,
-                table, _SUBPIXEL[params.subpixel], best, value, candidate, margin, s0, k0,
-                threads,
+                table, diagonals, _SUBPIXEL[params.subpixel], best, value, candidate, margin,
+                s0, k0, threads,
             )  # fmt: skip
     finally:
         _POOL.give(held)
