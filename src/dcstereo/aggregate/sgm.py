@@ -342,14 +342,15 @@ def paths_and_choices(
 ):  # fmt: skip
     """Aggregate a strip's paths and choose its rows ``y0..y1 - 1``: :func:`final_pass`'s outputs.
 
-    ``threads`` is numba's thread count. From two threads, :func:`vertical_sums` into
-    ``down`` and ``up`` (the two passes side by side, or split into bands), then
-    :func:`final_pass` (rows in parallel). On one thread, :func:`vertical_pass` into
-    ``down``, then :func:`up_final_pass`, which leaves ``up`` unread and unwritten: the same
-    outputs, bit for bit, with one stream through the costs and one through a volume of sums
-    fewer (KITTI 000066's kernels, one thread: 93.4 -> 87.4 ms).
+    ``threads`` is numba's thread count. From two threads (or from
+    :data:`SPLIT_THREADS`, where that is one), :func:`vertical_sums` into ``down`` and ``up``
+    (the two passes side by side, or split into bands), then :func:`final_pass` (rows in
+    parallel). On one thread, :func:`vertical_pass` into ``down``, then
+    :func:`up_final_pass`, which leaves ``up`` unread and unwritten: the same outputs, bit
+    for bit, with one stream through the costs and one through a volume of sums fewer
+    (KITTI 000066's kernels, one thread: 93.4 -> 87.4 ms).
     """
-    if threads == 1:
+    if threads == 1 and threads < SPLIT_THREADS:
         vertical_pass(cost, luma, 0, luma.shape[0] - 1, 1, p1, p2_table, diagonals, down)
         up_final_pass(
             cost, luma, down, y0, y1, x0, x1, dmin, ndisp, p1, p2_table, diagonals, subpixel,
@@ -466,33 +467,61 @@ def final_pass(
     pairs = (rows + 1) // 2  # two rows a task: two chains of dependent steps
     counter = np.zeros(1, dtype=np.int64)
     for _ in nb.prange(max(1, min(threads, pairs))):
-        hbuf_a, hbuf_b = _path_buffer(width, lanes), _path_buffer(width, lanes)
-        back_a, back_b = _path_buffer(2, lanes), _path_buffer(2, lanes)
-        total_a = np.empty(width * lanes, dtype=np.int16)
-        total_b = np.empty(width * lanes, dtype=np.int16)
-        best_a = np.empty(width, dtype=np.int64)
-        best_b = np.empty(width, dtype=np.int64)
+        scratch = _final_scratch(width, lanes)
         i = next_task(counter)
         while i < pairs:
             ra = 2 * i
             pair = ra + 1 < rows
             rb = ra + 1 if pair else ra
-            _horizontal_rows(
+            _final_rows(
                 cost, luma, down, up, y0 + ra, y0 + rb, (y0 + ra) * width * lanes,
-                (y0 + rb) * width * lanes, pair, lanes, p1, p2_table, hbuf_a, hbuf_b, back_a,
-                back_b, total_a, total_b, best_a, best_b, ndisp,
+                (y0 + rb) * width * lanes, pair, lanes, p1, p2_table, scratch, x0, x1, dmin,
+                ndisp, subpixel, best, value, candidate, confidence, out_y + ra, out_y + rb,
+                out_x,
             )  # fmt: skip
-            ya, yb = out_y + ra, out_y + rb
-            _choose_row(
-                total_a, best_a, lanes, x0, x1, dmin, ndisp, subpixel, best[ya], value[ya],
-                candidate[ya], confidence[ya], out_x,
-            )  # fmt: skip
-            if pair:
-                _choose_row(
-                    total_b, best_b, lanes, x0, x1, dmin, ndisp, subpixel, best[yb], value[yb],
-                    candidate[yb], confidence[yb], out_x,
-                )  # fmt: skip
             i = next_task(counter)
+
+
+@nb.njit(cache=True)
+def _final_scratch(width, lanes):
+    """One thread's buffers for :func:`_final_rows`, rows of ``width`` pixels."""
+    return (
+        _path_buffer(width, lanes),  # the left-to-right paths of the two rows
+        _path_buffer(width, lanes),
+        _path_buffer(2, lanes),  # the right-to-left paths' last two pixels
+        _path_buffer(2, lanes),
+        np.empty(width * lanes, dtype=np.int16),  # the totals
+        np.empty(width * lanes, dtype=np.int16),
+        np.empty(width, dtype=np.int64),  # each pixel's first least total
+        np.empty(width, dtype=np.int64),
+    )
+
+
+@nb.njit(cache=True)
+def _final_rows(
+    cost, luma, down, up, ya, yb, up_a, up_b, pair, lanes, p1, p2_table, scratch, x0, x1,
+    dmin, ndisp, subpixel, best, value, candidate, confidence, out_a, out_b, out_x,
+):  # fmt: skip
+    """Run the horizontal paths, totals and choices of rows ``ya`` and ``yb`` (``yb``: ``pair``).
+
+    :func:`_horizontal_rows` (the sums from below at ``up[up_a]`` and ``up[up_b]``), then
+    :func:`_choose_row` of each into rows ``out_a`` and ``out_b`` of the outputs;
+    ``scratch``: :func:`_final_scratch`.
+    """
+    hbuf_a, hbuf_b, back_a, back_b, total_a, total_b, best_a, best_b = scratch
+    _horizontal_rows(
+        cost, luma, down, up, ya, yb, up_a, up_b, pair, lanes, p1, p2_table, hbuf_a, hbuf_b,
+        back_a, back_b, total_a, total_b, best_a, best_b, ndisp,
+    )  # fmt: skip
+    _choose_row(
+        total_a, best_a, lanes, x0, x1, dmin, ndisp, subpixel, best[out_a], value[out_a],
+        candidate[out_a], confidence[out_a], out_x,
+    )  # fmt: skip
+    if pair:
+        _choose_row(
+            total_b, best_b, lanes, x0, x1, dmin, ndisp, subpixel, best[out_b], value[out_b],
+            candidate[out_b], confidence[out_b], out_x,
+        )  # fmt: skip
 
 
 @nb.njit(cache=True)
@@ -514,12 +543,7 @@ def up_final_pass(
     lanes = cost.size // (height * width)
     state = vertical_state(width, lanes, diagonals)
     up = np.empty(2 * width * lanes, dtype=np.int16)  # rows ya (first half) and yb
-    hbuf_a, hbuf_b = _path_buffer(width, lanes), _path_buffer(width, lanes)
-    back_a, back_b = _path_buffer(2, lanes), _path_buffer(2, lanes)
-    total_a = np.empty(width * lanes, dtype=np.int16)
-    total_b = np.empty(width * lanes, dtype=np.int16)
-    best_a = np.empty(width, dtype=np.int64)
-    best_b = np.empty(width, dtype=np.int64)
+    scratch = _final_scratch(width, lanes)
     y = height - 1
     first = True
     while y >= y0:
@@ -534,20 +558,11 @@ def up_final_pass(
             state = vertical_row(
                 cost, luma, yb, -1, False, p1, p2_table, diagonals, state, up, width * lanes
             )
-        _horizontal_rows(
-            cost, luma, down, up, ya, yb, 0, width * lanes, pair, lanes, p1, p2_table, hbuf_a,
-            hbuf_b, back_a, back_b, total_a, total_b, best_a, best_b, ndisp,
+        _final_rows(
+            cost, luma, down, up, ya, yb, 0, width * lanes, pair, lanes, p1, p2_table, scratch,
+            x0, x1, dmin, ndisp, subpixel, best, value, candidate, confidence,
+            out_y + ya - y0, out_y + yb - y0, out_x,
         )  # fmt: skip
-        ra, rb = out_y + ya - y0, out_y + yb - y0
-        _choose_row(
-            total_a, best_a, lanes, x0, x1, dmin, ndisp, subpixel, best[ra], value[ra],
-            candidate[ra], confidence[ra], out_x,
-        )  # fmt: skip
-        if pair:
-            _choose_row(
-                total_b, best_b, lanes, x0, x1, dmin, ndisp, subpixel, best[rb], value[rb],
-                candidate[rb], confidence[rb], out_x,
-            )  # fmt: skip
         y = yb - 1
 
 
