@@ -534,10 +534,10 @@ def up_final_pass(
     The same outputs as ``vertical_pass`` up the strip into a volume ``up`` and then
     :func:`final_pass` (``down`` from the paths from above), bit for bit, without the volume:
     each row's sums from below go to a buffer of two rows, and its horizontal paths and
-    totals run at once, while they and the row's costs are in the caches. One thread
-    streams through the costs twice and the sums once after the costs are made, where the
-    passes side by side and the final pass stream through the costs three times and the
-    sums twice, once written; and the paths from below stop at row ``y0``.
+    totals run at once, while they and the row's costs are in the caches. With the pass
+    down before it, the costs are read twice and one volume of sums written and read once;
+    the two passes and the final pass read the costs three times and write and read two
+    volumes of sums. The paths from below stop at row ``y0``.
     """
     height, width = luma.shape
     lanes = cost.size // (height * width)
