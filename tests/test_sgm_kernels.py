@@ -7,6 +7,7 @@ import pytest
 import dcstereo
 import naive_sgm
 from dcstereo._vector import sgm as sgm_simd
+from dcstereo.aggregate import sgm as sgm_kernels
 from dcstereo.costs import census as census_kernels
 from dcstereo.methods import sgm
 from dcstereo.params import MatchParams
@@ -185,21 +186,25 @@ def test_cost_volume_equals_twin(colour, dmin, dmax, box):
 @pytest.mark.parametrize("box", [1, 3, 5])
 def test_box_row_equals_twin(box):
     # one row of the box mean from a ring of per-pixel rows, narrow rows included (the
-    # 3 x 3 box's rolling column sums at widths 1 and 2), the padding lanes set
+    # 3 x 3 box's rolling column sums at widths 1 and 2), the padding lanes set; the
+    # column sums stay within box_scratch's values (a guard after them is left alone)
     rng = np.random.default_rng(box)
     for width in (1, 2, 3, 17):
-        ndisp, real = 32, 27
-        ring = rng.integers(0, 1200, (box, width, ndisp)).astype(np.int16)
-        vertical = np.full((width + box - 1) * ndisp, -1, np.int16)
-        out = np.full((width, ndisp), -1, np.int16)
+        span, ndisp = 32, 27
+        ring = rng.integers(0, 1200, (box, width, span)).astype(np.int16)
+        size = census_kernels.box_scratch(width, box, span)
+        assert size == (3 * span if box == 3 else (width + box - 1) * span)
+        vertical = np.full(size + span, -1, np.int16)
+        out = np.full((width, span), -1, np.int16)
         reciprocal = census_kernels.box_reciprocal(box, 1200 * box * box)
-        census_kernels._box_row(ring, width, ndisp, box, reciprocal, vertical, out, 777, real)
+        census_kernels._box_row(ring, width, span, box, reciprocal, vertical, out, 777, ndisp)
         sums = ring.astype(np.int64).sum(axis=0)
         padded = np.pad(sums, ((box // 2, box // 2), (0, 0)), mode="edge")
         window = sum(padded[dx : dx + width] for dx in range(box))
         expected = window // (box * box)
-        np.testing.assert_array_equal(out[:, :real], expected[:, :real], err_msg=str(width))
-        assert (out[:, real:] == 777).all()
+        np.testing.assert_array_equal(out[:, :ndisp], expected[:, :ndisp], err_msg=str(width))
+        assert (out[:, ndisp:] == 777).all()
+        assert (vertical[size:] == -1).all()
 
 
 def test_box3_row_by_hand():
@@ -208,7 +213,7 @@ def test_box3_row_by_hand():
     # (18 + 36 + 36) // 9 = 10
     ring = np.array([[[3], [6], [12]]] * 3, dtype=np.int16)
     out = np.empty((3, 1), np.int16)
-    census_kernels._box_row(ring, 3, 1, 3, np.float32(1 / 9), np.empty(5, np.int16), out, 0, 1)
+    census_kernels._box_row(ring, 3, 1, 3, np.float32(1 / 9), np.empty(3, np.int16), out, 0, 1)
     assert out[:, 0].tolist() == [4, 7, 10]
 
 
@@ -276,19 +281,30 @@ CASES = [
 ]
 
 
-@pytest.mark.parametrize("threads", [1, 2])  # one: the fused sweep up (paths_and_choices)
+PLANS = [sgm_kernels.PLAN_SWEEP, sgm_kernels.PLAN_PASSES, sgm_kernels.PLAN_SPLIT]
+
+
+@pytest.mark.parametrize("plan", PLANS)  # each of paths_and_choices' three, whatever the load
 @pytest.mark.parametrize("colour", [False, True])
 @pytest.mark.parametrize("case", CASES)
-def test_sgm_equals_twin(case, colour, threads):
+def test_sgm_equals_twin(case, colour, plan, monkeypatch):
     left, right = _costs_inputs(len(str(case)), colour, height=8 + colour, width=26)  # odd too
     right = np.roll(left, -3, axis=1) // 2 + right // 2  # something to match
     params = MatchParams(method="sgm", fill=False, median=0, **case)
+    chosen = []
+
+    def forced(width, threads):
+        chosen.append(plan)
+        return plan
+
+    monkeypatch.setattr(sgm_kernels, "aggregation_plan", forced)
     before = numba.get_num_threads()
-    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+    numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
     try:
         result = sgm.match_sgm(left, right, params)
     finally:
         numba.set_num_threads(before)
+    assert chosen  # the plan was asked for, so the forced one ran
     disparity, flags = _naive_sgm(left, right, params)
     np.testing.assert_array_equal(result.flags, flags)
     np.testing.assert_array_equal(result.disparity, disparity)

@@ -320,20 +320,45 @@ def band_pass(cost, luma, y_first, step, slope, c0, c1, p1, p2_table, add, sums)
         prev_min, cur_min = cur_min, prev_min
 
 
+#: The three ways :func:`paths_and_choices` runs a strip's paths (:func:`aggregation_plan`).
+PLAN_SWEEP, PLAN_PASSES, PLAN_SPLIT = 0, 1, 2
+
+
+def aggregation_plan(width, threads):
+    """Return how a strip ``width`` columns wide is aggregated on ``threads`` threads.
+
+    One rule for the three paths, which give the same outputs bit for bit:
+    :data:`PLAN_SPLIT` (:func:`split_passes`, bands of each path direction) from
+    :data:`SPLIT_THREADS` threads where the strip holds two bands (``2 * MIN_BAND``
+    columns; one band a direction would give the fused passes' two tasks for more work);
+    else :data:`PLAN_SWEEP` (:func:`vertical_pass` down, then :func:`up_final_pass`) on
+    one thread; else :data:`PLAN_PASSES` (:func:`vertical_passes`, two tasks, then
+    :func:`final_pass`).
+
+    >>> aggregation_plan(640, 1), aggregation_plan(640, 2), aggregation_plan(640, 8)
+    (0, 1, 2)
+    >>> aggregation_plan(12, 8)  # too narrow for two bands
+    1
+    """
+    if threads >= SPLIT_THREADS and split_bands(width, threads) >= 2:
+        return PLAN_SPLIT
+    return PLAN_SWEEP if threads == 1 else PLAN_PASSES
+
+
 def vertical_sums(cost, luma, p1, p2_table, diagonals, down, up, threads):
     """Aggregate the paths from above into ``down`` and from below into ``up``.
 
-    ``threads`` is numba's thread count: :func:`vertical_passes` (two tasks) below
-    :data:`SPLIT_THREADS`, :func:`split_passes` (bands of each path direction,
-    :func:`split_bands` of them) from it: the same volumes, bit for bit. A strip too narrow
-    for two bands (under ``2 * MIN_BAND`` columns) keeps the fused passes: one band a
-    direction would give their two tasks for more work.
+    ``threads`` is numba's thread count: :func:`split_passes` (bands of each path
+    direction, :func:`split_bands` of them) where :func:`aggregation_plan` says
+    :data:`PLAN_SPLIT`, else :func:`vertical_passes` (two tasks): the same volumes, bit
+    for bit.
     """
-    bands = split_bands(luma.shape[1], threads)
-    if threads < SPLIT_THREADS or bands < 2:
-        vertical_passes(cost, luma, p1, p2_table, diagonals, down, up, threads)
-    else:
+    width = luma.shape[1]
+    if aggregation_plan(width, threads) == PLAN_SPLIT:
+        bands = split_bands(width, threads)
         split_passes(cost, luma, p1, p2_table, diagonals, down, up, threads, bands)
+    else:
+        vertical_passes(cost, luma, p1, p2_table, diagonals, down, up, threads)
 
 
 def paths_and_choices(
@@ -342,15 +367,15 @@ def paths_and_choices(
 ):  # fmt: skip
     """Aggregate a strip's paths and choose its rows ``y0..y1 - 1``: :func:`final_pass`'s outputs.
 
-    ``threads`` is numba's thread count. From two threads (or from
-    :data:`SPLIT_THREADS`, where that is one), :func:`vertical_sums` into ``down`` and ``up``
-    (the two passes side by side, or split into bands), then :func:`final_pass` (rows in
-    parallel). On one thread, :func:`vertical_pass` into ``down``, then
-    :func:`up_final_pass`, which leaves ``up`` unread and unwritten: the same outputs, bit
-    for bit, with one stream through the costs and one through a volume of sums fewer
-    (KITTI 000066's kernels, one thread: 93.4 -> 87.4 ms).
+    ``threads`` is numba's thread count; :func:`aggregation_plan` chooses the path. Its
+    :data:`PLAN_SWEEP` (one thread): :func:`vertical_pass` into ``down``, then
+    :func:`up_final_pass`, which leaves ``up`` unread and unwritten, with one stream
+    through the costs and one through a volume of sums fewer (KITTI 000066's kernels, one
+    thread: 93.4 -> 87.4 ms). Otherwise :func:`vertical_sums` into ``down`` and ``up`` (the
+    two passes side by side, or split into bands), then :func:`final_pass` (rows in
+    parallel). The same outputs, bit for bit.
     """
-    if threads == 1 and threads < SPLIT_THREADS:
+    if aggregation_plan(luma.shape[1], threads) == PLAN_SWEEP:
         vertical_pass(cost, luma, 0, luma.shape[0] - 1, 1, p1, p2_table, diagonals, down)
         up_final_pass(
             cost, luma, down, y0, y1, x0, x1, dmin, ndisp, p1, p2_table, diagonals, subpixel,

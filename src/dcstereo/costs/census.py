@@ -222,7 +222,7 @@ def _volume_rows(
     height, width = codes_l.shape
     radius = box // 2
     ring = np.empty((box, width, span), dtype=np.int16)
-    vertical = np.empty((width + box - 1) * span, dtype=np.int16)
+    vertical = np.empty(box_scratch(width, box, span), dtype=np.int16)
     for t in range(box - 1):  # rows y0 - radius .. y0 + radius - 1
         yy = min(max(y0 - radius + t, 0), height - 1)
         pixel_cost_row(
@@ -265,23 +265,37 @@ BOX3_MULTIPLIER = 7282
 
 
 @nb.njit(cache=True)
-def _box_row(ring, width, ndisp, box, reciprocal, vertical, out_row, pad_cost, real):
+def box_scratch(width, box, span):
+    """Return how many int16 values :func:`_box_row`'s column sums take.
+
+    A row's, with ``box // 2`` repeated edge columns each side; three pixels' for the
+    3 x 3 box (:func:`_box3_row`).
+
+    >>> box_scratch.py_func(100, 5, 64), box_scratch.py_func(100, 3, 64)
+    (6656, 192)
+    """
+    return 3 * span if box == 3 else (width + box - 1) * span
+
+
+@nb.njit(cache=True)
+def _box_row(ring, width, span, box, reciprocal, vertical, out_row, pad_cost, ndisp):
     """``out_row[x, k]``: the mean over the ring's rows and ``box`` columns around ``x``.
 
-    ``vertical`` is an int16 scratch row of ``(width + box - 1) * ndisp``: the column sums,
+    ``vertical`` is an int16 scratch of :func:`box_scratch` values: the column sums,
     with ``box // 2`` repeated edge columns on each side (one flat loop over ``(x, k)``);
     then each pixel's ``box`` columns are summed, averaged and stored in one loop (a 3 x 3
-    box by :data:`BOX3_MULTIPLIER`, others by ``reciprocal``). The ring holds ``ndisp``
-    lanes of a pixel, of which the first ``real`` are disparities; lanes from ``real`` on
-    receive ``pad_cost``. A 3 x 3 box: :func:`_box3_row`, the same values.
+    box by :data:`BOX3_MULTIPLIER`, others by ``reciprocal``). The ring holds ``span``
+    lanes of a pixel (:func:`cost_span`), of which the first ``ndisp`` are disparities;
+    lanes from ``ndisp`` on receive ``pad_cost``. A 3 x 3 box: :func:`_box3_row`, the same
+    values.
     """
     if box == 3:
-        _box3_row(ring, width, ndisp, vertical, out_row, pad_cost, real)
+        _box3_row(ring, width, span, vertical, out_row, pad_cost, ndisp)
         return
     radius = box // 2
     lanes = out_row.shape[1]
-    n = width * ndisp
-    body = vertical[radius * ndisp : radius * ndisp + n]
+    n = width * span
+    body = vertical[radius * span : radius * span + n]
     first = ring[0].reshape(n)
     for i in range(n):
         body[i] = first[i]
@@ -290,25 +304,25 @@ def _box_row(ring, width, ndisp, box, reciprocal, vertical, out_row, pad_cost, r
         for i in range(n):
             body[i] += other[i]
     for e in range(radius):  # the repeated edge columns
-        for k in range(ndisp):
-            vertical[e * ndisp + k] = body[k]
-            vertical[(radius + width + e) * ndisp + k] = body[n - ndisp + k]
+        for k in range(span):
+            vertical[e * span + k] = body[k]
+            vertical[(radius + width + e) * span + k] = body[n - span + k]
     for x in range(width):
         dst = out_row[x]
-        for k in range(ndisp):
+        for k in range(span):
             total = np.int16(0)
             for dx in range(box):
-                total += vertical[(x + dx) * ndisp + k]
+                total += vertical[(x + dx) * span + k]
             dst[k] = np.int16(np.float32(total) * reciprocal)
-        for k in range(real, lanes):
+        for k in range(ndisp, lanes):
             dst[k] = pad_cost
 
 
 @nb.njit(cache=True)
-def _box3_row(ring, width, ndisp, vertical, out_row, pad_cost, real):
+def _box3_row(ring, width, span, vertical, out_row, pad_cost, ndisp):
     """:func:`_box_row` of a 3 x 3 box, its column sums three at a time.
 
-    The first ``3 * ndisp`` values of ``vertical`` hold the column sums of pixels ``x - 1``,
+    The first ``3 * span`` values of ``vertical`` hold the column sums of pixels ``x - 1``,
     ``x`` and ``x + 1`` in turn (the edge columns repeated), each made just before the
     pixel whose box reads it last: they stay in the first-level cache, where a whole row's
     went through the second (KITTI's rows of 1226 x 128 lanes, 314 KB: 18.4-19.0 -> 12.9-13.9
@@ -316,25 +330,25 @@ def _box3_row(ring, width, ndisp, vertical, out_row, pad_cost, real):
     """
     lanes = out_row.shape[1]
     r0, r1, r2 = ring[0], ring[1], ring[2]
-    cols = vertical[: 3 * ndisp].reshape(3, ndisp)
+    cols = vertical[: 3 * span].reshape(3, span)
     edge, first = cols[0], cols[1]  # the repeated column before pixel 0, and pixel 0's
     a, b, c = r0[0], r1[0], r2[0]
-    for k in range(ndisp):
+    for k in range(span):
         first[k] = a[k] + b[k] + c[k]
-    for k in range(ndisp):
+    for k in range(span):
         edge[k] = first[k]
     for x in range(width):
         after = cols[(x + 2) % 3]  # pixel x + 1's sums (the last column repeated)
         xx = min(x + 1, width - 1)
         a, b, c = r0[xx], r1[xx], r2[xx]
-        for k in range(ndisp):
+        for k in range(span):
             after[k] = a[k] + b[k] + c[k]
         p, q = cols[x % 3], cols[(x + 1) % 3]
         dst = out_row[x]
-        for k in range(ndisp):
+        for k in range(span):
             total = np.int32(np.int16(p[k] + q[k] + after[k]))
             dst[k] = np.int16((total * BOX3_MULTIPLIER) >> 16)
-        for k in range(real, lanes):
+        for k in range(ndisp, lanes):
             dst[k] = pad_cost
 
 
