@@ -146,21 +146,27 @@ def _costs_inputs(seed, colour, height=7, width=19):
     return left, right
 
 
+#: Census windows and the codes' type: 24 bits in uint32 (both 16-bit planes in use), 14
+#: bits in uint64 (the high 32-bit plane all zeros), 62 bits in uint64.
+CODES = [((5, 5), np.uint32), ((3, 5), np.uint64), ((7, 9), np.uint64)]
+
+
+@pytest.mark.parametrize(("census", "kind"), CODES)
 @pytest.mark.parametrize("colour", [False, True])
 @pytest.mark.parametrize(("dmin", "dmax", "box"), [(0, 6, 3), (-3, 4, 1), (2, 9, 5), (-5, -1, 3)])
-def test_cost_volume_equals_twin(colour, dmin, dmax, box):
+def test_cost_volume_equals_twin(colour, dmin, dmax, box, census, kind):
     left, right = _costs_inputs(dmax - dmin + box, colour)
     params = MatchParams(
-        max_disparity=dmax, min_disparity=dmin, method="sgm", window=box, census_window=(3, 5)
+        max_disparity=dmax, min_disparity=dmin, method="sgm", window=box, census_window=census
     )
     height, width = left.shape[:2]
     ndisp = dmax - dmin + 1
-    codes_l = np.empty((height, width), np.uint64)
-    codes_r = np.empty((height, width), np.uint64)
-    sgm._census(padded_signal(left, 0), 3, 5, codes_l)
-    sgm._census(padded_signal(right, 0), 3, 5, codes_r)
+    codes_l = np.empty((height, width), kind)
+    codes_r = np.empty((height, width), kind)
+    sgm._census(padded_signal(left, 0), *census, codes_l)
+    sgm._census(padded_signal(right, 0), *census, codes_r)
     colour_l, colour_r = sgm.colour_channels(left, right)
-    bit_cost = sgm.census_bit_cost((3, 5))
+    bit_cost = sgm.census_bit_cost(census)
     expected = naive_sgm.box_mean(
         naive_sgm.pixel_costs(codes_l, codes_r, colour_l, colour_r, dmin, ndisp, bit_cost, 20),
         box,
@@ -175,7 +181,8 @@ def test_cost_volume_equals_twin(colour, dmin, dmax, box):
         for begin, rows in ((0, height), (2, 3)):  # the whole image, and a strip of it
             out = np.empty((rows, width, lanes), np.int16)
             census_kernels.cost_volume(
-                codes_l, sgm._reversed_right(codes_r, pad, after), colour_l,
+                census_kernels.code_planes(codes_l),
+                sgm._reversed_right(census_kernels.code_planes(codes_r), pad, after), colour_l,
                 sgm._reversed_right(colour_r, pad, after), dmin, ndisp, bit_cost, 20, box,
                 reciprocal, 7777, begin, out,
             )  # fmt: skip
@@ -229,6 +236,30 @@ def test_cost_span_by_hand():
     # 1 + 11 for every lane
     assert span(10, 10 + 1 + 3, -3, 5, 16) == 5
     assert span(10, 10 + 12 + 3, -3, 5, 16) == 16
+
+
+def test_code_planes_by_hand():
+    planes = census_kernels.code_planes(np.array([[0x12345678, 0xFFFF0001]], np.uint32))
+    assert planes.dtype == np.uint16 and planes.shape == (2, 1, 2)
+    assert planes[:, 0].tolist() == [[0x5678, 0x0001], [0x1234, 0xFFFF]]
+    wide = census_kernels.code_planes(np.array([[0x0123456789ABCDEF]], np.uint64))
+    assert wide.dtype == np.uint32 and wide[:, 0, 0].tolist() == [0x89ABCDEF, 0x01234567]
+    for bad in (np.zeros((2, 2), np.int64), np.zeros((1, 2, 2), np.uint32)):
+        with pytest.raises(ValueError, match="census codes must be 2-D uint32 or uint64"):
+            census_kernels.code_planes(bad)
+
+
+def test_pixel_cost_row_counts_both_planes_by_hand():
+    # one left pixel, disparities 0 and 1 (right pixels 0 and -1, the latter the repeated
+    # edge), census only: left 0x00030001 against right 0x00010003 differs in bit 1 of
+    # each 16-bit half, 2 bits: 3 * bit_cost * 2 = 24 with bit_cost 4
+    left = census_kernels.code_planes(np.array([[0x00030001]], np.uint32))
+    right = census_kernels.code_planes(np.array([[0x00010003]], np.uint32))
+    right = sgm._reversed_right(right, 1, 0)  # padded for disparity 1, reversed
+    out = np.zeros((1, 2), np.int16)
+    grey = np.zeros((1, 1, 2), np.uint8)
+    census_kernels.pixel_cost_row(left, right, grey[:, :, :1], grey, 0, 0, 2, 4, 0, out)
+    assert out.tolist() == [[24, 24]]
 
 
 def test_box_reciprocal_is_exact_or_refused():

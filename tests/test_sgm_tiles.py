@@ -98,6 +98,7 @@ def test_tile_costs_equal_the_image_costs_away_from_the_cuts(colour):
         sgm._census(padded_signal(image, 0), 5, 5, out)
         codes.append(out)
     colour_l, colour_r = sgm.colour_channels(left, right)
+    codes = [census_kernels.code_planes(c) for c in codes]
     codes_r = sgm._reversed_right(codes[1], dmax, -dmin)
     colour_r = sgm._reversed_right(colour_r, dmax, -dmin)
 

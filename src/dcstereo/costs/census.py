@@ -111,12 +111,79 @@ def _popcount_compiled(value):
     return lambda value: _ctpop(value)
 
 
+def code_planes(codes: np.ndarray) -> np.ndarray:
+    """Return census codes as :func:`pixel_cost_row` reads them: two planes, ``(2, H, W)``.
+
+    uint32 codes (windows of up to 33 pixels) as their low and high 16 bits, uint16 planes;
+    uint64 codes as their low and high 32 bits, uint32 planes. A Hamming distance is then
+    the sum of two popcounts of the planes' own width: in 16-bit lanes the popcount, the
+    sum and the cost are vector code of one width, where a 32-bit popcount had each vector
+    of codes narrowed to the costs' lanes (AVX2, one thread, the per-pixel costs of KITTI
+    000066's 24-bit codes: 19.4 -> 13.8 ms, teddy's 10.0 -> 7.1, in one process, loaded).
+
+    >>> code_planes(np.array([[0x12345678]], np.uint32))[:, 0, 0].tolist() == [0x5678, 0x1234]
+    True
+    """
+    half = {np.dtype(np.uint32): np.uint16, np.dtype(np.uint64): np.uint32}.get(codes.dtype)
+    if half is None or codes.ndim != 2:
+        raise ValueError(f"census codes must be 2-D uint32 or uint64, not {codes.ndim}-D {codes.dtype}")
+    out = np.empty((2, *codes.shape), dtype=half)
+    shift = 8 * out.itemsize
+    kind = codes.dtype.type
+    _split_codes(codes, kind(shift), kind((1 << shift) - 1), out)
+    return out
+
+
+@nb.njit(cache=True, parallel=True)
+def _split_codes(codes, shift, mask, out):
+    """``out[0]``: the bits of ``codes`` under ``mask``, ``out[1]`` those from ``shift`` on."""
+    height, width = codes.shape
+    for y in nb.prange(height):
+        row, low, high = codes[y], out[0, y], out[1, y]
+        for x in range(width):
+            low[x] = row[x] & mask
+            high[x] = row[x] >> shift
+
+
+def plane_bits(a, b):
+    """Return the number of bits that differ between ``a`` and ``b``, two codes of a plane.
+
+    Compiled: one ``llvm.ctpop`` of the planes' own width (16 bits for uint16 planes).
+    """
+    return popcount(a ^ b)
+
+
+@overload(plane_bits, inline="always")
+def _plane_bits_compiled(a, b):
+    if isinstance(a, types.Integer) and a.bitwidth == 16:
+        return lambda a, b: np.int16(_ctpop16(a ^ b))
+    return lambda a, b: np.int16(_ctpop(a ^ b))
+
+
+@intrinsic
+def _ctpop16(typingctx, value):
+    """``llvm.ctpop.i16`` of a value's low 16 bits (numba widens a uint16 ``^``)."""
+    if not isinstance(value, types.Integer):
+        return None
+
+    def codegen(context, builder, sig, args):
+        kind = ir.IntType(16)
+        fn = cgutils.get_or_insert_function(
+            builder.module, ir.FunctionType(kind, [kind]), "llvm.ctpop.i16"
+        )
+        low = builder.trunc(args[0], kind) if value.bitwidth > 16 else args[0]
+        return builder.call(fn, [low])
+
+    return types.uint16(value), codegen
+
+
 @nb.njit(cache=True)
 def pixel_cost_row(codes_l, codes_r, colour_l, colour_r, y, dmin, ndisp, bit_cost, ad_max, out):
     """One row of per-pixel costs: ``out[x, k]`` for ``d = dmin + k``, ``k < ndisp``.
 
     In thirds of a cost unit: ``3 * bit_cost * popcount(L ^ R)`` of the census codes of
-    left pixel ``x`` and right pixel ``x - d``, plus, where ``ad_max > 0``, ``min(AD, 3 *
+    left pixel ``x`` and right pixel ``x - d`` (in two planes, :func:`code_planes`: the
+    popcounts of both, :func:`plane_bits`), plus, where ``ad_max > 0``, ``min(AD, 3 *
     ad_max)``, ``AD`` the sum of the absolute differences of the three channels of
     ``colour_l`` (``(3, H, W)``, 0..255), or three times that of its one channel
     (``(1, H, W)``): the mean absolute difference of the channels counts one unit per gray
@@ -127,27 +194,27 @@ def pixel_cost_row(codes_l, codes_r, colour_l, colour_r, y, dmin, ndisp, bit_cos
     disparities of a left pixel run forward in memory. One loop over the disparities of a
     pixel makes both terms.
     """
-    width = codes_l.shape[1]
+    width = codes_l.shape[2]
     after = max(0, -dmin)
     census = np.int16(3 * bit_cost)
     limit = np.int16(3 * ad_max)
-    right = codes_r[y]
+    low, high = codes_r[0, y], codes_r[1, y]
     if ad_max <= 0:
         for x in range(width):
             start = width - 1 - x + dmin + after
-            code = codes_l[y, x]
+            a, b = codes_l[0, y, x], codes_l[1, y, x]
             row = out[x]
-            window = right[start : start + ndisp]
+            w0, w1 = low[start : start + ndisp], high[start : start + ndisp]
             for k in range(ndisp):
-                row[k] = np.int16(census * np.int16(popcount(code ^ window[k])))
+                row[k] = np.int16(census * (plane_bits(a, w0[k]) + plane_bits(b, w1[k])))
     elif colour_l.shape[0] == 3:
         r0, r1, r2 = colour_r[0, y], colour_r[1, y], colour_r[2, y]
         for x in range(width):
             start = width - 1 - x + dmin + after
-            code = codes_l[y, x]
+            a, b = codes_l[0, y, x], codes_l[1, y, x]
             l0, l1, l2 = colour_l[0, y, x], colour_l[1, y, x], colour_l[2, y, x]
             row = out[x]
-            window = right[start : start + ndisp]
+            w0, w1 = low[start : start + ndisp], high[start : start + ndisp]
             c0, c1, c2 = (
                 r0[start : start + ndisp],
                 r1[start : start + ndisp],
@@ -159,19 +226,21 @@ def pixel_cost_row(codes_l, codes_r, colour_l, colour_r, y, dmin, ndisp, bit_cos
                     + np.int16(abs(np.int16(l1 - c1[k])))
                     + np.int16(abs(np.int16(l2 - c2[k])))
                 )
-                row[k] = np.int16(census * np.int16(popcount(code ^ window[k])) + min(ad, limit))
+                bits = np.int16(plane_bits(a, w0[k]) + plane_bits(b, w1[k]))
+                row[k] = np.int16(census * bits + min(ad, limit))
     else:
         r0 = colour_r[0, y]
         for x in range(width):
             start = width - 1 - x + dmin + after
-            code = codes_l[y, x]
+            a, b = codes_l[0, y, x], codes_l[1, y, x]
             l0 = colour_l[0, y, x]
             row = out[x]
-            window = right[start : start + ndisp]
+            w0, w1 = low[start : start + ndisp], high[start : start + ndisp]
             c0 = r0[start : start + ndisp]
             for k in range(ndisp):
                 ad = np.int16(3 * np.int16(abs(np.int16(l0 - c0[k]))))
-                row[k] = np.int16(census * np.int16(popcount(code ^ window[k])) + min(ad, limit))
+                bits = np.int16(plane_bits(a, w0[k]) + plane_bits(b, w1[k]))
+                row[k] = np.int16(census * bits + min(ad, limit))
 
 
 @nb.njit(cache=True, parallel=True)
@@ -194,7 +263,7 @@ def cost_volume(
     each is free (``sgm_simd.next_task``).
     """
     rows = out.shape[0]
-    span = cost_span(codes_l.shape[1], codes_r.shape[1], dmin, ndisp, out.shape[2])
+    span = cost_span(codes_l.shape[2], codes_r.shape[2], dmin, ndisp, out.shape[2])
     chunk = 32
     nchunks = (rows + chunk - 1) // chunk
     counter = np.zeros(1, dtype=np.int64)
@@ -219,7 +288,7 @@ def _volume_rows(
 
     A function of its own: compiled outside the parallel loop, its loops are vectorized.
     """
-    height, width = codes_l.shape
+    _, height, width = codes_l.shape
     radius = box // 2
     ring = np.empty((box, width, span), dtype=np.int16)
     vertical = np.empty(box_scratch(width, box, span), dtype=np.int16)

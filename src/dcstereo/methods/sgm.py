@@ -337,19 +337,20 @@ def tiles(height: int, width: int, lanes: int) -> list[tuple[tuple[int, ...], tu
 def tile_columns(codes_l, codes_r, colour_l, colour_r, c0, c1, colour):
     """Return the inputs of the cost kernel for left columns ``c0..c1 - 1``.
 
-    ``codes_l`` is ``(H, W)``, ``codes_r`` the right codes as the kernel reads them
-    (``_reversed_right``: ``W + pad + after`` columns), ``colour_l`` and ``colour_r`` the
-    ``(C, H, .)`` colours, cut too where ``colour`` (the census-ad cost reads them). The
+    ``codes_l`` is ``(2, H, W)`` (``census.code_planes``), ``codes_r`` the right codes as
+    the kernel reads them (``_reversed_right``: ``W + pad + after`` columns), ``colour_l``
+    and ``colour_r`` the ``(C, H, .)`` colours, cut too where ``colour`` (the census-ad
+    cost reads them). The
     tile's right columns are a slice of the reversed ones: ``W - c1`` on, ``c1 - c0 + pad +
     after`` of them. The box average repeats the tile's edge columns, so a tile's costs
     equal the image's but in the ``window // 2`` columns at a cut.
     """
-    width = codes_l.shape[1]
+    width = codes_l.shape[-1]
     if (c0, c1) == (0, width):
         return codes_l, codes_r, colour_l, colour_r
-    right = slice(width - c1, width - c0 + codes_r.shape[1] - width)
-    tile_l = np.ascontiguousarray(codes_l[:, c0:c1])
-    tile_r = np.ascontiguousarray(codes_r[:, right])
+    right = slice(width - c1, width - c0 + codes_r.shape[-1] - width)
+    tile_l = np.ascontiguousarray(codes_l[..., c0:c1])
+    tile_r = np.ascontiguousarray(codes_r[..., right])
     if colour:
         colour_l = np.ascontiguousarray(colour_l[:, :, c0:c1])
         colour_r = np.ascontiguousarray(colour_r[:, :, right])
@@ -517,7 +518,8 @@ def _run_threads(left, right, params, want_confidence):
     # for its disparities
     pad = max(0, params.max_disparity + lanes - ndisp)
     after = max(0, -dmin)
-    codes_r = _reversed_right(codes_r, pad, after)
+    codes_l = census_kernels.code_planes(codes_l)
+    codes_r = _reversed_right(census_kernels.code_planes(codes_r), pad, after)
     if params.cost == "census-ad":
         colour_r = _reversed_right(colour_r, pad, after)
     reciprocal = check_sgm_bounds(params)
