@@ -95,3 +95,8 @@ def test_gray_colour_channels_are_the_rounded_intensity():
         assert left.dtype == np.int16 and left.shape == (1, *image.shape[:2]), name
         np.testing.assert_array_equal(left[0], _naive_levels(matching_signal(image)), name)
         np.testing.assert_array_equal(right[0], _naive_levels(matching_signal(image[::-1])), name)
+        # the caller's signals, where it has them, give the same channels
+        signals = (padded_signal(image, 0), padded_signal(image[::-1], 0))
+        given = colour_channels(image, image[::-1], signals)
+        np.testing.assert_array_equal(given[0], left, name)
+        np.testing.assert_array_equal(given[1], right, name)

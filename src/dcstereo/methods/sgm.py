@@ -498,11 +498,9 @@ def _run_threads(left, right, params, want_confidence):
     kind = np.uint32 if rows * cols - 1 <= 32 else np.uint64
     codes_l = np.empty((height, width), dtype=kind)
     codes_r = np.empty((height, width), dtype=kind)
-    luma_l = padded_signal(left, 0)
-    colour_l, colour_r = colour_channels(left, right)
-    luma_r, colour_r = _aligned_views(
-        left, right, luma_l, padded_signal(right, 0), colour_l, colour_r, params
-    )
+    luma_l, luma_r = padded_signal(left, 0), padded_signal(right, 0)
+    colour_l, colour_r = colour_channels(left, right, (luma_l, luma_r))
+    luma_r, colour_r = _aligned_views(left, right, luma_l, luma_r, colour_l, colour_r, params)
     shared = run_shared()
     if params.edges is not None and shared is not None:  # for this run's edges stage
         shared[_VIEWS] = (colour_l, colour_r)
