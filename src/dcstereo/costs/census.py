@@ -126,7 +126,9 @@ def code_planes(codes: np.ndarray) -> np.ndarray:
     """
     half = {np.dtype(np.uint32): np.uint16, np.dtype(np.uint64): np.uint32}.get(codes.dtype)
     if half is None or codes.ndim != 2:
-        raise ValueError(f"census codes must be 2-D uint32 or uint64, not {codes.ndim}-D {codes.dtype}")
+        raise ValueError(
+            f"census codes must be 2-D uint32 or uint64, not {codes.ndim}-D {codes.dtype}"
+        )
     out = np.empty((2, *codes.shape), dtype=half)
     shift = 8 * out.itemsize
     kind = codes.dtype.type
