@@ -340,10 +340,9 @@ def tile_columns(codes_l, codes_r, colour_l, colour_r, c0, c1, colour):
     ``codes_l`` is ``(2, H, W)`` (``census.code_planes``), ``codes_r`` the right codes as
     the kernel reads them (``_reversed_right``: ``W + pad + after`` columns), ``colour_l``
     and ``colour_r`` the ``(C, H, .)`` colours, cut too where ``colour`` (the census-ad
-    cost reads them). The
-    tile's right columns are a slice of the reversed ones: ``W - c1`` on, ``c1 - c0 + pad +
-    after`` of them. The box average repeats the tile's edge columns, so a tile's costs
-    equal the image's but in the ``window // 2`` columns at a cut.
+    cost reads them). The tile's right columns are a slice of the reversed ones: ``W - c1``
+    on, ``c1 - c0 + pad + after`` of them. The box average repeats the tile's edge columns,
+    so a tile's costs equal the image's but in the ``window // 2`` columns at a cut.
     """
     width = codes_l.shape[-1]
     if (c0, c1) == (0, width):
