@@ -20,7 +20,6 @@ import pytest
 
 from dcstereo import _threads
 from dcstereo._vector import sgm as sgm_simd
-from dcstereo.aggregate import sgm as sgm_kernels
 from dcstereo.costs import census as census_kernels
 from dcstereo.methods import sgm
 from dcstereo.params import MatchParams
@@ -233,61 +232,16 @@ def test_kept_volumes_are_freed_when_idle(monkeypatch):
     assert sgm.workspace_bytes()["kept"] == 0
 
 
-def _one_thread(call):
-    before = numba.get_num_threads()
-    numba.set_num_threads(1)  # the load can only lower the count: one thread, whatever it is
-    try:
-        return call()
-    finally:
-        numba.set_num_threads(before)
-
-
 def test_calls_reuse_the_kept_volumes():
     sgm.release_workspace()
     left, right = _pair(30, 50, 2, seed=1)
     params = MatchParams(method="sgm", max_disparity=6)
-    _one_thread(lambda: sgm.match_sgm(left, right, params))
+    sgm.match_sgm(left, right, params)
     kept = sgm.workspace_bytes()["kept"]
     assert kept > 0
-    # a smaller call takes the same set
-    _one_thread(lambda: sgm.match_sgm(left[:20], right[:20], params))
+    sgm.match_sgm(left[:20], right[:20], params)  # a smaller call takes the same set
     assert sgm.workspace_bytes() == {"in_use": 0, "kept": kept, "peak": kept}
     sgm.release_workspace()
-
-
-def test_one_thread_calls_take_two_volumes(monkeypatch):
-    # the sweep up on one thread never touches the volume from below: a set of two (the
-    # costs and the sums from above), 7 disparities as 16 lanes of int16
-    sgm.release_workspace()
-    left, right = _pair(30, 50, 2, seed=1)
-    params = MatchParams(method="sgm", max_disparity=6)
-    result = _one_thread(lambda: sgm.match_sgm(left, right, params))
-    assert sgm.workspace_bytes()["peak"] == 2 * 2 * 16 * left.size
-    sgm.release_workspace()
-    # the split passes forced on one thread need the third volume: taken, the same result
-    monkeypatch.setattr(sgm_kernels, "aggregation_plan", lambda width, threads: 2)
-    assert sgm_kernels.PLAN_SPLIT == 2
-    split = _one_thread(lambda: sgm.match_sgm(left, right, params))
-    assert sgm.workspace_bytes()["peak"] == 3 * 2 * 16 * left.size
-    _same(split, result)
-    sgm.release_workspace()
-
-
-def test_pool_sets_of_two_and_three_volumes():
-    pool = sgm._VolumePool()
-    volumes, pair = pool.take(100, 2)
-    assert [v.size for v in volumes] == [100, 100] and pool.in_use == 400
-    pool.give(pair)
-    assert (pool.in_use, pool.kept) == (0, 400)
-    volumes, triple = pool.take(100, 3)  # the kept pair cannot hold it: three fresh volumes
-    assert len(volumes) == 3 and triple is not pair and (pool.in_use, pool.kept) == (600, 400)
-    pool.give(triple)
-    volumes, held = pool.take(60, 2)  # the smallest kept set that holds it: the pair
-    assert held is pair and [v.size for v in volumes] == [60, 60]
-    volumes, held = pool.take(60, 2)  # then the triple, counted whole
-    assert held is triple and len(volumes) == 2 and (pool.in_use, pool.kept) == (1000, 0)
-    assert pool.peak == 1000
-    pool.release()
 
 
 # --------------------------------------------------------------------------- busy machine

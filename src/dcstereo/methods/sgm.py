@@ -172,66 +172,59 @@ def _reversed_right(array: np.ndarray, before: int, after: int) -> np.ndarray:
 class _VolumePool:
     """The volumes of all ``sgm`` calls of the process, in use and kept, within one bound.
 
-    A call takes a set of int16 volumes with :meth:`take` and gives it back with
-    :meth:`give`: three (the costs and the two sums of paths), or two where every tile of
-    the call sweeps up on one thread (``aggregate.sgm.PLAN_SWEEP``, which never touches the
-    sums from below), so that the bound holds half as many callers again. A call may take a
-    kept set with more volumes than it asks for; it counts as held whole. Sets given back
-    are kept for the next calls (fresh volumes larger than the allocator's reuse bound, 32
-    MiB, come from the system zeroed page by page, a sixth of a run on a 720 x 496 x 73
-    pair), at most :data:`KEPT_BYTES` of them, the largest first, and freed
-    :data:`IDLE_SECONDS` after the last call ends. Sets in use and kept together never pass
-    :data:`WORKSPACE_BYTES`: a call that would pass it frees kept sets, then waits for other
-    calls to give theirs back (a call alone always runs). ``peak`` is the most bytes held
-    at once since the last :meth:`release`; ``in_use`` and ``kept`` the bytes now.
+    A call takes a set of three int16 volumes (the costs and the two sums of paths) with
+    :meth:`take` and gives it back with :meth:`give`. Sets given back are kept for the next
+    calls (fresh volumes larger than the allocator's reuse bound, 32 MiB, come from the
+    system zeroed page by page, a sixth of a run on a 720 x 496 x 73 pair), at most
+    :data:`KEPT_BYTES` of them, the largest first, and freed :data:`IDLE_SECONDS` after the
+    last call ends. Sets in use and kept together never pass :data:`WORKSPACE_BYTES`: a
+    call that would pass it frees kept sets, then waits for other calls to give theirs back
+    (a call alone always runs). ``peak`` is the most bytes held at once since the last
+    :meth:`release`; ``in_use`` and ``kept`` the bytes now.
     """
 
     def __init__(self):
         self._lock = threading.Condition()
-        self._free = []  # sets of volumes of one size, the largest last
+        self._free = []  # sets of three volumes of one size, the largest last
         self.in_use = 0
         self.kept = 0
         self.peak = 0
         self._given = 0.0  # time.monotonic() of the last set given back
         self._timer = None
 
-    def take(self, size, count=3):
-        """Return ``count`` int16 volumes of ``size`` values (flat), and the set to give back."""
-        need = count * 2 * size
+    def take(self, size):
+        """Return three int16 volumes of ``size`` values (flat), and the set to give back."""
+        need = 3 * 2 * size
         with self._lock:
             while True:
-                fits = [
-                    i
-                    for i, held in enumerate(self._free)
-                    if held[0].size >= size and len(held) >= count
-                ]
+                fits = [i for i, held in enumerate(self._free) if held[0].size >= size]
                 if fits:  # the smallest kept set that holds the call
                     held = self._free.pop(fits[0])
-                    self.kept -= _set_bytes(held)
-                    self.in_use += _set_bytes(held)
-                    return tuple(volume[:size] for volume in held[:count]), held
+                    self.kept -= 3 * held[0].nbytes
+                    self.in_use += 3 * held[0].nbytes
+                    return tuple(volume[:size] for volume in held), held
                 if self.in_use + self.kept + need <= WORKSPACE_BYTES or not (
                     self.in_use or self._free
                 ):
                     break
                 if self._free:  # too small for this call: freed, the smallest first
-                    self.kept -= _set_bytes(self._free.pop(0))
+                    self.kept -= 3 * self._free.pop(0)[0].nbytes
                 else:
                     self._lock.wait()
             self.in_use += need
             self.peak = max(self.peak, self.in_use + self.kept)
-        held = tuple(np.empty(size, dtype=np.int16) for _ in range(count))
+        held = tuple(np.empty(size, dtype=np.int16) for _ in range(3))
         return held, held
 
     def give(self, held):
         """Take back a set of :meth:`take`; keep it (within :data:`KEPT_BYTES`) or free it."""
         with self._lock:
-            self.in_use -= _set_bytes(held)
+            self.in_use -= 3 * held[0].nbytes
             self._free.append(held)
-            self._free.sort(key=lambda volumes: (volumes[0].size, len(volumes)))
-            self.kept += _set_bytes(held)
+            self._free.sort(key=lambda volumes: volumes[0].size)
+            self.kept += 3 * held[0].nbytes
             while self.kept > KEPT_BYTES:
-                self.kept -= _set_bytes(self._free.pop(0))
+                self.kept -= 3 * self._free.pop(0)[0].nbytes
             self._lock.notify_all()
             self._given = time.monotonic()
             if self._free and self._timer is None and IDLE_SECONDS is not None:
@@ -260,11 +253,6 @@ class _VolumePool:
         with self._lock:
             self._drop()
             self.peak = self.in_use
-
-
-def _set_bytes(held) -> int:
-    """Return the bytes of a set of volumes (:class:`_VolumePool`)."""
-    return sum(volume.nbytes for volume in held)
 
 
 #: The most memory (bytes) one call's volumes take: larger images run in tiles.
@@ -548,19 +536,14 @@ def _run_threads(left, right, params, want_confidence):
     threads = numba.get_num_threads()
     plan = tiles(height, width, lanes)
     largest_tile = max((r[3] - r[0]) * (c[3] - c[0]) for r, c in plan)
-    sweeps = all(  # one-thread sweeps never touch the volume from below: not taken
-        sgm_kernels.aggregation_plan(c[3] - c[0], threads) == sgm_kernels.PLAN_SWEEP
-        for _, c in plan
-    )
-    volumes, held = _POOL.take(largest_tile * lanes, 2 if sweeps else 3)
+    volumes, held = _POOL.take(largest_tile * lanes)
     try:
         for (m0, s0, s1, m1), (c0, k0, k1, c1) in plan:
             n, w = m1 - m0, c1 - c0
             tile_l, tile_r, ad_l, ad_r = tile_columns(
                 codes_l, codes_r, colour_l, colour_r, c0, c1, params.cost == "census-ad"
             )
-            volume, down = (v[: n * w * lanes] for v in volumes[:2])
-            up = volumes[2][: n * w * lanes] if len(volumes) > 2 else volumes[1][:0]
+            volume, down, up = (v[: n * w * lanes] for v in volumes)
             volume = volume.reshape(n, w, lanes)
             census_kernels.cost_volume(
                 tile_l, tile_r, ad_l, ad_r, dmin, ndisp, bit_cost, ad_max, params.window,
