@@ -27,18 +27,23 @@ from dcstereo.evaluation.datasets import default_data_dir, load_scene
 
 
 def captured_volume(scene, paths):
-    """The arguments ``match`` passes to the vertical passes for ``scene``."""
-    saved, captured = kernels.vertical_sums, {}
+    """The arguments ``match`` passes to the vertical passes for ``scene``.
 
-    def grab(cost, luma, p1, table, diagonals, down, up, threads):
+    Taken from ``paths_and_choices``, which every thread count runs (on one thread the
+    passes side by side never do: the sweep up replaces them).
+    """
+    saved, captured = kernels.paths_and_choices, {}
+
+    def grab(cost, luma, *rest):
+        p1, table, diagonals = rest[8:11]  # after down, up, y0, y1, x0, x1, dmin, ndisp
         captured["args"] = (cost.copy(), luma.copy(), p1, table.copy(), diagonals)
-        saved(cost, luma, p1, table, diagonals, down, up, threads)
+        saved(cost, luma, *rest)
 
-    kernels.vertical_sums = grab
+    kernels.paths_and_choices = grab
     try:
         dcstereo.match(scene.left, scene.right, max_disparity=scene.max_disparity, paths=paths)
     finally:
-        kernels.vertical_sums = saved
+        kernels.paths_and_choices = saved
     return captured["args"]
 
 

@@ -23,7 +23,7 @@ On one thread (:func:`paths_and_choices`) the up sweep and the final pass are on
 chooses the row at once, the same outputs bit for bit without the volume from below.
 
 Two tasks cannot keep more than two threads busy. From :data:`SPLIT_THREADS` threads
-(:func:`vertical_sums`), :func:`split_passes` gives the same two volumes from bands:
+(:func:`aggregation_plan`), :func:`split_passes` gives the same two volumes from bands:
 each of the six paths runs along lines that no step crosses (the vertical path's columns,
 the diagonals' lines ``x - y`` or ``x + y`` constant), so a band of such lines is a task
 that waits on no other (:func:`band_pass`, :func:`band_edges`). One parallel loop a
@@ -66,7 +66,7 @@ SUBPIXEL_NONE = 0
 SUBPIXEL_PARABOLA = 1
 SUBPIXEL_EQUIANGULAR = 2
 
-#: The thread count from which :func:`vertical_sums` splits the passes into bands: the
+#: The thread count from which :func:`aggregation_plan` splits the passes into bands: the
 #: split's one-thread time is up to 2x the fused passes', which two threads halve at best,
 #: so at 4 threads it can at best draw level; 6 leaves a margin for imperfect scaling.
 SPLIT_THREADS = 6
@@ -345,22 +345,6 @@ def aggregation_plan(width, threads):
     return PLAN_SWEEP if threads == 1 else PLAN_PASSES
 
 
-def vertical_sums(cost, luma, p1, p2_table, diagonals, down, up, threads):
-    """Aggregate the paths from above into ``down`` and from below into ``up``.
-
-    ``threads`` is numba's thread count: :func:`split_passes` (bands of each path
-    direction, :func:`split_bands` of them) where :func:`aggregation_plan` says
-    :data:`PLAN_SPLIT`, else :func:`vertical_passes` (two tasks): the same volumes, bit
-    for bit.
-    """
-    width = luma.shape[1]
-    if aggregation_plan(width, threads) == PLAN_SPLIT:
-        bands = split_bands(width, threads)
-        split_passes(cost, luma, p1, p2_table, diagonals, down, up, threads, bands)
-    else:
-        vertical_passes(cost, luma, p1, p2_table, diagonals, down, up, threads)
-
-
 def paths_and_choices(
     cost, luma, down, up, y0, y1, x0, x1, dmin, ndisp, p1, p2_table, diagonals, subpixel,
     best, value, candidate, confidence, out_y, out_x, threads,
@@ -371,22 +355,30 @@ def paths_and_choices(
     :data:`PLAN_SWEEP` (one thread): :func:`vertical_pass` into ``down``, then
     :func:`up_final_pass`, which leaves ``up`` unread and unwritten, with one stream
     through the costs and one through a volume of sums fewer (KITTI 000066's kernels, one
-    thread: 93.4 -> 87.4 ms). Otherwise :func:`vertical_sums` into ``down`` and ``up`` (the
-    two passes side by side, or split into bands), then :func:`final_pass` (rows in
-    parallel). The same outputs, bit for bit.
+    thread: 93.4 -> 87.4 ms). Otherwise the paths from above into ``down`` and from below
+    into ``up``: :func:`vertical_passes` (:data:`PLAN_PASSES`, two tasks) or
+    :func:`split_passes` (:data:`PLAN_SPLIT`, :func:`split_bands` bands of each path
+    direction), the same volumes bit for bit; then :func:`final_pass` (rows in parallel).
+    The same outputs, bit for bit, on every path.
     """
-    if aggregation_plan(luma.shape[1], threads) == PLAN_SWEEP:
+    width = luma.shape[1]
+    plan = aggregation_plan(width, threads)
+    if plan == PLAN_SWEEP:
         vertical_pass(cost, luma, 0, luma.shape[0] - 1, 1, p1, p2_table, diagonals, down)
         up_final_pass(
             cost, luma, down, y0, y1, x0, x1, dmin, ndisp, p1, p2_table, diagonals, subpixel,
             best, value, candidate, confidence, out_y, out_x,
         )  # fmt: skip
+        return
+    if plan == PLAN_SPLIT:
+        bands = split_bands(width, threads)
+        split_passes(cost, luma, p1, p2_table, diagonals, down, up, threads, bands)
     else:
-        vertical_sums(cost, luma, p1, p2_table, diagonals, down, up, threads)
-        final_pass(
-            cost, luma, down, up, y0, y1, x0, x1, dmin, ndisp, p1, p2_table, subpixel, best,
-            value, candidate, confidence, out_y, out_x, threads,
-        )  # fmt: skip
+        vertical_passes(cost, luma, p1, p2_table, diagonals, down, up, threads)
+    final_pass(
+        cost, luma, down, up, y0, y1, x0, x1, dmin, ndisp, p1, p2_table, subpixel, best,
+        value, candidate, confidence, out_y, out_x, threads,
+    )  # fmt: skip
 
 
 def split_bands(width, threads):

@@ -86,6 +86,15 @@ def popcount(value):
     return bin(int(value)).count("1")
 
 
+def _ctpop_call(builder, value, width):
+    """Emit ``llvm.ctpop.i{width}`` of ``value``'s low ``width`` bits; the count, ``width`` bits."""
+    kind = ir.IntType(width)
+    fn = cgutils.get_or_insert_function(
+        builder.module, ir.FunctionType(kind, [kind]), f"llvm.ctpop.i{width}"
+    )
+    return builder.call(fn, [builder.trunc(value, kind) if value.type.width > width else value])
+
+
 @intrinsic
 def _ctpop(typingctx, value):
     if not (isinstance(value, types.Integer) and value.bitwidth in (32, 64)):
@@ -93,15 +102,8 @@ def _ctpop(typingctx, value):
     width = value.bitwidth
 
     def codegen(context, builder, sig, args):
-        kind = ir.IntType(width)
-        fn = cgutils.get_or_insert_function(
-            builder.module, ir.FunctionType(kind, [kind]), f"llvm.ctpop.i{width}"
-        )
-        return (
-            builder.zext(builder.call(fn, [args[0]]), ir.IntType(64))
-            if width < 64
-            else (builder.call(fn, [args[0]]))
-        )
+        count = _ctpop_call(builder, args[0], width)
+        return builder.zext(count, ir.IntType(64)) if width < 64 else count
 
     return types.int64(value), codegen
 
@@ -169,12 +171,7 @@ def _ctpop16(typingctx, value):
         return None
 
     def codegen(context, builder, sig, args):
-        kind = ir.IntType(16)
-        fn = cgutils.get_or_insert_function(
-            builder.module, ir.FunctionType(kind, [kind]), "llvm.ctpop.i16"
-        )
-        low = builder.trunc(args[0], kind) if value.bitwidth > 16 else args[0]
-        return builder.call(fn, [low])
+        return _ctpop_call(builder, args[0], 16)
 
     return types.uint16(value), codegen
 

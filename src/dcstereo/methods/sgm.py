@@ -458,12 +458,22 @@ def _aligned_views(left, right, luma_l, luma_r, colour_l, colour_r, params):
         if offsets is not None:
             right = row_offsets.moved_view(right, offsets)
             luma_r = padded_signal(right, 0)
-            colour_r = colour_channels(left, right)[1]
+            colour_r = colour_channels(left, right, (luma_l, luma_r))[1]
             if params.photometric == "matched":
                 coarse = _coarse_pass(colour_l, colour_r, params)
     if params.photometric == "matched":
         colour_r = photometric.align_right(colour_l, colour_r, coarse, photometric.COARSE_FACTOR)
     return luma_r, colour_r
+
+
+def _views(left: np.ndarray, right: np.ndarray):
+    """Return the pair as ``sgm`` reads it: ``(luma_l, luma_r, colour_l, colour_r)``.
+
+    The views' ``padded_signal(view, 0)`` and their ``colour_channels``, each signal made
+    once (a gray pair's channels are rounded from them).
+    """
+    luma_l, luma_r = padded_signal(left, 0), padded_signal(right, 0)
+    return (luma_l, luma_r, *colour_channels(left, right, (luma_l, luma_r)))
 
 
 def sgm_row_field(
@@ -481,11 +491,11 @@ def sgm_row_field(
     left, right = check_pair(left, right)
     params.check_image_size(*left.shape[:2])
     with threads_with_cores():
-        colour_l, colour_r = colour_channels(left, right)
+        luma_l, luma_r, colour_l, colour_r = _views(left, right)
         coarse = _coarse_pass(colour_l, colour_r, params)
         if coarse is None:
             return None
-        return _row_field(padded_signal(left, 0), padded_signal(right, 0), coarse)
+        return _row_field(luma_l, luma_r, coarse)
 
 
 def _run_threads(left, right, params, want_confidence):
@@ -497,8 +507,7 @@ def _run_threads(left, right, params, want_confidence):
     kind = np.uint32 if rows * cols - 1 <= 32 else np.uint64
     codes_l = np.empty((height, width), dtype=kind)
     codes_r = np.empty((height, width), dtype=kind)
-    luma_l, luma_r = padded_signal(left, 0), padded_signal(right, 0)
-    colour_l, colour_r = colour_channels(left, right, (luma_l, luma_r))
+    luma_l, luma_r, colour_l, colour_r = _views(left, right)
     luma_r, colour_r = _aligned_views(left, right, luma_l, luma_r, colour_l, colour_r, params)
     shared = run_shared()
     if params.edges is not None and shared is not None:  # for this run's edges stage
@@ -576,7 +585,7 @@ def _run_threads(left, right, params, want_confidence):
     sgm_kernels.left_right_check(best, value, candidate, dmin, tolerance, disparity, flags, threads)
     result = DisparityResult(disparity, flags, params, np.full(height, np.nan))
     if (params.fill or params.planes) and colour_l.shape[1:] != (height, width):
-        colour_l, _ = colour_channels(left, left)  # cost="census" keeps no colours
+        colour_l, _ = colour_channels(left, left, (luma_l, luma_l))  # census: no colours kept
     if params.planes:
         result = refine_planes(result, colour_l, margin)
     if params.fill:
@@ -598,11 +607,8 @@ def sgm_views(left: np.ndarray, right: np.ndarray, params: MatchParams):
     """
     left, right = check_pair(left, right)
     with threads_with_cores():
-        colour_l, colour_r = colour_channels(left, right)
-        _, colour_r = _aligned_views(
-            left, right, padded_signal(left, 0), padded_signal(right, 0), colour_l, colour_r,
-            params,
-        )  # fmt: skip
+        luma_l, luma_r, colour_l, colour_r = _views(left, right)
+        _, colour_r = _aligned_views(left, right, luma_l, luma_r, colour_l, colour_r, params)
     return colour_l, colour_r
 
 
