@@ -130,6 +130,26 @@ def test_patch_curves_by_hand():
     assert twin.tolist() == [[72.0, 0.0, np.inf]]
 
 
+def test_fine_curves_take_the_whole_offsets_already_measured():
+    # the fine offsets that land on whole ones (centre - 1, centre, centre + 1) come from
+    # the whole pass: the same values as measuring every fine offset, bit for bit
+    rng = np.random.default_rng(11)
+    left, right = rng.uniform(0, 255, (2, 40, 50))
+    count = 40
+    radius, reach = row_offsets.PATCH_RADIUS, row_offsets.X_REACH
+    ys = rng.integers(radius + 1, 40 - radius - 1, count)
+    ys[:2] = [radius + 1, 40 - radius - 2]  # near the top and the bottom: some inf
+    xs = rng.integers(radius + reach, 50 - radius - reach, count)
+    xr = xs - rng.integers(0, 3, count)
+    centres = rng.choice(row_offsets.WHOLE_OFFSETS[1:-1], count)
+    whole = curves(left, right, ys, xs, xr, np.zeros(count), row_offsets.WHOLE_OFFSETS,
+                   radius, reach)  # fmt: skip
+    got = row_offsets.fine_curves(left, right, ys, xs, xr, centres, whole)
+    want = curves(left, right, ys, xs, xr, centres, row_offsets.FINE_OFFSETS, radius, reach)
+    assert np.array_equal(got, want)
+    assert np.isinf(want).any() and np.isfinite(want).any()
+
+
 # ---------------------------------------------------------------------------------------
 # row_texture
 
@@ -380,6 +400,32 @@ def test_tile_minima_by_hand():
     more = np.vstack([stacked, [a]])
     got = row_offsets.tile_minima(more, np.append(tiles, 3), offsets, True)
     assert got[3][0] == pytest.approx(-1 / 12, abs=1e-12) and got[3][1] == 12
+
+
+def test_tile_minima_equals_a_loop_over_the_tiles():
+    # the tiles' sums in one pass, against each tile's curves summed on their own (the
+    # same order of the additions: the same values, bit for bit)
+    rng = np.random.default_rng(5)
+    offsets = row_offsets.FINE_OFFSETS
+    count = 700
+    stacked = rng.uniform(0.5, 40.0, (count, offsets.size)) * rng.uniform(0.1, 9.0, (count, 1))
+    tiles = rng.integers(0, row_offsets.GRID**2, count)
+    for refine in (False, True):
+        want = {}
+        scaled = stacked / np.median(stacked, axis=1, keepdims=True)
+        for tile in np.unique(tiles):
+            here = tiles == tile
+            total = scaled[here].sum(axis=0)
+            j = int(np.argmin(total))
+            if here.sum() < row_offsets.MIN_PATCHES or j in (0, offsets.size - 1):
+                continue
+            shift = 0.0
+            bend = total[j - 1] - 2 * total[j] + total[j + 1]
+            if refine and bend > 0:
+                shift = 0.5 * (total[j - 1] - total[j + 1]) / bend
+            want[int(tile)] = (offsets[j] + shift * (offsets[1] - offsets[0]), int(here.sum()))
+        assert row_offsets.tile_minima(stacked, tiles, offsets, refine) == want
+        assert len(want) > 3
 
 
 # ---------------------------------------------------------------------------------------

@@ -424,12 +424,14 @@ def tile_minima(curves, tiles, offsets, refine):
     """
     scaled = curves / np.maximum(np.median(curves, axis=1, keepdims=True), 1e-9)
     step = offsets[1] - offsets[0]
+    tiles = np.asarray(tiles, dtype=np.int64)
+    size = GRID * GRID
+    counts = np.bincount(tiles, minlength=size)
+    totals = np.zeros((size, len(offsets)))
+    np.add.at(totals, tiles, scaled)  # each tile's curves summed in their order
     out = {}
-    for tile in np.unique(tiles):
-        here = tiles == tile
-        if here.sum() < MIN_PATCHES:
-            continue
-        total = scaled[here].sum(axis=0)
+    for tile in np.flatnonzero(counts >= MIN_PATCHES):
+        total = totals[tile]
         j = int(np.argmin(total))
         if j == 0 or j == len(offsets) - 1:
             continue
@@ -438,7 +440,7 @@ def tile_minima(curves, tiles, offsets, refine):
             below, least, above = total[j - 1], total[j], total[j + 1]
             bend = below - 2.0 * least + above
             shift = 0.5 * (below - above) / bend if bend > 0 else 0.0
-        out[int(tile)] = (offsets[j] + shift * step, int(here.sum()))
+        out[int(tile)] = (offsets[j] + shift * step, int(counts[tile]))
     return out
 
 
@@ -471,6 +473,33 @@ def pick_patches(luma_l, coarse, factor):
     return ys[order], xs[order], d[order]
 
 
+def fine_curves(left, right, ys, xs, xr, centres, whole, threads=1):
+    """Return the patches' :func:`patch_curves` at :data:`FINE_OFFSETS` around ``centres``.
+
+    ``centres``: each patch's tile's best whole offset (one of :data:`WHOLE_OFFSETS`);
+    ``whole``: the patches' curves at :data:`WHOLE_OFFSETS`. A fine offset that lands on a
+    whole one (``centre - 1``, ``centre``, ``centre + 1``) is that curve's value, the same
+    sums of the same rows (the offset is the same float, exact in binary); the others are
+    measured (a third fewer patches' offsets: 4.7 ms of the field's 45 on teddy, one
+    thread, AVX2).
+    """
+    fine = np.empty((ys.size, FINE_OFFSETS.size))
+    kept = np.zeros(FINE_OFFSETS.size, dtype=np.bool_)
+    for j, offset in enumerate(FINE_OFFSETS):
+        place = np.rint(centres + offset - WHOLE_OFFSETS[0]).astype(np.int64)
+        inside = (place >= 0) & (place < WHOLE_OFFSETS.size)
+        if inside.all() and np.array_equal(WHOLE_OFFSETS[place], centres + offset):
+            fine[:, j] = whole[np.arange(ys.size), place]
+            kept[j] = True
+    measured = np.empty((ys.size, int((~kept).sum())))
+    patch_curves(
+        left, right, ys, xs, xr, centres, FINE_OFFSETS[~kept], PATCH_RADIUS, X_REACH, measured,
+        threads,
+    )  # fmt: skip
+    fine[:, ~kept] = measured
+    return fine
+
+
 def estimate_from(luma_l, luma_r, coarse, factor):
     """Return the :class:`RowField` of two intensities (gray levels) and a coarse disparity.
 
@@ -500,10 +529,7 @@ def estimate_from(luma_l, luma_r, coarse, factor):
     chosen = np.isin(tiles, list(coarse_best))
     ys, xs, xr, tiles = ys[chosen], xs[chosen], xr[chosen], tiles[chosen]
     centres = np.array([coarse_best[t][0] for t in tiles], dtype=np.float64)
-    fine = np.empty((ys.size, FINE_OFFSETS.size))
-    patch_curves(
-        left, right, ys, xs, xr, centres, FINE_OFFSETS, PATCH_RADIUS, X_REACH, fine, threads
-    )
+    fine = fine_curves(left, right, ys, xs, xr, centres, whole[chosen], threads)
     measured = np.all(np.isfinite(fine), axis=1)
     rows = []
     for tile, (offset, count) in tile_minima(
