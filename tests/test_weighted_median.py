@@ -8,7 +8,7 @@ import naive_weighted_median as naive
 from dcstereo.params import MatchParams
 from dcstereo.refine import _weighted_median as kernels
 from dcstereo.refine import weighted_median as wm
-from dcstereo.refine._median import sort_network
+from dcstereo.refine._median import merge_network, sort_network, window_plan
 from dcstereo.result import FLAG_FEATURE, FLAG_OCCLUDED, DisparityResult
 from pins import kitti_d1, middlebury_bad1
 
@@ -160,6 +160,80 @@ def test_sort_network_sorts(count):
             values[i], values[j] = min(values[i], values[j]), max(values[i], values[j])
         assert values == sorted(values)
     assert len(sort_network(81)) == 864
+
+
+@pytest.mark.parametrize(
+    ("m", "n"), [(1, 1), (1, 2), (2, 1), (9, 9), (18, 18), (36, 9), (36, 45), (7, 3)]
+)
+def test_merge_network_merges_every_pair_of_sorted_lists(m, n):
+    # the 0-1 principle for merging: a network that merges every pair of sorted lists of
+    # zeros and ones merges every pair of sorted lists
+    exchanges, order = merge_network(m, n)
+    assert sorted(order.tolist()) == list(range(m + n))
+    for ones_a in range(m + 1):
+        for ones_b in range(n + 1):
+            values = [0] * (m - ones_a) + [1] * ones_a + [0] * (n - ones_b) + [1] * ones_b
+            for i, j in exchanges:
+                values[i], values[j] = min(values[i], values[j]), max(values[i], values[j])
+            merged = [values[k] for k in order]
+            assert merged == sorted(merged), (ones_a, ones_b)
+
+
+def test_merge_network_by_hand():
+    # one value (row 0) and two sorted (rows 1, 2): Batcher's merge of 2 + 2 wires (0, 2),
+    # (1, 3), (1, 2), the first list's padding on wire 1, the second's on wire 3. (0, 2):
+    # rows 0 and 1. (1, 3): the padding and the second list's last value (row 2), which
+    # moves to wire 1: no exchange, the order records it. (1, 2): wire 1 (row 2) and wire 2
+    # (row 1), min to row 2. The merged list: wires 0, 1, 2, that is rows 0, 2, 1.
+    exchanges, order = merge_network(1, 2)
+    assert exchanges.tolist() == [[0, 1], [2, 1]]
+    assert order.tolist() == [0, 2, 1]
+    # 5 | 1 7: 1 goes to row 0 and 5 to row 1; then 5 to row 2 and 7 to row 1
+    values = [5, 1, 7]
+    for i, j in exchanges:
+        values[i], values[j] = min(values[i], values[j]), max(values[i], values[j])
+    assert values == [1, 7, 5] and [values[k] for k in order] == [1, 5, 7]
+
+
+def plan_windows(keys, side, chunk):
+    """``window_plan(side)`` run in numpy on a row of columns: ``(side**2, chunk)`` sorted."""
+    steps, exchanges, orders, columns = window_plan(side)
+    tree = np.zeros((orders.max() + 1, keys.shape[1]), dtype=keys.dtype)
+    tree[:side] = keys
+
+    def exchange(rows, lanes):
+        for i, j in rows:
+            low, high = tree[i, :lanes].copy(), tree[j, :lanes].copy()
+            tree[i, :lanes], tree[j, :lanes] = np.minimum(low, high), np.maximum(low, high)
+
+    exchange(columns, keys.shape[1])
+    for a_order, a_rows, a_shift, b_order, b_rows, b_shift, start, _, first, last, lanes in steps:
+        n = chunk + lanes
+        for k in range(a_rows):
+            tree[start + k, :n] = tree[orders[a_order + k], a_shift : a_shift + n]
+        for k in range(b_rows):
+            tree[start + a_rows + k, :n] = tree[orders[b_order + k], b_shift : b_shift + n]
+        exchange(exchanges[first:last], n)
+    return tree[orders[steps[-1, 7] : steps[-1, 7] + side * side], :chunk]
+
+
+@pytest.mark.parametrize("side", [3, 5, 7, 9, 11])
+def test_window_plan_sorts_every_window_of_a_row(side):
+    # the columns of a row of windows (a lane a column), the plan's merges: each window's
+    # values sorted, against numpy's sort of the window
+    rng = np.random.default_rng(side)
+    chunk = 12
+    for _ in range(5):
+        keys = rng.integers(0, 7, (side, chunk + side - 1))
+        got = plan_windows(keys, side, chunk)
+        for lane in range(chunk):
+            assert got[:, lane].tolist() == sorted(keys[:, lane : lane + side].ravel().tolist())
+
+
+def test_window_plan_merges_fewer_than_the_window_sort():
+    steps, exchanges, orders, columns = window_plan(9)
+    assert len(exchanges) + len(columns) == 439 + 28 < len(sort_network(81)) == 864
+    assert orders.max() + 1 == 9 + 18 + 36 + 45 + 81  # the buffer's rows
 
 
 def test_filter_keeps_features_holes_and_flags():

@@ -1,13 +1,18 @@
 """The colour-weighted median's kernels (:mod:`dcstereo.refine.weighted_median`).
 
 Each sample of a window is an int32 key, its disparity's float32 bits made to sort as
-signed integers (:func:`sample_keys`), and an integer weight. A fixed sorting network of
-compare-exchanges (Batcher's odd-even merge sort,
-:func:`~dcstereo.refine._median.sort_network`) sorts a copy of the keys of :data:`CHUNK`
-pixels side by side, each exchange a ``min`` and a ``max`` of two rows of keys (vector
-code). The weights stay where they are: a binary search over the sorted keys finds each
-pixel's median, the least sorted key whose weight at or below it (a masked sum over the
-window's samples, again for all the chunk's pixels at once) reaches half the total. Samples
+signed integers (:func:`sample_keys`), and an integer weight. The keys of :data:`CHUNK`
+pixels' windows are sorted side by side (:func:`sorted_windows`): the columns of the row
+first, by a fixed network of compare-exchanges, then blocks of columns and the windows
+merged from them by Batcher's merges (:func:`~dcstereo.refine._median.window_plan`), each
+exchange a ``min`` and a ``max`` of two rows of keys (vector code). The windows of
+neighbouring pixels share all their columns but one, so a block serves several windows:
+467 exchanges a pixel of a 9 x 9 window where sorting it takes 864 (the stage, one thread,
+AVX2, in one process alternating with the sort of each window: teddy 54.2 -> 46.7 ms,
+tsukuba 45.4 -> 38.5, KITTI 000066 133.7 -> 122.9). The weights stay where they are: a
+binary search over the sorted keys finds each pixel's median, the least sorted key whose
+weight at or below it (a masked sum over the window's samples, again for all the chunk's
+pixels at once) reaches half the total. Samples
 outside the image or without an estimate get the weight 0 and the largest key,
 :data:`EMPTY`: a sample of weight 0 is never the weighted median (the weight at or below
 the largest finite value is the whole total, which is positive), so the result is that of
@@ -26,10 +31,11 @@ import numpy as np
 from dcstereo._vector.sgm import next_task
 from dcstereo.refine._median import exchange_rows, sortable32
 
-#: Pixels of a row whose windows are sorted together: ``81 x 256`` keys, their sorted copy
-#: and as many weights (3 x 81 KiB for a 9 x 9 window, in the second-level cache) for each
-#: of the network's 864 exchanges and the search's 7 sums. The stage, one thread (AVX2):
-#: 128 pixels teddy 56.7 ms and KITTI 000066 142, 256 52.8 and 132, 512 53-58 on teddy.
+#: Pixels of a row whose windows are sorted together: ``81 x 256`` keys and as many
+#: weights (2 x 81 KiB for a 9 x 9 window) for the search's 7 sums, and the sorted columns,
+#: blocks and windows (189 rows of 264 lanes, 195 KiB). When each window was sorted on its
+#: own (the stage, one thread, AVX2): 128 pixels teddy 56.7 ms and KITTI 000066 142, 256
+#: 52.8 and 132, 512 53-58 on teddy; with the merges 64 to 512 pixels alike on teddy.
 CHUNK = 256
 
 #: The key of a sample that does not count (outside the image, or without an estimate):
@@ -132,7 +138,7 @@ def forward_weights(guide, y, radius, colour_weight, space_weight, diff, slot):
 
 
 @nb.njit(cache=True, parallel=True)
-def weighted_median_rows(key, guide, moved, radius, colour_weight, space_weight, network,
+def weighted_median_rows(key, guide, moved, radius, colour_weight, space_weight, plan,
                          sums_like, out, threads=1):  # fmt: skip
     """Write into ``out`` the colour-weighted median of each moved pixel's window.
 
@@ -147,8 +153,8 @@ def weighted_median_rows(key, guide, moved, radius, colour_weight, space_weight,
     tables whose products are under ``2**31`` (a sample's weight, int32), ``space_weight``
     symmetric about its centre (see below);
     ``sums_like``'s integer dtype is that of the window's sums (int32 where twice the
-    largest total fits, otherwise int64). ``network``:
-    :func:`~dcstereo.refine._median.sort_network` of ``(2 radius + 1)**2``.
+    largest total fits, otherwise int64). ``plan``:
+    :func:`~dcstereo.refine._median.window_plan` of ``2 radius + 1``.
 
     A weight is symmetric (pixel ``p``'s of its sample ``p + o`` is ``p + o``'s of ``p``),
     so each row computes those of half its window (:func:`forward_weights`) and takes the
@@ -170,7 +176,9 @@ def weighted_median_rows(key, guide, moved, radius, colour_weight, space_weight,
         scratch = (
             np.empty((side * side, CHUNK), dtype=np.int32),  # keys
             np.empty((side * side, CHUNK), dtype=np.int32),  # weights
-            np.empty((side * side, CHUNK), dtype=np.int32),  # the keys sorted
+            # the sorted columns, their blocks and the windows (window_plan), a lane a
+            # column from radius before the chunk's first pixel
+            np.empty((plan[2].max() + 1, CHUNK + side - 1), dtype=np.int32),
             np.empty(CHUNK, dtype=sums_like.dtype),  # total
             np.empty(CHUNK, dtype=sums_like.dtype),  # below
             np.empty((3, CHUNK), dtype=np.int32),  # the search's low, high and probe
@@ -183,19 +191,19 @@ def weighted_median_rows(key, guide, moved, radius, colour_weight, space_weight,
                     guide, y, radius, colour_weight, space_weight, diff, ring[y % slots]
                 )
                 if y >= y0:
-                    median_row(key, moved, radius, network, ring, y, scratch, out)
+                    median_row(key, moved, radius, plan, ring, y, scratch, out)
             band = next_task(counter)
 
 
 @nb.njit(cache=True)
-def median_row(key, moved, radius, network, ring, y, scratch, out):
+def median_row(key, moved, radius, plan, ring, y, scratch, out):
     """Write row ``y`` of :func:`weighted_median_rows`, its weights from ``ring``.
 
     ``ring[t % (radius + 1)]`` holds row ``t``'s forward weights (:func:`forward_weights`)
     for rows ``y - radius .. y``, and the centre's at ``[.., half]``: pixel ``x``'s weight of
     its sample at a forward offset ``o`` is its own row's; at ``-o``, the one row ``y - dy``
     gave pixel ``x - dx`` for ``o``. :data:`CHUNK` pixels at a time: their windows' keys
-    sorted together by ``network``, then the binary search of masked weight sums.
+    sorted together (:func:`sorted_windows`), then the binary search of masked weight sums.
     """
     height, width = key.shape
     side = 2 * radius + 1
@@ -205,8 +213,10 @@ def median_row(key, moved, radius, network, ring, y, scratch, out):
     rounds = 0  # the binary search's: 2**rounds >= count
     while (1 << rounds) < count:
         rounds += 1
-    keys, weights, ordered, total, below, search = scratch
+    keys, weights, tree, total, below, search = scratch
     low, high, probe = search[0], search[1], search[2]
+    steps, orders = plan[0], plan[2]
+    ordered = orders[steps[-1, 7] : steps[-1, 7] + count]  # the rows of tree, least first
     for x0 in range(0, width, CHUNK):
         n = min(CHUNK, width - x0)
         wanted = False
@@ -252,18 +262,17 @@ def median_row(key, moved, radius, network, ring, y, scratch, out):
         for i in range(CHUNK):
             total[i] = 0
         for o in range(count):
-            key_row, weight_row, ordered_row = keys[o], weights[o], ordered[o]
+            weight_row = weights[o]
             for i in range(CHUNK):
                 total[i] += weight_row[i]
-                ordered_row[i] = key_row[i]
-        exchange_rows(ordered, network, CHUNK)
+        sorted_windows(key, y, x0, radius, plan, tree)
         # the least sorted position whose key has half the weight at or below it
         for i in range(CHUNK):
             low[i] = 0
             high[i] = count - 1
         for _ in range(rounds):
             for i in range(CHUNK):
-                probe[i] = ordered[(low[i] + high[i]) >> 1, i]
+                probe[i] = tree[ordered[(low[i] + high[i]) >> 1], i]
                 below[i] = 0
             for o in range(count):
                 key_row, weight_row = keys[o], weights[o]
@@ -276,4 +285,59 @@ def median_row(key, moved, radius, network, ring, y, scratch, out):
                 low[i] = low[i] if enough else middle + 1
         for i in range(n):
             if moved[y, x0 + i]:
-                out[y, x0 + i] = sortable32(ordered[low[i], i])
+                out[y, x0 + i] = sortable32(tree[ordered[low[i]], i])
+
+
+@nb.njit(cache=True)
+def sorted_windows(key, y, x0, radius, plan, tree):
+    """Sort the windows of the :data:`CHUNK` pixels of row ``y`` from ``x0`` in ``tree``.
+
+    ``plan``: :func:`~dcstereo.refine._median.window_plan` ``(steps, exchanges, orders,
+    columns)``; ``tree``: int32, its rows (``orders.max() + 1``) of ``CHUNK + 2 radius``
+    lanes, lane ``l`` the column ``x0 - radius + l``. The keys of each column's ``2 radius
+    + 1`` rows around ``y`` (:data:`EMPTY` outside the image) are sorted by ``columns``,
+    then the plan's merges make the blocks of columns and the windows; pixel ``x0 + i``'s
+    sorted keys are then ``tree[orders[steps[-1, 7] + k], i]``, ``k`` from 0. Each merge
+    an exchange of two rows over the lanes at once (vector code); the keys past the row's
+    end, and the lanes of a short chunk's missing pixels, are sorted too and never read.
+    """
+    height, width = key.shape
+    steps, exchanges, orders, columns = plan
+    side = 2 * radius + 1
+    lanes = CHUNK + side - 1
+    first = min(lanes, max(0, radius - x0))  # the lanes of columns inside the image
+    last = max(first, min(lanes, width - x0 + radius))
+    for dy in range(side):
+        row = tree[dy]
+        yy = y + dy - radius
+        if yy < 0 or yy >= height:
+            for i in range(lanes):
+                row[i] = EMPTY
+            continue
+        for i in range(first):
+            row[i] = EMPTY
+        for i in range(last, lanes):
+            row[i] = EMPTY
+        src, dst = key[yy, x0 - radius + first :], row[first:]
+        for i in range(last - first):
+            dst[i] = src[i]
+    exchange_rows(tree, columns, lanes)
+    for s in range(steps.shape[0]):
+        a_order, a_rows, a_shift = steps[s, 0], steps[s, 1], steps[s, 2]
+        b_order, b_rows, b_shift = steps[s, 3], steps[s, 4], steps[s, 5]
+        start, n = steps[s, 6], CHUNK + steps[s, 10]
+        for k in range(a_rows):
+            src, dst = tree[orders[a_order + k], a_shift:], tree[start + k]
+            for i in range(n):
+                dst[i] = src[i]
+        for k in range(b_rows):
+            src, dst = tree[orders[b_order + k], b_shift:], tree[start + a_rows + k]
+            for i in range(n):
+                dst[i] = src[i]
+        for e in range(steps[s, 8], steps[s, 9]):
+            low, high = tree[exchanges[e, 0]], tree[exchanges[e, 1]]
+            for i in range(n):
+                a = low[i]
+                b = high[i]
+                low[i] = min(a, b)
+                high[i] = max(a, b)

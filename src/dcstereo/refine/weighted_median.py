@@ -22,7 +22,7 @@ import numba as nb
 import numpy as np
 
 from dcstereo.refine import _weighted_median as kernels
-from dcstereo.refine._median import sort_network
+from dcstereo.refine._median import window_plan
 from dcstereo.refine.postfilter import _inside
 from dcstereo.result import FLAG_FEATURE, DisparityResult
 from dcstereo.signal import colour_channels
@@ -167,12 +167,12 @@ def weighted_medians(
     sums = np.int32 if largest < 2**31 else np.int64  # int32: twice the lanes (1.14x)
     kernels.weighted_median_rows(
         keys, kernel_guide(guide), np.ascontiguousarray(moved), radius,
-        colour_weight.astype(np.int32), space_weight.astype(np.int32), _network(count),
+        colour_weight.astype(np.int32), space_weight.astype(np.int32), _plan(2 * radius + 1),
         np.empty(0, dtype=sums), out.view(np.int32), nb.get_num_threads(),
     )  # fmt: skip
     return out
 
 
 @functools.cache
-def _network(count: int) -> np.ndarray:
-    return sort_network(count)
+def _plan(side: int) -> tuple[np.ndarray, ...]:
+    return window_plan(side)
