@@ -416,6 +416,8 @@ def tile_of(ys, xr, width, height):
 def tile_minima(curves, tiles, offsets, refine):
     """Return each tile's least summed cost: ``{tile: (offset, patches)}``.
 
+    ``tiles``: each curve's tile, a number below ``GRID**2`` (:func:`tile_of`).
+
     Each curve (a row of ``curves``, over ``offsets``) is divided by its median, so that
     every patch counts alike whatever its contrast; a tile's curves are summed. A tile with
     fewer than :data:`MIN_PATCHES` patches, or whose least lies at an end of ``offsets``,
