@@ -1,16 +1,24 @@
 """Shared fixtures: where the Middlebury development data lives, a small pair on disk."""
 
 import os
+import sys
 from pathlib import Path
 
-# Under pytest-xdist each worker keeps numba's compiled kernels in a cache folder of its
-# own, set before numba is imported: two processes writing entries of one function's
-# cache index at once can pair a signature with another's machine code (numba#4807).
-if os.environ.get("PYTEST_XDIST_WORKER"):
-    _cache = (
-        os.environ.get("NUMBA_CACHE_DIR") or Path(__file__).resolve().parents[1] / ".numba-cache"
-    )
-    os.environ["NUMBA_CACHE_DIR"] = os.path.join(_cache, os.environ["PYTEST_XDIST_WORKER"])
+# Every process of the run (the pytest-xdist workers, the processes the tests start) shares
+# one numba cache folder, each kernel compiled once: tests/_site/kernel_cache_lock.py
+# serialises the compile and save of each cached function across processes (numba#4807),
+# installed here and, through tests/_site/sitecustomize.py, in the processes tests start.
+_SITE = Path(__file__).resolve().parent / "_site"
+os.environ.setdefault("NUMBA_CACHE_DIR", str(Path(__file__).resolve().parents[1] / ".numba-cache"))
+os.environ["DCSTEREO_TEST_CACHE_LOCK"] = "1"
+os.environ["PYTHONPATH"] = os.pathsep.join(
+    [str(_SITE), *filter(None, [os.environ.get("PYTHONPATH")])]
+)
+sys.path.insert(0, str(_SITE))
+
+import kernel_cache_lock  # noqa: E402
+
+kernel_cache_lock.install()
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
@@ -60,3 +68,31 @@ def refuse_move(monkeypatch):
         monkeypatch.setattr(os, "replace", replace)
 
     return refuse
+
+
+def pytest_collection_modifyitems(config, items):
+    """Start the tests marked ``early`` first, each on a worker of its own.
+
+    pytest-xdist's work stealing hands each of the n workers a run of 1/n of the list at
+    the start, and moves tests from the end of one run to a worker that is done. A long
+    test at the end of a run is the run's tail on one core, so each ``early`` test goes to
+    the front of a run of its own (the first ones, where there are more than workers).
+    """
+    early = [item for item in items if item.get_closest_marker("early")]
+    if not early:
+        return
+    rest = [item for item in items if not item.get_closest_marker("early")]
+    workers = int(getattr(config, "workerinput", {}).get("workercount", 1))
+    runs = [[] for _ in range(workers)]
+    for i, item in enumerate(early):
+        runs[i % workers].append(item)
+    left = len(items)
+    start = 0
+    for k, run in enumerate(runs):  # the sizes of xdist's first hand-out
+        size = left // (workers - k)
+        left -= size
+        stop = max(start, start + size - len(run))
+        run.extend(rest[start:stop])
+        start = stop
+    runs[-1].extend(rest[start:])
+    items[:] = [item for run in runs for item in run]

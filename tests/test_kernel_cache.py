@@ -1,11 +1,13 @@
 """The kernels' on-disk cache is keyed by all their sources (dcstereo._vector._cache)."""
 
 import importlib
+import os
 import pkgutil
 import shutil
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import numba
 import pytest
@@ -97,3 +99,62 @@ def test_an_edit_of_a_callee_reaches_its_cached_caller(tmp_path, install):
     assert result() == 2
     (package / "callee.py").write_text(textwrap.dedent(_CALLEE).format(10))
     assert result() == (11 if install else 2)
+
+
+def test_the_plain_forms_keep_a_folder_of_their_own(tmp_path):
+    """Runs with ``DCSTEREO_VECTOR=0`` and without take turns on one cache folder.
+
+    Each finds its kernels where it left them (a cache hit from the second run of each
+    kind on); with one folder and a stamp of its own, each run threw the other's away.
+    """
+    package = tmp_path / "pkg" / "kernels"
+    package.mkdir(parents=True)
+    (tmp_path / "pkg" / "__init__.py").write_text("")
+    shutil.copy(_cache.__file__, package / "_cache.py")
+    (package / "__init__.py").write_text("from ._cache import install_locator\ninstall_locator()\n")
+    (package / "caller.py").write_text(textwrap.dedent(_CALLER))
+    (package / "callee.py").write_text(textwrap.dedent(_CALLEE).format(1))
+    cache = tmp_path / "cache"
+    code = (
+        "from pkg.kernels.caller import caller; caller(); "
+        "print(sum(caller.stats.cache_hits.values()))"
+    )
+
+    def hits(plain):
+        env = {"NUMBA_CACHE_DIR": str(cache), "PYTHONPATH": str(tmp_path)}
+        if plain:
+            env["DCSTEREO_VECTOR"] = "0"
+        run = [sys.executable, "-c", code]
+        return int(subprocess.run(run, env=env, capture_output=True, text=True, check=True).stdout)
+
+    assert [hits(plain) for plain in (False, True, False, True)] == [0, 0, 1, 1]
+    plain_folders = [path for path in cache.rglob(_cache.PLAIN_FOLDER) if path.is_dir()]
+    assert len(plain_folders) == 1 and any(plain_folders[0].glob("caller.*.nbi"))
+
+
+def test_processes_of_the_test_run_compile_a_kernel_once(tmp_path):
+    """The test run's shared cache (tests/_site/kernel_cache_lock.py): processes started at
+    once on an empty folder compile a function once; the others wait and load it."""
+    body = "\n".join(f"    x = x * 0.5 + {i}.0" for i in range(400))
+    (tmp_path / "slow_kernel.py").write_text(
+        f"import numba\n\n@numba.njit(cache=True)\ndef kernel(x):\n{body}\n    return x\n"
+    )
+    code = (
+        "import slow_kernel as m; m.kernel(1.0); "
+        "print(sum(m.kernel.stats.cache_misses.values()), m.kernel(1.0))"
+    )
+    site = str(Path(__file__).resolve().parent / "_site")
+    env = {
+        **os.environ,
+        "NUMBA_CACHE_DIR": str(tmp_path / "cache"),
+        "DCSTEREO_TEST_CACHE_LOCK": "1",
+        "PYTHONPATH": os.pathsep.join([site, str(tmp_path)]),
+    }
+    runs = [
+        subprocess.Popen([sys.executable, "-c", code], env=env, stdout=subprocess.PIPE, text=True)
+        for _ in range(3)
+    ]
+    outs = [run.communicate(timeout=600)[0].split() for run in runs]
+    assert all(run.returncode == 0 for run in runs)
+    assert sorted(int(misses) for misses, _ in outs) == [0, 0, 1]
+    assert len({value for _, value in outs}) == 1

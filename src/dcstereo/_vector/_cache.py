@@ -8,7 +8,10 @@ every kernel of this package with the hash of all the package's sources instead
 (:func:`sources_digest`), so an edit anywhere in it recompiles every kernel on the next
 run, and nothing stale is ever loaded. Where the cache lives is unchanged: the locator
 numba would have chosen (``NUMBA_CACHE_DIR``, else ``__pycache__`` beside the sources,
-else the user's cache folder) gives the folder.
+else the user's cache folder) gives the folder. The plain forms of the vector operations
+(``DCSTEREO_VECTOR=0``) compile to other code under the same names, so they are kept in a
+folder ``plain`` inside it: a stamp of their own in the same index files would make each
+kind of run throw the other's kernels away.
 
 The locator is put first in numba's list of locators (``CacheImpl._locator_classes``) and
 answers only for the files of this package. ``tests/test_kernel_cache.py`` checks that it
@@ -52,6 +55,16 @@ def _package_digest() -> str:
     return sources_digest(PACKAGE_DIR)
 
 
+#: The folder, inside numba's, of the kernels compiled with ``DCSTEREO_VECTOR=0``.
+PLAIN_FOLDER = "plain"
+
+
+def _plain_forms() -> bool:
+    # the vector forms or the plain ones (DCSTEREO_VECTOR=0, read as dcstereo._vector
+    # reads it) compile to different code
+    return os.environ.get("DCSTEREO_VECTOR", "1").strip() == "0"
+
+
 def _inside(py_file: str) -> bool:
     try:
         return Path(py_file).resolve().is_relative_to(PACKAGE_DIR)
@@ -67,15 +80,15 @@ class KernelCacheLocator(caching._CacheLocator):
 
     def ensure_cache_path(self):  # noqa: D102 (numba's interface)
         self._inner.ensure_cache_path()
+        if _plain_forms():
+            super().ensure_cache_path()  # the folder ``plain``, made and checked writable
 
     def get_cache_path(self):  # noqa: D102
-        return self._inner.get_cache_path()
+        path = self._inner.get_cache_path()
+        return os.path.join(path, PLAIN_FOLDER) if _plain_forms() else path
 
     def get_source_stamp(self):  # noqa: D102
-        # the vector forms or the plain ones (DCSTEREO_VECTOR=0, read as dcstereo._vector
-        # reads it) compile to different code
-        plain = os.environ.get("DCSTEREO_VECTOR", "1").strip() == "0"
-        return _package_digest() + ("-plain" if plain else "")
+        return _package_digest()
 
     def get_disambiguator(self):  # noqa: D102
         return self._inner.get_disambiguator()
