@@ -17,7 +17,8 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(BIN)/dcstereo demo --output demo-output
 
-# Test workers: the cores, at most 4 (each worker compiles the kernels its tests use).
+# Test workers: the cores, at most 4. They share one numba cache, .numba-cache, each
+# kernel compiled once (tests/_site/kernel_cache_lock.py).
 JOBS ?= $(shell n=$$(nproc 2>/dev/null || echo 2); [ $$n -gt 4 ] && n=4; echo $$n)
 
 test: $(STAMP)
@@ -42,9 +43,9 @@ docs: $(STAMP)
 	$(BIN)/sphinx-build -b html $(SPHINXOPTS) docs docs/_build/html
 
 # The documentation's examples as doctests: the pages' (Sphinx's doctest builder) and the
-# docstrings' (pytest, in their modules' namespaces). The kernels they compile are cached
-# in .numba-cache/docs for the next run.
-DOCS_CACHE := $(CURDIR)/.numba-cache/docs
+# docstrings' (pytest, in their modules' namespaces). They take their kernels from the test
+# run's cache, .numba-cache, and leave what they compile there for the next run.
+DOCS_CACHE := $(CURDIR)/.numba-cache
 doctest: $(STAMP)
 	NUMBA_CACHE_DIR=$(DOCS_CACHE) \
 	    $(BIN)/sphinx-build -b doctest $(SPHINXOPTS) docs docs/_build/doctest

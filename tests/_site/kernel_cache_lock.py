@@ -19,8 +19,25 @@ This is test machinery: the library itself never changes numba.
 
 import fcntl
 import os
+import time
+
+#: Seconds a process waits for another's compile of one function before it gives up with
+#: an error (a hang would be worse): no kernel compiles for anywhere near this long.
+WAIT_SECONDS = 1200
 
 _held: set[str] = set()
+
+
+def _lock(lock, path):
+    deadline = time.monotonic() + WAIT_SECONDS
+    while True:
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            return
+        except BlockingIOError:
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"waited {WAIT_SECONDS} s for {path}") from None
+            time.sleep(0.02)
 
 
 def install() -> None:
@@ -42,7 +59,7 @@ def install() -> None:
                 return compile_(self, sig)
             os.makedirs(os.path.dirname(path), exist_ok=True)
             with open(path, "a") as lock:
-                fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
+                _lock(lock, path)  # released when the file closes
                 _held.add(path)
                 try:
                     return compile_(self, sig)
