@@ -73,6 +73,23 @@ def value():
 """
 
 
+def _kernel_package(tmp_path, install):
+    """``pkg.kernels`` under ``tmp_path``: a copy of the cache module, its package's flag
+    ``VECTOR`` read as ``dcstereo._vector`` reads it, the locator installed or not, a
+    caller and its callee (returning 1); return the package's folder."""
+    package = tmp_path / "pkg" / "kernels"
+    package.mkdir(parents=True)
+    (tmp_path / "pkg" / "__init__.py").write_text("")
+    shutil.copy(_cache.__file__, package / "_cache.py")
+    init = 'import os\nVECTOR = os.environ.get("DCSTEREO_VECTOR", "1").strip() != "0"\n'
+    if install:
+        init += "from ._cache import install_locator\ninstall_locator()\n"
+    (package / "__init__.py").write_text(init)
+    (package / "caller.py").write_text(textwrap.dedent(_CALLER))
+    (package / "callee.py").write_text(textwrap.dedent(_CALLEE).format(1))
+    return package
+
+
 @pytest.mark.parametrize("install", [True, False])
 def test_an_edit_of_a_callee_reaches_its_cached_caller(tmp_path, install):
     """Two processes, the callee's file edited between them; numba's cache folder kept.
@@ -81,14 +98,7 @@ def test_an_edit_of_a_callee_reaches_its_cached_caller(tmp_path, install):
     per-file stamp), it loads the caller compiled against the old one: the reason the
     locator exists.
     """
-    package = tmp_path / "pkg" / "kernels"
-    package.mkdir(parents=True)
-    (tmp_path / "pkg" / "__init__.py").write_text("")
-    shutil.copy(_cache.__file__, package / "_cache.py")
-    init = "from ._cache import install_locator\ninstall_locator()\n" if install else ""
-    (package / "__init__.py").write_text(init)
-    (package / "caller.py").write_text(textwrap.dedent(_CALLER))
-    (package / "callee.py").write_text(textwrap.dedent(_CALLEE).format(1))
+    package = _kernel_package(tmp_path, install)
     env = {"NUMBA_CACHE_DIR": str(tmp_path / "cache"), "PYTHONPATH": str(tmp_path)}
     run = [sys.executable, "-c", "from pkg.kernels.caller import caller; print(caller())"]
 
@@ -107,13 +117,7 @@ def test_the_plain_forms_keep_a_folder_of_their_own(tmp_path):
     Each finds its kernels where it left them (a cache hit from the second run of each
     kind on); with one folder and a stamp of its own, each run threw the other's away.
     """
-    package = tmp_path / "pkg" / "kernels"
-    package.mkdir(parents=True)
-    (tmp_path / "pkg" / "__init__.py").write_text("")
-    shutil.copy(_cache.__file__, package / "_cache.py")
-    (package / "__init__.py").write_text("from ._cache import install_locator\ninstall_locator()\n")
-    (package / "caller.py").write_text(textwrap.dedent(_CALLER))
-    (package / "callee.py").write_text(textwrap.dedent(_CALLEE).format(1))
+    _kernel_package(tmp_path, install=True)
     cache = tmp_path / "cache"
     code = (
         "from pkg.kernels.caller import caller; caller(); "

@@ -62,7 +62,7 @@ def pair(colour=False):
 def _run(env_extra):
     source = inspect.getsource(pair) + _SCRIPT
     env = {**os.environ, **env_extra}
-    if "NUMBA_CPU_NAME" in env_extra and os.environ.get("NUMBA_CACHE_DIR"):
+    if "NUMBA_CPU_NAME" in env_extra:  # NUMBA_CACHE_DIR: set by the conftest
         # kernels for another processor: a cache folder of their own, out of the way of the
         # run's (the plain forms have theirs, dcstereo._vector._cache.PLAIN_FOLDER)
         env["NUMBA_CACHE_DIR"] = os.path.join(os.environ["NUMBA_CACHE_DIR"], "avx2-target")

@@ -26,6 +26,8 @@ from pathlib import Path
 
 from numba.core import caching
 
+from . import VECTOR
+
 #: The folder whose ``*.py`` files (at any depth) make the stamp.
 PACKAGE_DIR = Path(__file__).resolve().parent.parent
 
@@ -59,12 +61,6 @@ def _package_digest() -> str:
 PLAIN_FOLDER = "plain"
 
 
-def _plain_forms() -> bool:
-    # the vector forms or the plain ones (DCSTEREO_VECTOR=0, read as dcstereo._vector
-    # reads it) compile to different code
-    return os.environ.get("DCSTEREO_VECTOR", "1").strip() == "0"
-
-
 def _inside(py_file: str) -> bool:
     try:
         return Path(py_file).resolve().is_relative_to(PACKAGE_DIR)
@@ -78,14 +74,11 @@ class KernelCacheLocator(caching._CacheLocator):
     def __init__(self, inner):
         self._inner = inner
 
-    def ensure_cache_path(self):  # noqa: D102 (numba's interface)
-        self._inner.ensure_cache_path()
-        if _plain_forms():
-            super().ensure_cache_path()  # the folder ``plain``, made and checked writable
-
-    def get_cache_path(self):  # noqa: D102
+    def get_cache_path(self):  # noqa: D102 (numba's interface)
+        # the plain forms compile to other code than the vector forms (dcstereo._vector's
+        # VECTOR, the flag the kernels were compiled with)
         path = self._inner.get_cache_path()
-        return os.path.join(path, PLAIN_FOLDER) if _plain_forms() else path
+        return path if VECTOR else os.path.join(path, PLAIN_FOLDER)
 
     def get_source_stamp(self):  # noqa: D102
         return _package_digest()
